@@ -1,0 +1,197 @@
+"""Pose types with compose / inverse: Pose2D for the plane, Transform (quaternion) for 3D.
+
+Both are frozen dataclasses and also bus messages (registered in ``common.messages``).
+Conventions follow ROS/REP-103: x forward, y left, z up, angles in radians, quaternions (x, y, z, w).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+def normalize_angle(a: float) -> float:
+    """Wrap an angle to [-pi, pi)."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def normalize_angles(a: np.ndarray) -> np.ndarray:
+    """Vectorised ``normalize_angle``."""
+    return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+@dataclass(frozen=True)
+class Vector3:
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.x, self.y, self.z])
+
+
+@dataclass(frozen=True)
+class Quaternion:
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    w: float = 1.0
+
+    @staticmethod
+    def from_yaw(yaw: float) -> Quaternion:
+        return Quaternion(0.0, 0.0, math.sin(yaw / 2.0), math.cos(yaw / 2.0))
+
+    @staticmethod
+    def from_euler(roll: float, pitch: float, yaw: float) -> Quaternion:
+        """Fixed-axis roll (x), pitch (y), yaw (z), applied in that order (ROS RPY)."""
+        cr, sr = math.cos(roll / 2), math.sin(roll / 2)
+        cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
+        cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
+        return Quaternion(
+            sr * cp * cy - cr * sp * sy,
+            cr * sp * cy + sr * cp * sy,
+            cr * cp * sy - sr * sp * cy,
+            cr * cp * cy + sr * sp * sy,
+        )
+
+    def to_euler(self) -> tuple[float, float, float]:
+        """Return (roll, pitch, yaw)."""
+        x, y, z, w = self.x, self.y, self.z, self.w
+        roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+        sinp = max(-1.0, min(1.0, 2 * (w * y - z * x)))
+        pitch = math.asin(sinp)
+        yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        return roll, pitch, yaw
+
+    @property
+    def yaw(self) -> float:
+        return self.to_euler()[2]
+
+    def normalized(self) -> Quaternion:
+        n = math.sqrt(self.x**2 + self.y**2 + self.z**2 + self.w**2)
+        if n == 0.0:
+            raise ValueError("zero-length quaternion")
+        return Quaternion(self.x / n, self.y / n, self.z / n, self.w / n)
+
+    def __mul__(self, o: Quaternion) -> Quaternion:
+        return Quaternion(
+            self.w * o.x + self.x * o.w + self.y * o.z - self.z * o.y,
+            self.w * o.y - self.x * o.z + self.y * o.w + self.z * o.x,
+            self.w * o.z + self.x * o.y - self.y * o.x + self.z * o.w,
+            self.w * o.w - self.x * o.x - self.y * o.y - self.z * o.z,
+        )
+
+    def conjugate(self) -> Quaternion:
+        return Quaternion(-self.x, -self.y, -self.z, self.w)
+
+    def as_matrix(self) -> np.ndarray:
+        x, y, z, w = self.x, self.y, self.z, self.w
+        return np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+            ]
+        )
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.x, self.y, self.z, self.w])
+
+
+def slerp(q0: Quaternion, q1: Quaternion, t: float) -> Quaternion:
+    """Spherical interpolation, shortest arc, t in [0, 1]."""
+    a, b = q0.as_array(), q1.as_array()
+    dot = float(np.dot(a, b))
+    if dot < 0.0:
+        b, dot = -b, -dot
+    if dot > 0.9995:
+        r = a + t * (b - a)
+    else:
+        th = math.acos(dot)
+        r = (math.sin((1 - t) * th) * a + math.sin(t * th) * b) / math.sin(th)
+    r = r / np.linalg.norm(r)
+    return Quaternion(*map(float, r))
+
+
+@dataclass(frozen=True)
+class Pose2D:
+    """A planar pose (x, y in metres, theta in radians); also a 2D rigid transform."""
+
+    x: float = 0.0
+    y: float = 0.0
+    theta: float = 0.0
+
+    def compose(self, other: Pose2D) -> Pose2D:
+        """self ⊕ other: ``other`` expressed in self's frame, returned in self's parent frame."""
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        return Pose2D(
+            self.x + c * other.x - s * other.y,
+            self.y + s * other.x + c * other.y,
+            normalize_angle(self.theta + other.theta),
+        )
+
+    def inverse(self) -> Pose2D:
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        return Pose2D(-c * self.x - s * self.y, s * self.x - c * self.y, normalize_angle(-self.theta))
+
+    def between(self, other: Pose2D) -> Pose2D:
+        """self⁻¹ ⊕ other: ``other`` expressed in self's frame."""
+        return self.inverse().compose(other)
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        """Transform (N, 2) points from this pose's frame into its parent frame."""
+        c, s = math.cos(self.theta), math.sin(self.theta)
+        p = np.asarray(points, dtype=float)
+        return np.column_stack((self.x + c * p[:, 0] - s * p[:, 1], self.y + s * p[:, 0] + c * p[:, 1]))
+
+    def distance(self, other: Pose2D) -> float:
+        return math.hypot(other.x - self.x, other.y - self.y)
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.x, self.y, self.theta])
+
+    def to_transform(self) -> Transform:
+        return Transform(Vector3(self.x, self.y, 0.0), Quaternion.from_yaw(self.theta))
+
+
+@dataclass(frozen=True)
+class Transform:
+    """A 3D rigid transform / pose: translation then rotation (parent ← child)."""
+
+    translation: Vector3 = Vector3()
+    rotation: Quaternion = Quaternion()
+
+    @staticmethod
+    def from_xyz_rpy(x: float, y: float, z: float, roll: float, pitch: float, yaw: float) -> Transform:
+        return Transform(Vector3(x, y, z), Quaternion.from_euler(roll, pitch, yaw))
+
+    def compose(self, other: Transform) -> Transform:
+        t = self.rotation.as_matrix() @ other.translation.as_array() + self.translation.as_array()
+        return Transform(Vector3(*map(float, t)), (self.rotation * other.rotation).normalized())
+
+    def inverse(self) -> Transform:
+        qi = self.rotation.conjugate()
+        t = -(qi.as_matrix() @ self.translation.as_array())
+        return Transform(Vector3(*map(float, t)), qi)
+
+    def apply(self, points: np.ndarray) -> np.ndarray:
+        """Transform (N, 3) points from the child frame into the parent frame."""
+        p = np.asarray(points)
+        r = self.rotation.as_matrix().astype(p.dtype if p.dtype.kind == "f" else float)
+        return p @ r.T + self.translation.as_array().astype(r.dtype)
+
+    def as_matrix(self) -> np.ndarray:
+        m = np.eye(4)
+        m[:3, :3] = self.rotation.as_matrix()
+        m[:3, 3] = self.translation.as_array()
+        return m
+
+    def to_pose2d(self) -> Pose2D:
+        """Project onto the plane (x, y, yaw)."""
+        return Pose2D(self.translation.x, self.translation.y, self.rotation.yaw)
+
+
+# In ROS a Pose and a Transform carry the same data; zenav uses one type for both.
+Pose = Transform

@@ -1,0 +1,346 @@
+"""Bus messages: frozen dataclasses in SI units (metres, radians, seconds).
+
+Every message type is registered by name with a schema version; ``common.codec`` encodes them.
+Array fields are numpy arrays whose dtype and number of dimensions are declared with ``Arr``
+and checked on decode. ROS field semantics are kept where ROS has the message.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import typing
+from dataclasses import dataclass, field
+from typing import Annotated, Any
+
+import numpy as np
+
+from common.geometry import Pose, Pose2D, Quaternion, Transform, Vector3
+
+__all__ = [
+    "Arr", "REGISTRY", "register", "msg_equal", "Header", "Vector3", "Quaternion", "Pose2D", "Transform",
+    "Pose", "Twist", "Odometry", "LaserScan", "DepthImage", "CameraInfo", "PointCloud", "OccupancyGrid",
+    "Costmap", "Path", "PoseStamped", "TransformStamped", "TFMessage", "GoalStatus", "MotorState",
+    "BatteryState", "Clock", "PolygonStamped", "Text", "Empty", "Collision", "NodeState", "Scalar",
+    "MoveBaseStatus", "empty_f32",
+]
+
+
+@dataclass(frozen=True)
+class Arr:
+    """Declares a numpy array field: dtype name and number of dimensions (``ndim``)."""
+
+    dtype: str
+    ndim: int
+
+
+F32_1 = Annotated[np.ndarray, Arr("float32", 1)]
+F32_2 = Annotated[np.ndarray, Arr("float32", 2)]
+F64_2 = Annotated[np.ndarray, Arr("float64", 2)]
+I8_2 = Annotated[np.ndarray, Arr("int8", 2)]
+U8_2 = Annotated[np.ndarray, Arr("uint8", 2)]
+
+
+class Schema(typing.NamedTuple):
+    cls: type
+    version: int
+    fields: dict[str, Any]  # field name -> resolved annotation (with extras)
+
+
+REGISTRY: dict[str, Schema] = {}
+
+
+def register(name: str, version: int = 1):
+    """Class decorator: add a dataclass to the codec registry under ``name`` (refuses duplicates)."""
+
+    def deco(cls):
+        if name in REGISTRY:
+            raise ValueError(f"message type {name!r} registered twice")
+        hints = typing.get_type_hints(cls, include_extras=True)
+        REGISTRY[name] = Schema(cls, version, {f.name: hints[f.name] for f in dataclasses.fields(cls)})
+        cls._msg_name = name
+        cls._msg_version = version
+        return cls
+
+    return deco
+
+
+for _name, _cls in (("Vector3", Vector3), ("Quaternion", Quaternion), ("Pose2D", Pose2D), ("Transform", Transform)):
+    register(_name)(_cls)
+
+
+def empty_f32() -> np.ndarray:
+    return np.zeros(0, np.float32)
+
+
+def msg_equal(a: Any, b: Any) -> bool:
+    """Deep equality that understands numpy arrays (NaN equal to NaN)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        if not (isinstance(a, np.ndarray) and isinstance(b, np.ndarray)):
+            return False
+        return a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b, equal_nan=a.dtype.kind == "f")
+    if dataclasses.is_dataclass(a) and not isinstance(a, type):
+        return type(a) is type(b) and all(
+            msg_equal(getattr(a, f.name), getattr(b, f.name)) for f in dataclasses.fields(a)
+        )
+    if isinstance(a, (tuple, list)):
+        return isinstance(b, (tuple, list)) and len(a) == len(b) and all(map(msg_equal, a, b))
+    if isinstance(a, float) and isinstance(b, float) and a != a and b != b:
+        return True
+    return a == b
+
+
+@register("Header")
+@dataclass(frozen=True)
+class Header:
+    stamp: float = 0.0  # seconds (wall or simulated clock)
+    frame_id: str = ""
+
+
+@register("Twist")
+@dataclass(frozen=True)
+class Twist:
+    linear: Vector3 = Vector3()  # m/s
+    angular: Vector3 = Vector3()  # rad/s
+
+    @staticmethod
+    def planar(vx: float = 0.0, wz: float = 0.0, vy: float = 0.0) -> Twist:
+        return Twist(Vector3(vx, vy, 0.0), Vector3(0.0, 0.0, wz))
+
+    def is_zero(self) -> bool:
+        return self.linear == Vector3() and self.angular == Vector3()
+
+
+@register("Odometry")
+@dataclass(frozen=True)
+class Odometry:
+    header: Header = Header()  # frame_id: odom
+    child_frame_id: str = "base_link"
+    pose: Transform = Transform()
+    twist: Twist = Twist()  # in child_frame_id
+
+    @property
+    def pose2d(self) -> Pose2D:
+        return self.pose.to_pose2d()
+
+
+@register("LaserScan")
+@dataclass(frozen=True)
+class LaserScan:
+    """ROS sensor_msgs/LaserScan semantics; ``ranges`` float32, +inf means no return."""
+
+    header: Header = Header()
+    angle_min: float = 0.0
+    angle_max: float = 0.0
+    angle_increment: float = 0.0
+    time_increment: float = 0.0
+    scan_time: float = 0.0
+    range_min: float = 0.0
+    range_max: float = 0.0
+    ranges: F32_1 = field(default_factory=empty_f32)
+    intensities: F32_1 = field(default_factory=empty_f32)
+
+    def angles(self) -> np.ndarray:
+        return self.angle_min + self.angle_increment * np.arange(len(self.ranges), dtype=np.float64)
+
+
+@register("DepthImage")
+@dataclass(frozen=True)
+class DepthImage:
+    """Depth in metres along the optical axis, float32 (H, W); 0 or NaN = invalid. Optical frame."""
+
+    header: Header = Header()
+    depth: F32_2 = field(default_factory=lambda: np.zeros((0, 0), np.float32))
+
+
+@register("CameraInfo")
+@dataclass(frozen=True)
+class CameraInfo:
+    """Pinhole intrinsics in pixels (no distortion model)."""
+
+    header: Header = Header()
+    width: int = 0
+    height: int = 0
+    fx: float = 0.0
+    fy: float = 0.0
+    cx: float = 0.0
+    cy: float = 0.0
+
+
+@register("PointCloud")
+@dataclass(frozen=True)
+class PointCloud:
+    header: Header = Header()
+    points: F32_2 = field(default_factory=lambda: np.zeros((0, 3), np.float32))  # (N, 3) metres
+
+
+@register("OccupancyGrid")
+@dataclass(frozen=True)
+class OccupancyGrid:
+    """ROS nav_msgs/OccupancyGrid: ``data`` int8 (height, width), -1 unknown, 0..100 occupancy.
+
+    Row 0 is the row at ``origin`` (lowest y), as in ROS (not image order).
+    """
+
+    header: Header = Header()
+    resolution: float = 0.05  # m/cell
+    origin: Pose2D = Pose2D()  # pose of cell (0, 0)'s corner in header.frame_id
+    data: I8_2 = field(default_factory=lambda: np.zeros((0, 0), np.int8))
+
+    @property
+    def width(self) -> int:
+        return int(self.data.shape[1])
+
+    @property
+    def height(self) -> int:
+        return int(self.data.shape[0])
+
+
+@register("Costmap")
+@dataclass(frozen=True)
+class Costmap:
+    """A costmap_2d grid: uint8 (height, width), 0 free .. 253 inscribed, 254 lethal, 255 unknown."""
+
+    header: Header = Header()
+    resolution: float = 0.05
+    origin: Pose2D = Pose2D()
+    data: U8_2 = field(default_factory=lambda: np.zeros((0, 0), np.uint8))
+    layer: str = ""  # "" for the master grid, else the layer name
+
+
+@register("PoseStamped")
+@dataclass(frozen=True)
+class PoseStamped:
+    header: Header = Header()
+    pose: Transform = Transform()
+
+
+@register("Path")
+@dataclass(frozen=True)
+class Path:
+    """A planar path: ``poses`` float64 (N, 3) rows of (x, y, theta) in header.frame_id."""
+
+    header: Header = Header()
+    poses: F64_2 = field(default_factory=lambda: np.zeros((0, 3)))
+
+
+@register("TransformStamped")
+@dataclass(frozen=True)
+class TransformStamped:
+    header: Header = Header()  # frame_id = parent
+    child_frame_id: str = ""
+    transform: Transform = Transform()
+
+
+@register("TFMessage")
+@dataclass(frozen=True)
+class TFMessage:
+    transforms: tuple[TransformStamped, ...] = ()
+
+
+@register("GoalStatus")
+@dataclass(frozen=True)
+class GoalStatus:
+    """actionlib_msgs/GoalStatus codes."""
+
+    PENDING = 0
+    ACTIVE = 1
+    PREEMPTED = 2
+    SUCCEEDED = 3
+    ABORTED = 4
+    REJECTED = 5
+    RECALLED = 8
+
+    header: Header = Header()
+    goal_id: str = ""
+    status: int = 0
+    text: str = ""
+
+
+@register("MoveBaseStatus")
+@dataclass(frozen=True)
+class MoveBaseStatus:
+    """move_base feedback: state machine state, why the robot is (not) moving, goal bookkeeping."""
+
+    header: Header = Header()
+    goal_id: str = ""
+    status: int = 0  # GoalStatus code
+    state: str = ""  # e.g. PLANNING, CONTROLLING, CLEARING
+    reason: str = ""  # human-readable "why not moving" (empty when making progress)
+    goal: PoseStamped = PoseStamped()  # requested goal, in the global frame
+    goal_used: PoseStamped = PoseStamped()  # goal actually planned to
+    goal_offset_m: float = 0.0  # distance between requested and used goal
+    distance_to_goal_m: float = 0.0
+    recovery_count: int = 0
+
+
+@register("MotorState")
+@dataclass(frozen=True)
+class MotorState:
+    header: Header = Header()
+    enabled: bool = False
+
+
+@register("BatteryState")
+@dataclass(frozen=True)
+class BatteryState:
+    header: Header = Header()
+    voltage: float = 0.0  # V
+    percentage: float = float("nan")  # 0..1, NaN if unknown
+
+
+@register("Clock")
+@dataclass(frozen=True)
+class Clock:
+    clock: float = 0.0  # simulated seconds
+
+
+@register("PolygonStamped")
+@dataclass(frozen=True)
+class PolygonStamped:
+    header: Header = Header()
+    points: F32_2 = field(default_factory=lambda: np.zeros((0, 2), np.float32))  # (N, 2) metres
+
+
+@register("Text")
+@dataclass(frozen=True)
+class Text:
+    header: Header = Header()
+    data: str = ""
+
+
+@register("Empty")
+@dataclass(frozen=True)
+class Empty:
+    pass
+
+
+@register("Scalar")
+@dataclass(frozen=True)
+class Scalar:
+    header: Header = Header()
+    value: float = 0.0
+
+
+@register("Collision")
+@dataclass(frozen=True)
+class Collision:
+    header: Header = Header()
+    count: int = 0  # collisions since start
+    x: float = 0.0  # contact point in header.frame_id
+    y: float = 0.0
+
+
+@register("NodeState")
+@dataclass(frozen=True)
+class NodeState:
+    """An agent's view of one managed node process."""
+
+    header: Header = Header()
+    node: str = ""
+    state: str = ""  # WAITING, STARTING, RUNNING, RESTARTING, EXITED, FAILED, STOPPED
+    pid: int = 0
+    restarts: int = 0
+    detail: str = ""
+
+
+assert Pose is Transform
