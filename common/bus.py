@@ -1,0 +1,337 @@
+"""The zenav bus: a small Node API over a real Zenoh session.
+
+Keys are ``zenav/<robot>/<topic>`` (topics named as in ROS: ``scan``, ``odom``, ``tf``, ``cmd_vel``…),
+services ``zenav/<robot>/srv/<name>``; every node holds a liveliness token
+``zenavlive/<robot>/node/<name>`` and one per publication ``zenavlive/<robot>/pub/<name>/<topic>``,
+so ``zenav nodes`` / ``zenav topic list`` see who is there without any master.
+See docs/CONVENTIONS.md for the API in one page.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import os
+import threading
+import time
+import traceback
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, Callable
+
+import zenoh
+
+from common.clock import SimClock, Timer, WallClock
+from common.codec import DecodeError, decode, encode
+from common.messages import Clock
+from common.zenoh_config import BusConfig
+
+log = logging.getLogger("zenav.bus")
+
+
+class ServiceError(RuntimeError):
+    """The service ran and reported a failure (its text is the message)."""
+
+
+class ServiceTimeout(ServiceError):
+    """No reply within the timeout."""
+
+
+class ServiceUnavailable(ServiceError):
+    """No node serves that name."""
+
+
+def topic_key(robot: str, topic: str) -> str:
+    topic = topic.strip("/")
+    if not topic or "*" in topic or "$" in topic:
+        raise ValueError(f"bad topic name {topic!r}")
+    return f"zenav/{robot}/{topic}"
+
+
+class _RateLimitedLog:
+    def __init__(self, period: float = 5.0) -> None:
+        self.period, self.last, self.suppressed = period, 0.0, 0
+
+    def __call__(self, logger: logging.Logger, msg: str) -> None:
+        now = time.monotonic()
+        if now - self.last >= self.period:
+            extra = f" (+{self.suppressed} similar)" if self.suppressed else ""
+            logger.warning(msg + extra)
+            self.last, self.suppressed = now, 0
+        else:
+            self.suppressed += 1
+
+
+class Publisher:
+    def __init__(self, node: Node, topic: str, latched: bool, reliable: bool) -> None:
+        self.topic, self.key, self._node, self.latched = topic, topic_key(node.robot, topic), node, latched
+        cc = zenoh.CongestionControl.BLOCK if reliable else zenoh.CongestionControl.DROP
+        self._pub = node.session.declare_publisher(self.key, congestion_control=cc, express=True)
+        self._attachment = node.name.encode()
+        self._last: bytes | None = None
+        self._queryable = None
+        self.count = 0
+        if latched:
+            self._queryable = node.session.declare_queryable(self.key, self._on_query, complete=False)
+        self._token = node._declare_token(f"pub/{node.name}/{topic.strip('/')}")
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        last = self._last
+        if last is not None:
+            query.reply(self.key, last, attachment=self._attachment)
+
+    def publish(self, msg: Any) -> None:
+        data = encode(msg)
+        if self.latched:
+            self._last = data
+        self._pub.put(data, attachment=self._attachment)
+        self.count += 1
+
+    def close(self) -> None:
+        for obj in (self._pub, self._queryable, self._token):
+            if obj is not None:
+                try:
+                    obj.undeclare()
+                except zenoh.ZError:
+                    pass
+
+
+class Subscription:
+    """Receives one topic. mode='latest' keeps only the newest message, 'queue' keeps up to
+    ``queue_size`` (oldest dropped, counted). With a callback, messages are delivered on a
+    worker thread of this subscription, so a slow callback never stalls the network."""
+
+    def __init__(self, node: Node, topic: str, msg_type: type | None, callback: Callable | None,
+                 mode: str, queue_size: int) -> None:
+        if mode not in ("latest", "queue"):
+            raise ValueError("mode must be 'latest' or 'queue'")
+        self.topic, self.key, self.msg_type = topic, topic_key(node.robot, topic), msg_type
+        self._node, self._callback, self.mode = node, callback, mode
+        self._cv = threading.Condition()
+        self._latest: Any = None
+        self._queue: collections.deque = collections.deque(maxlen=queue_size if mode == "queue" else 1)
+        self.received = 0  # valid messages
+        self.malformed = 0  # payloads that failed to decode (dropped)
+        self.dropped = 0  # valid messages overwritten before being consumed
+        self.last_receive_time = 0.0  # time.monotonic() of the last valid message
+        self.last_publisher = ""
+        self._warn = _RateLimitedLog()
+        self._closed = False
+        self._sub = node.session.declare_subscriber(self.key, self._on_sample)
+        self._worker = None
+        if callback is not None:
+            self._worker = threading.Thread(target=self._deliver, daemon=True, name=f"sub:{topic}")
+            self._worker.start()
+        # Latched topics: ask publishers for their last message.
+        node.session.get(self.key, self._on_reply, target=zenoh.QueryTarget.ALL)
+
+    def _on_reply(self, reply: zenoh.Reply) -> None:
+        if reply.ok is not None and self.received == 0:
+            self._ingest(reply.ok.payload.to_bytes(), reply.ok.attachment)
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        self._ingest(sample.payload.to_bytes(), sample.attachment)
+
+    def _ingest(self, data: bytes, attachment) -> None:
+        try:
+            msg = decode(data, self.msg_type)
+        except DecodeError as e:
+            self.malformed += 1
+            self._warn(log, f"[{self._node.name}] dropped malformed payload on '{self.topic}' "
+                            f"(#{self.malformed}): {e}")
+            return
+        with self._cv:
+            self._latest = msg
+            if len(self._queue) == self._queue.maxlen:
+                self.dropped += 1
+            self._queue.append(msg)
+            self.received += 1
+            self.last_receive_time = time.monotonic()
+            if attachment is not None:
+                self.last_publisher = attachment.to_bytes().decode(errors="replace")
+            self._cv.notify_all()
+
+    def _deliver(self) -> None:
+        while True:
+            with self._cv:
+                while not self._queue and not self._closed:
+                    self._cv.wait(0.5)
+                if self._closed:
+                    return
+                msg = self._queue.popleft()
+            try:
+                self._callback(msg)
+            except Exception:
+                self._warn(log, f"[{self._node.name}] callback for '{self.topic}' raised:\n"
+                                f"{traceback.format_exc()}")
+
+    def latest(self) -> Any:
+        """The newest message received, or None."""
+        return self._latest
+
+    def age(self) -> float:
+        """Wall seconds since the last valid message (inf if none)."""
+        return time.monotonic() - self.last_receive_time if self.received else float("inf")
+
+    def wait(self, timeout: float = 5.0) -> Any:
+        """Wait for the next message received after this call. Raises TimeoutError."""
+        with self._cv:
+            n = self.received
+            if not self._cv.wait_for(lambda: self.received > n or self._closed, timeout):
+                raise TimeoutError(f"no message on '{self.topic}' within {timeout:.1f} s")
+            return self._latest
+
+    def wait_first(self, timeout: float = 5.0) -> Any:
+        """The latest message, waiting for one if none arrived yet. Raises TimeoutError."""
+        with self._cv:
+            if not self._cv.wait_for(lambda: self.received > 0, timeout):
+                raise TimeoutError(f"no message on '{self.topic}' within {timeout:.1f} s")
+            return self._latest
+
+    def get(self, timeout: float | None = 5.0) -> Any:
+        """Pop the oldest queued message (queue mode, no callback). Raises TimeoutError."""
+        with self._cv:
+            if not self._cv.wait_for(lambda: bool(self._queue), timeout):
+                raise TimeoutError(f"no message on '{self.topic}' within {timeout} s")
+            return self._queue.popleft()
+
+    def close(self) -> None:
+        with self._cv:
+            self._closed = True
+            self._cv.notify_all()
+        try:
+            self._sub.undeclare()
+        except zenoh.ZError:
+            pass
+
+
+class Node:
+    """A named participant on the bus. Owns a Zenoh session unless one is passed in."""
+
+    def __init__(self, name: str, robot: str | None = None, config: BusConfig | None = None,
+                 session: zenoh.Session | None = None, use_sim_time: bool | None = None) -> None:
+        if not name or "/" in name or "*" in name:
+            raise ValueError(f"bad node name {name!r}")
+        self.config = config or BusConfig.from_env()
+        self.robot = robot or self.config.robot
+        self.name = name
+        self._owns_session = session is None
+        self.session = session if session is not None else zenoh.open(self.config.to_zenoh())
+        self._entities: list[Any] = []
+        self._timers: list[Timer] = []
+        self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"srv:{name}")
+        self._closed = False
+        if use_sim_time is None:
+            use_sim_time = os.environ.get("ZENAV_USE_SIM_TIME", "0") in ("1", "true", "yes")
+        self.clock: WallClock | SimClock = SimClock() if use_sim_time else WallClock()
+        if use_sim_time:
+            self.subscribe("clock", Clock, callback=lambda m: self.clock.update(m.clock))
+        self._node_token = self._declare_token(f"node/{name}")
+        self.log = logging.getLogger(f"zenav.{name}")
+
+    # -- helpers -------------------------------------------------------------------------------
+    def _declare_token(self, suffix: str):
+        tok = self.session.liveliness().declare_token(f"zenavlive/{self.robot}/{suffix.strip('/')}")
+        self._entities.append(tok)
+        return tok
+
+    def key(self, topic: str) -> str:
+        return topic_key(self.robot, topic)
+
+    # -- pub / sub -----------------------------------------------------------------------------
+    def publisher(self, topic: str, latched: bool = False, reliable: bool = True) -> Publisher:
+        pub = Publisher(self, topic, latched, reliable)
+        self._entities.append(pub)
+        return pub
+
+    def subscribe(self, topic: str, msg_type: type | None = None, callback: Callable | None = None,
+                  mode: str = "latest", queue_size: int = 100) -> Subscription:
+        sub = Subscription(self, topic, msg_type, callback, mode, queue_size)
+        self._entities.append(sub)
+        return sub
+
+    # -- services ------------------------------------------------------------------------------
+    def service(self, name: str, handler: Callable[[Any], Any], request_type: type | None = None):
+        key = f"zenav/{self.robot}/srv/{name.strip('/')}"
+
+        def run(query: zenoh.Query) -> None:
+            try:
+                payload = query.payload
+                req = decode(payload.to_bytes() if payload is not None else b"", request_type)
+            except DecodeError as e:
+                query.reply_err(f"bad request: {e}".encode())
+                return
+            try:
+                resp = handler(req)
+                query.reply(key, encode(resp))
+            except Exception as e:
+                query.reply_err(f"{type(e).__name__}: {e}".encode())
+            finally:
+                query.drop()
+
+        q = self.session.declare_queryable(key, lambda query: self._pool.submit(run, query), complete=True)
+        self._entities.append(q)
+        self._declare_token(f"srv/{self.name}/{name.strip('/')}")
+        return q
+
+    def call(self, name: str, request: Any, response_type: type | None = None, timeout: float = 2.0) -> Any:
+        key = f"zenav/{self.robot}/srv/{name.strip('/')}"
+        t0 = time.monotonic()
+        replies = self.session.get(key, payload=encode(request), timeout=timeout,
+                                   target=zenoh.QueryTarget.BEST_MATCHING)
+        for reply in replies:
+            if reply.ok is not None:
+                try:
+                    return decode(reply.ok.payload.to_bytes(), response_type)
+                except DecodeError as e:
+                    raise ServiceError(f"service '{name}' sent a bad reply: {e}") from e
+            err = reply.err.payload.to_string() if reply.err is not None else "unknown error"
+            if err.lower().startswith("timeout"):
+                raise ServiceTimeout(f"service '{name}' did not answer within {timeout:.1f} s")
+            raise ServiceError(f"service '{name}' failed: {err}")
+        if time.monotonic() - t0 < timeout * 0.9:
+            raise ServiceUnavailable(f"no node serves '{name}' on robot '{self.robot}'")
+        raise ServiceTimeout(f"service '{name}' did not answer within {timeout:.1f} s")
+
+    # -- time ----------------------------------------------------------------------------------
+    def timer(self, period: float, fn: Callable[[], None]) -> Timer:
+        def on_error(e: Exception) -> None:
+            self.log.error("timer callback raised: %s\n%s", e, traceback.format_exc())
+
+        t = Timer(self.clock, period, fn, name=f"timer:{self.name}", on_error=on_error)
+        self._timers.append(t)
+        return t
+
+    # -- lifecycle -----------------------------------------------------------------------------
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        for t in self._timers:
+            t.cancel()
+        if isinstance(self.clock, SimClock):
+            self.clock.close()
+        for t in self._timers:
+            t.join(1.0)
+        for e in reversed(self._entities):
+            try:
+                e.close() if hasattr(e, "close") else e.undeclare()
+            except Exception:  # noqa: BLE001 - best effort on shutdown
+                pass
+        self._pool.shutdown(wait=False, cancel_futures=True)
+        if self._owns_session:
+            self.session.close()
+
+    def __enter__(self) -> Node:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def list_live(session: zenoh.Session, robot: str = "*", kind: str = "node", timeout: float = 1.0) -> list[str]:
+    """Liveliness keys currently declared (e.g. kind 'node' -> ['robot1/node/sim', ...])."""
+    out = []
+    for reply in session.liveliness().get(f"zenavlive/{robot}/{kind}/**", timeout=timeout):
+        if reply.ok is not None:
+            out.append(str(reply.ok.key_expr).removeprefix("zenavlive/"))
+    return sorted(set(out))

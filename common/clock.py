@@ -1,0 +1,106 @@
+"""Time for nodes: wall time, or simulated time driven by the simulator's ``clock`` topic.
+
+Rates and timeouts of a node follow its clock, so a simulation can run faster (or slower) than
+real time. ``ZENAV_USE_SIM_TIME=1`` makes ``Node`` use a ``SimClock`` fed from ``clock``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+
+class WallClock:
+    simulated = False
+
+    def now(self) -> float:
+        return time.time()
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds)
+
+    def sleep_until(self, t: float, cancel: threading.Event | None = None) -> bool:
+        """Sleep until clock time ``t``; returns False if ``cancel`` was set first."""
+        delay = t - self.now()
+        if cancel is not None:
+            return not cancel.wait(max(0.0, delay))
+        self.sleep(delay)
+        return True
+
+
+class SimClock:
+    """Simulated time: advances only when ``update`` is called (from the ``clock`` topic).
+
+    ``now()`` is 0.0 until the first clock message, as in ROS.
+    """
+
+    simulated = True
+
+    def __init__(self) -> None:
+        self._t = 0.0
+        self._cv = threading.Condition()
+        self._closed = False
+
+    def update(self, t: float) -> None:
+        with self._cv:
+            if t > self._t:
+                self._t = t
+                self._cv.notify_all()
+
+    def close(self) -> None:
+        with self._cv:
+            self._closed = True
+            self._cv.notify_all()
+
+    def now(self) -> float:
+        return self._t
+
+    def sleep(self, seconds: float) -> None:
+        self.sleep_until(self._t + seconds)
+
+    def sleep_until(self, t: float, cancel: threading.Event | None = None) -> bool:
+        with self._cv:
+            while self._t < t and not self._closed:
+                if cancel is not None and cancel.is_set():
+                    return False
+                # Wake periodically so a cancel or a stalled clock is noticed.
+                self._cv.wait(0.05)
+            return not (cancel is not None and cancel.is_set()) and not self._closed
+
+
+class Timer:
+    """Calls ``fn()`` every ``period`` seconds of ``clock`` on its own thread until cancelled."""
+
+    def __init__(self, clock, period: float, fn, name: str = "timer", on_error=None) -> None:
+        if period <= 0:
+            raise ValueError("timer period must be > 0")
+        self._clock, self._period, self._fn, self._on_error = clock, period, fn, on_error
+        self._cancel = threading.Event()
+        self.overruns = 0
+        self.last_duration = 0.0
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        next_t = self._clock.now() + self._period
+        while self._clock.sleep_until(next_t, self._cancel):
+            t0 = time.perf_counter()
+            try:
+                self._fn()
+            except Exception as e:  # a failing callback must not kill the node
+                if self._on_error is not None:
+                    self._on_error(e)
+            self.last_duration = time.perf_counter() - t0
+            next_t += self._period
+            now = self._clock.now()
+            if next_t < now:  # fell behind: skip missed ticks rather than bursting
+                self.overruns += 1
+                next_t = now + self._period
+
+    def cancel(self) -> None:
+        self._cancel.set()
+
+    def join(self, timeout: float = 2.0) -> None:
+        if threading.current_thread() is not self._thread:
+            self._thread.join(timeout)

@@ -1,0 +1,78 @@
+"""Run one node as its own process: ``python -m <module> --config FILE [--section KEY]``.
+
+A node module provides ``start(node, cfg, source) -> obj with close()``; ``node_main`` parses the
+command line, reads the node's YAML mapping, opens the bus, starts the node and waits for
+SIGINT / SIGTERM, then closes it. A bad config exits with status 2 and the reason on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+from typing import Callable
+
+from common.config import ConfigError, read_yaml
+
+EXIT_CONFIG = 2
+
+
+def node_config(path: str | None, section: str | None) -> tuple[dict, str]:
+    """The mapping for one node: the whole file, or ``section`` of it (dotted keys allowed)."""
+    if not path:
+        return {}, "<defaults>"
+    data = read_yaml(path)
+    if section:
+        for part in section.split("."):
+            if not isinstance(data, dict) or part not in data:
+                raise ConfigError(path, section, "section not found in file")
+            data = data[part]
+        if data is None:
+            data = {}
+        if not isinstance(data, dict):
+            raise ConfigError(path, section, "section must be a mapping")
+    return data, path
+
+
+def node_main(default_name: str, start: Callable, argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog=f"zenav node {default_name}",
+                                 description=f"Run the zenav '{default_name}' node on the bus.")
+    ap.add_argument("--config", help="YAML file with this node's parameters")
+    ap.add_argument("--section", help="key of this node's mapping inside the file (dots for nesting)")
+    ap.add_argument("--robot", help="robot name (key prefix zenav/<robot>/...); default $ZENAV_ROBOT")
+    ap.add_argument("--name", default=default_name, help="node name (liveliness, logs)")
+    ap.add_argument("-v", "--verbose", action="store_true")
+    args = ap.parse_args(argv)
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
+                        format=f"%(asctime)s {args.name} %(levelname)s %(message)s")
+    try:
+        cfg, source = node_config(args.config, args.section)
+    except ConfigError as e:
+        print(f"zenav {args.name}: config error: {e}", file=sys.stderr)
+        return EXIT_CONFIG
+
+    from common.bus import Node  # imported late: config errors are reported without opening zenoh
+
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    node = Node(args.name, robot=args.robot)
+    try:
+        try:
+            handle = start(node, cfg, source)
+        except ConfigError as e:
+            print(f"zenav {args.name}: config error: {e}", file=sys.stderr)
+            return EXIT_CONFIG
+        while not stop.wait(0.5):
+            pass
+        if handle is not None and hasattr(handle, "close"):
+            handle.close()
+    finally:
+        node.close()
+    return 0
+
+
+def run_main(default_name: str, start: Callable) -> None:
+    sys.exit(node_main(default_name, start))

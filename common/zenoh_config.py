@@ -1,0 +1,89 @@
+"""How a zenav process joins the Zenoh network.
+
+Default: **peer mode with multicast scouting** — machines on one LAN find each other with no
+address, no hosts file and no master (what replaces ROS_MASTER_URI). Explicit endpoints and client
+mode (to a router) cover networks without multicast and fleets. Every field can come from the
+environment so that agents pass the same settings to the processes they start:
+
+    ZENAV_ROBOT=pioneer1  ZENAV_MODE=peer|client|router  ZENAV_CONNECT=tcp/10.0.0.2:7447,...
+    ZENAV_LISTEN=tcp/0.0.0.0:7447  ZENAV_MULTICAST=1|0  ZENAV_LEASE_MS=1000  ZENAV_SHM=1|0
+    ZENAV_ZENOH_CONFIG=/path/to/zenoh.json5   (a full Zenoh config file, e.g. with auth / TLS;
+                                               the settings above are applied on top of it)
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, replace
+
+DEFAULT_ROBOT = "robot"
+
+
+@dataclass(frozen=True)
+class BusConfig:
+    robot: str = DEFAULT_ROBOT
+    mode: str = "peer"
+    connect: tuple[str, ...] = ()
+    listen: tuple[str, ...] = ()
+    multicast: bool = True
+    # Link lease: how long silence means a peer is gone. Zenoh's default is 10 s; 1 s makes a lost
+    # machine visible (liveliness DELETE) in about a second.
+    lease_ms: int = 1000
+    shared_memory: bool | None = None  # None = Zenoh's default
+    zenoh_config_file: str = ""
+
+    def __post_init__(self):
+        if self.mode not in ("peer", "client", "router"):
+            raise ValueError(f"zenoh mode must be peer, client or router, not {self.mode!r}")
+        if not self.robot or "/" in self.robot or "*" in self.robot:
+            raise ValueError(f"robot name {self.robot!r} must be non-empty with no '/' or '*'")
+        if self.lease_ms < 100:
+            raise ValueError("lease_ms must be >= 100")
+
+    @staticmethod
+    def from_env(env: dict | None = None, **overrides) -> BusConfig:
+        e = os.environ if env is None else env
+
+        def split(v: str) -> tuple[str, ...]:
+            return tuple(x.strip() for x in v.split(",") if x.strip())
+
+        shm = e.get("ZENAV_SHM")
+        cfg = BusConfig(
+            robot=e.get("ZENAV_ROBOT", DEFAULT_ROBOT),
+            mode=e.get("ZENAV_MODE", "peer"),
+            connect=split(e.get("ZENAV_CONNECT", "")),
+            listen=split(e.get("ZENAV_LISTEN", "")),
+            multicast=e.get("ZENAV_MULTICAST", "1") not in ("0", "false", "no"),
+            lease_ms=int(e.get("ZENAV_LEASE_MS", "1000")),
+            shared_memory=None if shm is None else shm not in ("0", "false", "no"),
+            zenoh_config_file=e.get("ZENAV_ZENOH_CONFIG", ""),
+        )
+        return replace(cfg, **overrides) if overrides else cfg
+
+    def to_env(self) -> dict[str, str]:
+        """Environment variables that reproduce this config in a child process."""
+        env = {
+            "ZENAV_ROBOT": self.robot, "ZENAV_MODE": self.mode, "ZENAV_CONNECT": ",".join(self.connect),
+            "ZENAV_LISTEN": ",".join(self.listen), "ZENAV_MULTICAST": "1" if self.multicast else "0",
+            "ZENAV_LEASE_MS": str(self.lease_ms), "ZENAV_ZENOH_CONFIG": self.zenoh_config_file,
+        }
+        if self.shared_memory is not None:
+            env["ZENAV_SHM"] = "1" if self.shared_memory else "0"
+        return env
+
+    def to_zenoh(self):
+        import zenoh
+
+        conf = zenoh.Config.from_file(self.zenoh_config_file) if self.zenoh_config_file else zenoh.Config()
+        conf.insert_json5("mode", json.dumps(self.mode))
+        if self.connect:
+            conf.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
+        if self.listen:
+            conf.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+        conf.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
+        conf.insert_json5("transport/link/tx/lease", str(self.lease_ms))
+        conf.insert_json5("transport/link/tx/keep_alive", "4")
+        if self.shared_memory is not None:
+            conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
+        return conf
