@@ -1,0 +1,152 @@
+"""move_base state machine transitions, with small scripted planner/controller collaborators."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from common.geometry import Pose2D
+from common.messages import GoalStatus
+from master_side.move_base.params import MoveBaseParams
+from master_side.move_base.recovery import ClearCostmapRecovery, RotateRecovery, default_recoveries
+from master_side.move_base.state_machine import ControlResult, MoveBaseMachine, State
+
+
+class ScriptedPlanner:
+    def __init__(self, fail: bool = False):
+        self.fail, self.calls = fail, 0
+
+    def __call__(self, start: Pose2D, goal: Pose2D):
+        self.calls += 1
+        if self.fail:
+            raise RuntimeError("NoPath: goal unreachable")
+        return np.array([[start.x, start.y, 0.0], [goal.x, goal.y, goal.theta]]), goal
+
+
+class ScriptedController:
+    def __init__(self, ok: bool = True, reached_after: int = 10**9):
+        self.ok, self.reached_after, self.n, self.plan = ok, reached_after, 0, None
+
+    def set_plan(self, path):
+        self.plan = path
+
+    def compute(self, pose, vel):
+        self.n += 1
+        if self.ok:
+            return ControlResult((0.3, 0.0, 0.1), True)
+        return ControlResult(reason="no valid trajectory: obstacle cost rejected 400/400 samples")
+
+    def goal_reached(self, pose, vel):
+        return self.n >= self.reached_after
+
+
+def machine(planner=None, controller=None, recoveries=None, **kw):
+    params = MoveBaseParams(**kw)
+    return MoveBaseMachine(params, planner or ScriptedPlanner(), controller or ScriptedController(),
+                           recoveries if recoveries is not None else [])
+
+
+def test_idle_without_goal_commands_zero():
+    m = machine()
+    d = m.tick(0.0, Pose2D(), (0, 0, 0))
+    assert d.cmd == (0.0, 0.0, 0.0) and d.state is State.IDLE
+
+
+def test_goal_goes_planning_then_controlling_then_succeeds():
+    m = machine(controller=ScriptedController(reached_after=2))
+    m.set_goal("g1", Pose2D(2, 0, 0), 0.0)
+    assert m.state is State.PLANNING
+    d = m.tick(0.1, Pose2D(), (0, 0, 0))
+    assert d.state is State.CONTROLLING and d.cmd == (0.3, 0.0, 0.1) and d.new_plan is not None
+    assert d.reason == ""
+    m.tick(0.2, Pose2D(0.1, 0, 0), (0.3, 0, 0))
+    d = m.tick(0.3, Pose2D(0.2, 0, 0), (0.3, 0, 0))
+    assert d.state is State.IDLE and d.status == GoalStatus.SUCCEEDED and d.cmd == (0.0, 0.0, 0.0)
+
+
+def test_planner_failure_past_patience_without_recoveries_aborts_with_reason():
+    m = machine(planner=ScriptedPlanner(fail=True), planner_patience=1.0)
+    m.set_goal("g", Pose2D(5, 5, 0), 0.0)
+    d = m.tick(0.1, Pose2D(), (0, 0, 0))
+    assert d.state is State.PLANNING and "no plan" in d.reason and d.cmd == (0.0, 0.0, 0.0)
+    d = m.tick(1.5, Pose2D(), (0, 0, 0))
+    assert d.state is State.IDLE and d.status == GoalStatus.ABORTED
+    assert "unreachable" in d.reason
+
+
+def test_controller_failure_runs_recoveries_in_order_then_aborts():
+    cleared = []
+    recs = [ClearCostmapRecovery(cleared.append, 3.0, "conservative reset"),
+            ClearCostmapRecovery(cleared.append, 0.0, "aggressive reset")]
+    m = machine(controller=ScriptedController(ok=False), recoveries=recs, controller_patience=0.5)
+    m.set_goal("g", Pose2D(2, 0, 0), 0.0)
+    m.tick(0.0, Pose2D(), (0, 0, 0))
+    d = m.tick(0.2, Pose2D(), (0, 0, 0))
+    assert "no valid command" in d.reason and "obstacle" in d.reason and d.cmd == (0.0, 0.0, 0.0)
+    states = []
+    t = 0.2
+    while m.state is not State.IDLE and t < 20:
+        t += 0.1
+        d = m.tick(t, Pose2D(), (0, 0, 0))
+        states.append(d.state)
+    assert cleared == [3.0, 0.0]
+    assert State.CLEARING in states
+    assert d.status == GoalStatus.ABORTED and "after 2 recoveries" in d.reason
+
+
+def test_rotate_recovery_is_skipped_when_clearing_rotation_not_allowed():
+    p = MoveBaseParams(clearing_rotation_allowed=False)
+    recs = default_recoveries(p, lambda d: None)
+    assert [r.name for r in recs if r.enabled(p)] == ["conservative reset", "aggressive reset"]
+
+
+def test_rotate_recovery_turns_one_revolution_then_finishes():
+    r = RotateRecovery(1.0)
+    r.start(0.0)
+    yaw, t = 0.0, 0.0
+    done = False
+    while not done and t < 20:
+        cmd, done = r.step(t, Pose2D(0, 0, yaw), (0, 0, 1.0))
+        yaw += cmd[2] * 0.1
+        t += 0.1
+    assert done and 6.0 < t < 7.5
+
+
+def test_cancel_from_recovery_stops_immediately():
+    m = machine(controller=ScriptedController(ok=False), controller_patience=0.0,
+                recoveries=[RotateRecovery(0.5)])
+    m.set_goal("g", Pose2D(2, 0, 0), 0.0)
+    m.tick(0.0, Pose2D(), (0, 0, 0))
+    d = m.tick(0.1, Pose2D(), (0, 0, 0))
+    d = m.tick(0.2, Pose2D(), (0, 0, 0))
+    assert m.state is State.CLEARING and d.cmd[2] == pytest.approx(0.5)
+    d = m.cancel(0.25)
+    assert d.cmd == (0.0, 0.0, 0.0) and d.status == GoalStatus.PREEMPTED and d.state is State.IDLE
+    assert m.tick(0.3, Pose2D(), (0, 0, 0)).cmd == (0.0, 0.0, 0.0)
+
+
+def test_unknown_pose_stops_and_explains_without_consuming_patience():
+    m = machine(controller=ScriptedController(), controller_patience=0.1)
+    m.set_goal("g", Pose2D(2, 0, 0), 0.0)
+    d = m.tick(0.5, None, (0, 0, 0), pose_problem="stale TF: odom->base_link is 1.4 s old (tolerance 0.5 s)")
+    assert d.cmd == (0.0, 0.0, 0.0) and "stale TF" in d.reason and d.state is State.PLANNING
+
+
+def test_new_goal_preempts_current_one():
+    m = machine()
+    m.set_goal("a", Pose2D(1, 0, 0), 0.0)
+    m.tick(0.1, Pose2D(), (0, 0, 0))
+    m.set_goal("b", Pose2D(3, 0, 0), 0.2)
+    assert m.goal.goal_id == "b" and m.state is State.PLANNING
+
+
+def test_oscillation_timeout_triggers_recovery():
+    cleared = []
+    m = machine(recoveries=[ClearCostmapRecovery(cleared.append, 3.0)], oscillation_timeout=1.0,
+                oscillation_distance=0.5)
+    m.set_goal("g", Pose2D(5, 0, 0), 0.0)
+    t = 0.0
+    while not cleared and t < 5:
+        m.tick(t, Pose2D(0.01, 0, 0), (0, 0, 0))
+        t += 0.1
+    assert cleared and 1.0 < t < 1.5
