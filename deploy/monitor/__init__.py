@@ -1,0 +1,1 @@
+"""Rerun monitor (our rviz)."""
