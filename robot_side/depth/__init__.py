@@ -1,0 +1,1 @@
+"""Depth camera conversions: depth image -> LaserScan / point cloud, virtual scans, scan merging."""

@@ -1,0 +1,47 @@
+"""Small helpers shared by the depth bus adapters (no bus import here)."""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+from typing import Any
+
+from common.config import load_params
+
+
+def split_params(cfg: dict | None, source: str, *classes: type) -> list[Any]:
+    """Load one YAML mapping into several parameter dataclasses (each key goes to the class that has it).
+
+    Keys known to none of them are left to the last class, so load_params reports them as unknown.
+    """
+    cfg = dict(cfg or {})
+    owned: list[dict] = [{} for _ in classes]
+    for key, value in cfg.items():
+        for i, cls in enumerate(classes):
+            names = set()
+            for f in dataclasses.fields(cls):
+                names.add(f.name)
+                names.update(f.metadata.get("aliases", ()))
+            if key in names:
+                owned[i][key] = value
+                break
+        else:
+            owned[-1][key] = value
+    return [load_params(cls, data, source=source) for cls, data in zip(classes, owned)]
+
+
+class Handles:
+    """Closes everything it holds, in reverse order."""
+
+    def __init__(self, *items: Any) -> None:
+        self.items = list(items)
+
+    def add(self, item: Any) -> Any:
+        self.items.append(item)
+        return item
+
+    def close(self) -> None:
+        for item in reversed(self.items):
+            with contextlib.suppress(Exception):  # best effort on shutdown
+                item.close()
+        self.items = []
