@@ -1,0 +1,65 @@
+"""Simulator sensor cost in the room world: laser scans (SICK S300, 720 beams) and depth frames.
+
+Run: python bench/sim.py   (targets: scan < 1 ms, VGA depth < 5 ms)
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from common.geometry import Pose2D  # noqa: E402
+from robot_side.sim.depth_camera import DepthCamera, DepthCameraParams  # noqa: E402
+from robot_side.sim.laser import Laser, LaserParams  # noqa: E402
+from robot_side.sim.simulator import WORLDS_DIR  # noqa: E402
+from robot_side.sim.world import load_world  # noqa: E402
+
+
+def _poses(world, n: int, seed: int = 0) -> list[Pose2D]:
+    rng = np.random.default_rng(seed)
+    x0, y0, x1, y1 = world.bounds
+    out = []
+    while len(out) < n:
+        x, y = rng.uniform(x0 + 0.6, x1 - 0.6), rng.uniform(y0 + 0.6, y1 - 0.6)
+        if world.height_at(np.array([x]), np.array([y]))[0] == 0:
+            out.append(Pose2D(x, y, rng.uniform(-np.pi, np.pi)))
+    return out
+
+
+def _time(fn, poses, repeat: int) -> np.ndarray:
+    fn(poses[0])
+    ts = []
+    for i in range(repeat):
+        t = time.perf_counter()
+        fn(poses[i % len(poses)])
+        ts.append(time.perf_counter() - t)
+    return np.array(ts) * 1e3
+
+
+def main() -> None:
+    world = load_world(WORLDS_DIR / "room.yaml")
+    poses = _poses(world, 50)
+    cases = {
+        "laser_s300_541": (Laser(world, Laser.preset("sick_s300")).scan, 300),
+        "laser_720": (Laser(world, LaserParams(samples=720)).scan, 300),
+        "depth_qvga": (DepthCamera(world, DepthCameraParams(depth_mode=5)).frame, 100),
+        "depth_vga": (DepthCamera(world, DepthCameraParams(depth_mode=2)).frame, 60),
+    }
+    print(f"world room {world.shape[1]}x{world.shape[0]} cells @ {world.resolution} m, noise on")
+    print(f"{'case':<16} {'p50 ms':>8} {'p90 ms':>8} {'max ms':>8}")
+    med = {}
+    for name, (fn, n) in cases.items():
+        ts = _time(fn, poses, n)
+        med[name] = float(np.median(ts))
+        print(f"{name:<16} {med[name]:8.3f} {np.percentile(ts, 90):8.3f} {ts.max():8.3f}")
+    print(f"laser_scan_ms={med['laser_s300_541']:.3f} laser_720_ms={med['laser_720']:.3f} "
+          f"depth_qvga_ms={med['depth_qvga']:.3f} depth_vga_ms={med['depth_vga']:.3f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,10 @@
+"""Pure simulation of a Pioneer 3-AT with a laser and a Kinect-like depth camera (no bus here)."""
+
+from robot_side.sim.base import BaseParams, DiffDriveBase
+from robot_side.sim.depth_camera import DepthCamera, DepthCameraParams
+from robot_side.sim.laser import Laser, LaserParams
+from robot_side.sim.simulator import Pacer, Simulator, SimulatorParams
+from robot_side.sim.world import World, WorldParams, load_world
+
+__all__ = ["BaseParams", "DiffDriveBase", "DepthCamera", "DepthCameraParams", "Laser", "LaserParams", "Pacer",
+           "Simulator", "SimulatorParams", "World", "WorldParams", "load_world"]

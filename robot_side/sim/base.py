@@ -1,0 +1,192 @@
+"""Simulated differential-drive base (Pioneer 3-AT): cmd_vel with limits, odometry with error, collisions.
+
+Limits (MobileRobots P3-AT datasheet): top speed 0.7 m/s, rotation 140 deg/s (2.44 rad/s). Acceleration
+limits default to the tutorial's DWAPlannerROS values (acc_lim_x 1.0 m/s^2, acc_lim_th 2.0 rad/s^2) so
+the planner's model and the simulated robot agree.
+
+Motion per step: each velocity moves toward its (clamped) command at most ``acc * dt``; the pose advances
+along the exact arc of the step's mean velocities (exact for straight lines and constant-w arcs).
+
+Odometry error (the gmapping terms; dρ, dθ the true translation and rotation of one step)::
+
+    var_ρ = srr² |dρ| + srt² |dθ|        var_θ = str² |dρ| + stt² |dθ|
+    dρ' = dρ + N(0, var_ρ)               dθ' = dθ + N(0, var_θ)
+
+so after a single 1 m (1 rad) motion the error std is srr (srt) metres and str (stt) radians, and since
+variances add, the error after a straight run of length L has std srr*sqrt(L) (independent of dt).
+Odometry integrates (dρ', dθ') from Pose2D(0, 0, 0) in the odom frame.
+
+Collision: if the footprint (sampled every <= res/2, inside and on the edge) at the next pose covers a
+cell taller than ``min_obstacle_height``, the robot stays, its velocity drops to zero, ``contact`` records
+the mean contact point, and ``collisions`` counts a new collision if the previous blocked step is older
+than ``collision_debounce`` (a robot pushing on a wall counts once).
+"""
+
+from __future__ import annotations
+
+import builtins
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from common.config import load_params, param
+from common.geometry import Pose2D, normalize_angle
+from common.messages import Collision, Header, Odometry, Twist
+from robot_side.sim.world import World
+
+__all__ = ["BaseParams", "DiffDriveBase", "P3AT_FOOTPRINT", "load_base_params"]
+
+P3AT_FOOTPRINT = ((0.3302, -0.0508), (0.254, -0.0508), (0.254, -0.254), (-0.254, -0.254), (-0.254, 0.254),
+                  (0.254, 0.254), (0.254, 0.0508), (0.3302, 0.0508))
+
+
+@dataclass(frozen=True)
+class BaseParams:
+    footprint: tuple[tuple[float, float], ...] = param(P3AT_FOOTPRINT, unit="m", doc="polygon in base_link")
+    max_vel_x: float = param(0.7, lo=0.0, hi=10.0, unit="m/s", doc="max |forward speed| (P3-AT: 0.7)")
+    max_vel_theta: float = param(math.radians(140), lo=0.0, hi=20.0, unit="rad/s", doc="max |rotation speed|")
+    acc_lim_x: float = param(1.0, lo=0.01, hi=1000.0, unit="m/s^2", doc="linear acceleration limit")
+    acc_lim_th: float = param(2.0, lo=0.01, hi=1000.0, unit="rad/s^2", doc="angular acceleration limit")
+    cmd_vel_timeout: float = param(0.5, lo=0.0, hi=60.0, unit="s", doc="stop when no cmd_vel for this long")
+    motors_enabled: bool = param(True, doc="motors enabled at start (p2os cmd_motor_state)")
+    # `builtins.str`: the gmapping field named `str` shadows the builtin when type hints are resolved
+    odom_frame_id: builtins.str = param("odom", doc="odometry frame")
+    base_frame_id: builtins.str = param("base_link", doc="robot frame")
+    srr: float = param(0.01, lo=0.0, hi=10.0, doc="translation error from translation (m per sqrt(m))")
+    srt: float = param(0.02, lo=0.0, hi=10.0, doc="translation error from rotation (m per sqrt(rad))")
+    str: float = param(0.01, lo=0.0, hi=10.0, doc="rotation error from translation (rad per sqrt(m))")
+    stt: float = param(0.02, lo=0.0, hi=10.0, doc="rotation error from rotation (rad per sqrt(rad))")
+    collision_debounce: float = param(0.5, lo=0.0, hi=60.0, unit="s",
+                                      doc="a contact after this long without one is a new collision")
+    min_obstacle_height: float = param(0.02, lo=0.0, hi=10.0, unit="m", doc="lower cells do not collide")
+    seed: int = param(0, lo=0, doc="odometry noise RNG seed")
+
+    def validate(self) -> None:
+        if len(self.footprint) < 3:
+            raise ValueError("footprint needs at least 3 points")
+
+
+def load_base_params(mapping: dict | None, source: str = "<config>", section: str = "base") -> BaseParams:
+    return load_params(BaseParams, mapping, source, section)
+
+
+def _footprint_samples(poly: np.ndarray, step: float) -> np.ndarray:
+    """Points inside and on the edge of a polygon, spaced at most ``step`` (robot frame)."""
+    (xmin, ymin), (xmax, ymax) = poly.min(0), poly.max(0)
+    xs = np.arange(xmin, xmax + step, step)
+    ys = np.arange(ymin, ymax + step, step)
+    gx, gy = np.meshgrid(np.minimum(xs, xmax), np.minimum(ys, ymax))
+    pts = np.column_stack((gx.ravel(), gy.ravel()))
+    inside = np.zeros(len(pts), bool)
+    j = len(poly) - 1
+    for i in range(len(poly)):  # even-odd rule
+        (xi, yi), (xj, yj) = poly[i], poly[j]
+        cross = (yi > pts[:, 1]) != (yj > pts[:, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = xi + (pts[:, 1] - yi) * (xj - xi) / (yj - yi)
+        inside ^= cross & (pts[:, 0] < xint)
+        j = i
+    edges = []
+    for a, b in zip(poly, np.roll(poly, -1, axis=0)):
+        n = max(2, math.ceil(np.linalg.norm(b - a) / step) + 1)
+        edges.append(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
+    return np.vstack([pts[inside], *edges])
+
+
+def _toward(v: float, target: float, dv: float) -> tuple[float, float]:
+    """New velocity and the mean velocity over a step that ramps v toward target by at most dv (dt = 1)."""
+    if abs(target - v) <= dv:
+        frac = abs(target - v) / dv if dv > 0 else 0.0  # fraction of the step spent ramping
+        return target, frac * (v + target) / 2 + (1 - frac) * target
+    nv = v + math.copysign(dv, target - v)
+    return nv, (v + nv) / 2
+
+
+class DiffDriveBase:
+    """Differential drive with ground truth pose (world frame) and noisy odometry (odom frame)."""
+
+    def __init__(self, world: World, params: BaseParams = BaseParams(), start: Pose2D | None = None):
+        self.world, self.p = world, params
+        self.pose = start if start is not None else world.start  # ground truth in the world (map) frame
+        self.odom = Pose2D()
+        self.v = self.w = 0.0  # actual velocities
+        self.cmd = (0.0, 0.0)
+        self.cmd_time = -math.inf
+        self.motors_enabled = params.motors_enabled
+        self.collisions = 0
+        self.contact: tuple[float, float] | None = None
+        self.in_contact = False  # the last step was blocked
+        self._last_contact_time = -math.inf
+        self.rng = np.random.default_rng(params.seed)
+        self.samples = _footprint_samples(np.asarray(params.footprint, float), world.resolution / 2)
+
+    def set_cmd_vel(self, twist: Twist, now: float) -> None:
+        self.cmd = (float(twist.linear.x), float(twist.angular.z))
+        self.cmd_time = now
+
+    def set_motors(self, enabled: bool) -> None:
+        self.motors_enabled = bool(enabled)
+        if not enabled:
+            self.v = self.w = 0.0
+
+    def footprint_hits(self, pose: Pose2D) -> np.ndarray:
+        """World points of the footprint samples that lie on an obstacle at ``pose``."""
+        pts = pose.apply(self.samples)
+        return pts[self.world.height_at(pts[:, 0], pts[:, 1]) > self.p.min_obstacle_height]
+
+    def step(self, dt: float, now: float) -> None:
+        """Advance ``dt`` seconds; ``now`` is the clock at the end of the step (for the cmd_vel timeout)."""
+        p = self.p
+        if dt <= 0:
+            return
+        if not self.motors_enabled:
+            self.v = self.w = 0.0
+            return
+        tv, tw = self.cmd if now - self.cmd_time <= p.cmd_vel_timeout else (0.0, 0.0)
+        tv = max(-p.max_vel_x, min(p.max_vel_x, tv))
+        tw = max(-p.max_vel_theta, min(p.max_vel_theta, tw))
+        nv, mv = _toward(self.v, tv, p.acc_lim_x * dt)
+        nw, mw = _toward(self.w, tw, p.acc_lim_th * dt)
+        d_rho, d_th = mv * dt, mw * dt
+        new = self.pose.compose(_arc(d_rho, d_th))
+        if d_rho != 0.0 or d_th != 0.0:
+            hits = self.footprint_hits(new)
+            if len(hits):
+                if now - self._last_contact_time > p.collision_debounce:
+                    self.collisions += 1
+                self.contact = (float(hits[:, 0].mean()), float(hits[:, 1].mean()))
+                self._last_contact_time = now
+                self.in_contact = True
+                self.v = self.w = 0.0
+                return
+        self.in_contact = False
+        self.pose, self.v, self.w = new, nv, nw
+        self._odometry(d_rho, d_th)
+
+    def _odometry(self, d_rho: float, d_th: float) -> None:
+        p = self.p
+        a, b = abs(d_rho), abs(d_th)
+        var_r = p.srr ** 2 * a + p.srt ** 2 * b
+        var_t = p.str ** 2 * a + p.stt ** 2 * b
+        if var_r > 0 or var_t > 0:
+            e = self.rng.standard_normal(2)
+            d_rho += math.sqrt(var_r) * e[0]
+            d_th += math.sqrt(var_t) * e[1]
+        self.odom = self.odom.compose(_arc(d_rho, d_th))
+
+    def odometry(self, stamp: float) -> Odometry:
+        return Odometry(Header(stamp, self.p.odom_frame_id), self.p.base_frame_id, self.odom.to_transform(),
+                        Twist.planar(self.v, self.w))
+
+    def collision(self, stamp: float, frame_id: str = "map") -> Collision:
+        x, y = self.contact if self.contact else (0.0, 0.0)
+        return Collision(Header(stamp, frame_id), self.collisions, x, y)
+
+
+def _arc(d_rho: float, d_th: float) -> Pose2D:
+    """Relative pose after moving d_rho along an arc that turns d_th."""
+    if abs(d_th) < 1e-9:
+        return Pose2D(d_rho, 0.0, d_th)
+    r = d_rho / d_th
+    return Pose2D(r * math.sin(d_th), r * (1 - math.cos(d_th)), normalize_angle(d_th))

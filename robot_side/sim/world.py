@@ -1,0 +1,300 @@
+"""The simulated 2.5D world: a height grid (max obstacle height per cell, metres above the floor).
+
+Loaded from a map_server map (PGM + YAML; occupied cells become obstacles ``map_obstacle_height`` tall)
+or from a YAML of shapes with heights (walls, boxes, cylinders). Shapes are rasterised by testing each
+cell *centre*; the grid is in ROS order: row 0 is the lowest y, cell (0, 0)'s corner at ``origin``.
+
+Shapes YAML::
+
+    bounds: [xmin, ymin, xmax, ymax]        # optional, else shapes' extent + margin
+    start: [x, y, theta]                    # default start pose (map frame)
+    goals: {name: [x, y, theta], ...}       # suggested goals (a list is accepted too)
+    walls:     [{from: [x, y], to: [x, y], thickness: 0.1, height: 2.0}]   # square caps
+    boxes:     [{center: [x, y], size: [sx, sy], yaw: 0.0, height: 0.5}]
+    cylinders: [{center: [x, y], radius: 0.2, height: 0.8}]
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from common.config import ConfigError, load_params, param, read_yaml
+from common.geometry import Pose2D
+from common.messages import Header, OccupancyGrid
+from robot_side.sim.pgm import read_pgm
+
+__all__ = ["WorldParams", "World", "load_world", "parse_pose"]
+
+
+@dataclass(frozen=True)
+class WorldParams:
+    resolution: float = param(0.02, lo=0.005, hi=0.5, unit="m", doc="cell size of the simulated height grid")
+    map_obstacle_height: float = param(2.0, lo=0.01, hi=100.0, unit="m",
+                                       doc="height of occupied cells of a map_server map")
+    unknown_is_obstacle: bool = param(False, doc="map_server 'unknown' cells become obstacles (else free)")
+    margin: float = param(0.5, lo=0.0, hi=100.0, unit="m", doc="free border around shapes without bounds")
+
+
+def parse_pose(value: Any, source: str = "<world>", key: str = "pose") -> Pose2D:
+    """A pose from ``[x, y, theta]``, ``[x, y]`` or ``{x:, y:, theta:}``; a Pose2D passes through."""
+    if isinstance(value, Pose2D):
+        return value
+    if isinstance(value, dict):
+        value = [value.get("x", 0.0), value.get("y", 0.0), value.get("theta", value.get("yaw", 0.0))]
+    if not isinstance(value, (list, tuple)) or len(value) not in (2, 3):
+        raise ConfigError(source, key, f"expected [x, y, theta], got {value!r}")
+    try:
+        v = [float(a) for a in value]
+    except (TypeError, ValueError) as e:
+        raise ConfigError(source, key, f"expected numbers, got {value!r}") from e
+    return Pose2D(v[0], v[1], v[2] if len(v) == 3 else 0.0)
+
+
+def _goals(value: Any, source: str) -> dict[str, Pose2D]:
+    if value is None:
+        return {}
+    if isinstance(value, dict):
+        return {str(k): parse_pose(v, source, f"goals.{k}") for k, v in value.items()}
+    if isinstance(value, list):
+        return {f"goal{i}": parse_pose(v, source, f"goals[{i}]") for i, v in enumerate(value)}
+    raise ConfigError(source, "goals", "expected a mapping name -> [x, y, theta] or a list")
+
+
+_ORIGIN = Pose2D()
+
+
+class World:
+    """Height grid ``heights`` (rows = y, float32 metres) plus start pose and named goals."""
+
+    def __init__(self, heights: np.ndarray, resolution: float, origin: tuple[float, float] = (0.0, 0.0),
+                 start: Pose2D = _ORIGIN, goals: dict[str, Pose2D] | None = None, name: str = ""):
+        self.heights = np.ascontiguousarray(heights, dtype=np.float32)
+        if self.heights.ndim != 2 or min(self.heights.shape) < 1:
+            raise ValueError("heights must be a non-empty 2D array")
+        self.resolution = float(resolution)
+        self.origin = (float(origin[0]), float(origin[1]))
+        self.start = start
+        self.goals = dict(goals or {})
+        self.name = name
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.heights.shape  # (rows, cols)
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the grid in metres."""
+        x0, y0 = self.origin
+        return x0, y0, x0 + self.shape[1] * self.resolution, y0 + self.shape[0] * self.resolution
+
+    def with_start(self, start: Any) -> World:
+        """The same world with another start pose (``[x, y, theta]``, dict or Pose2D)."""
+        return World(self.heights, self.resolution, self.origin, parse_pose(start), self.goals, self.name)
+
+    def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Obstacle height under world points (0 outside the grid)."""
+        ix = np.floor((np.asarray(x) - self.origin[0]) / self.resolution).astype(np.int64)
+        iy = np.floor((np.asarray(y) - self.origin[1]) / self.resolution).astype(np.int64)
+        inside = (ix >= 0) & (iy >= 0) & (ix < self.shape[1]) & (iy < self.shape[0])
+        out = np.zeros(np.shape(ix), np.float32)
+        out[inside] = self.heights[iy[inside], ix[inside]]
+        return out
+
+    def occupied(self, min_height: float = 0.0) -> np.ndarray:
+        """Cells whose obstacle is taller than ``min_height``."""
+        return self.heights > min_height
+
+    def to_occupancy_grid(self, min_height: float = 0.0, stamp: float = 0.0,
+                          frame_id: str = "map") -> OccupancyGrid:
+        """Ground-truth map as a ROS OccupancyGrid (100 = obstacle taller than ``min_height``, 0 free)."""
+        data = np.where(self.occupied(min_height), 100, 0).astype(np.int8)
+        return OccupancyGrid(Header(stamp, frame_id), self.resolution, Pose2D(*self.origin, 0.0), data)
+
+    # ------------------------------------------------------------------ loaders
+    @classmethod
+    def from_shapes(cls, spec: dict, params: WorldParams = WorldParams(), source: str = "<world>") -> World:
+        allowed = {"name", "bounds", "start", "goals", "walls", "boxes", "cylinders", "resolution"}
+        for k in spec:
+            if k not in allowed:
+                raise ConfigError(source, str(k), f"unknown key (known keys: {', '.join(sorted(allowed))})")
+        res = float(spec.get("resolution", params.resolution))
+        shapes = _parse_shapes(spec, source)
+        if "bounds" in spec:
+            b = spec["bounds"]
+            if not (isinstance(b, (list, tuple)) and len(b) == 4 and b[0] < b[2] and b[1] < b[3]):
+                raise ConfigError(source, "bounds", f"expected [xmin, ymin, xmax, ymax], got {b!r}")
+            xmin, ymin, xmax, ymax = map(float, b)
+        elif shapes:
+            ext = np.array([s.extent() for s in shapes])
+            m = params.margin
+            xmin, ymin = ext[:, 0].min() - m, ext[:, 1].min() - m
+            xmax, ymax = ext[:, 2].max() + m, ext[:, 3].max() + m
+        else:
+            raise ConfigError(source, "bounds", "a world without shapes needs bounds")
+        cols = max(1, math.ceil((xmax - xmin) / res - 1e-9))
+        rows = max(1, math.ceil((ymax - ymin) / res - 1e-9))
+        heights = np.zeros((rows, cols), np.float32)
+        for s in shapes:
+            s.rasterise(heights, (xmin, ymin), res)
+        start = parse_pose(spec["start"], source, "start") if "start" in spec else Pose2D()
+        goals = _goals(spec.get("goals"), source)
+        return cls(heights, res, (xmin, ymin), start, goals, str(spec.get("name", "")))
+
+    @classmethod
+    def from_map_yaml(cls, path: str | Path, params: WorldParams = WorldParams()) -> World:
+        """A map_server map; occupied cells get ``map_obstacle_height`` (or the YAML's obstacle_height)."""
+        path = Path(path)
+        src = str(path)
+        y = read_yaml(path)
+        for k in ("image", "resolution", "origin"):
+            if k not in y:
+                raise ConfigError(src, k, "missing (map_server map YAML)")
+        origin = y["origin"]
+        if not (isinstance(origin, (list, tuple)) and len(origin) >= 2):
+            raise ConfigError(src, "origin", f"expected [x, y, yaw], got {origin!r}")
+        if len(origin) > 2 and abs(float(origin[2])) > 1e-9:
+            raise ConfigError(src, "origin", "a rotated map origin is not supported")
+        img_path = Path(str(y["image"]))
+        if not img_path.is_absolute():
+            img_path = path.parent / img_path
+        try:
+            img = read_pgm(img_path).astype(np.float64)
+        except (OSError, ValueError) as e:
+            raise ConfigError(src, "image", f"cannot read {img_path}: {e}") from e
+        maxval = 255.0 if img.max(initial=0) <= 255 else 65535.0
+        p = img / maxval if int(y.get("negate", 0)) else (maxval - img) / maxval
+        occ_t, free_t = float(y.get("occupied_thresh", 0.65)), float(y.get("free_thresh", 0.196))
+        occupied = p > occ_t
+        if params.unknown_is_obstacle:
+            occupied |= p >= free_t
+        occupied = occupied[::-1]  # image row 0 is the top (highest y); ROS row 0 is the lowest y
+        map_res = float(y["resolution"])
+        h = float(y.get("obstacle_height", params.map_obstacle_height))
+        x0, y0 = float(origin[0]), float(origin[1])
+        res = params.resolution
+        rows = max(1, round(occupied.shape[0] * map_res / res))
+        cols = max(1, round(occupied.shape[1] * map_res / res))
+        # nearest-neighbour resampling: each new cell takes the map cell under its centre
+        iy = np.minimum(((np.arange(rows) + 0.5) * res / map_res).astype(np.int64), occupied.shape[0] - 1)
+        ix = np.minimum(((np.arange(cols) + 0.5) * res / map_res).astype(np.int64), occupied.shape[1] - 1)
+        heights = np.where(occupied[np.ix_(iy, ix)], np.float32(h), np.float32(0.0))
+        start = parse_pose(y["start"], src, "start") if "start" in y else Pose2D()
+        return cls(heights, res, (x0, y0), start, _goals(y.get("goals"), src), path.stem)
+
+
+def load_world(path: str | Path, params: WorldParams = WorldParams(), start: Any = None) -> World:
+    """Load a shapes YAML or a map_server YAML (recognised by its ``image`` key); optional start override."""
+    path = Path(path)
+    spec = read_yaml(path)
+    w = World.from_map_yaml(path, params) if "image" in spec else World.from_shapes(spec, params, str(path))
+    if not w.name:
+        w.name = path.stem
+    return w.with_start(start) if start is not None else w
+
+
+def load_world_params(mapping: dict | None, source: str = "<config>") -> WorldParams:
+    return load_params(WorldParams, mapping, source, "world")
+
+
+# ---------------------------------------------------------------------- shapes
+@dataclass(frozen=True)
+class _Box:
+    cx: float
+    cy: float
+    sx: float
+    sy: float
+    yaw: float
+    height: float
+
+    def extent(self) -> tuple[float, float, float, float]:
+        c, s = abs(math.cos(self.yaw)), abs(math.sin(self.yaw))
+        hx, hy = (c * self.sx + s * self.sy) / 2, (s * self.sx + c * self.sy) / 2
+        return self.cx - hx, self.cy - hy, self.cx + hx, self.cy + hy
+
+    def inside(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        dx, dy = x - self.cx, y - self.cy
+        u, v = c * dx + s * dy, -s * dx + c * dy
+        return (np.abs(u) <= self.sx / 2) & (np.abs(v) <= self.sy / 2)
+
+    def rasterise(self, grid: np.ndarray, origin: tuple[float, float], res: float) -> None:
+        xmin, ymin, xmax, ymax = self.extent()
+        i0 = max(0, math.floor((xmin - origin[0]) / res) - 1)
+        i1 = min(grid.shape[1], math.ceil((xmax - origin[0]) / res) + 1)
+        j0 = max(0, math.floor((ymin - origin[1]) / res) - 1)
+        j1 = min(grid.shape[0], math.ceil((ymax - origin[1]) / res) + 1)
+        if i0 >= i1 or j0 >= j1:
+            return
+        xs = origin[0] + (np.arange(i0, i1) + 0.5) * res
+        ys = origin[1] + (np.arange(j0, j1) + 0.5) * res
+        mask = self.inside(xs[None, :], ys[:, None])
+        sub = grid[j0:j1, i0:i1]
+        np.maximum(sub, np.where(mask, np.float32(self.height), np.float32(0.0)), out=sub)
+
+
+@dataclass(frozen=True)
+class _Cylinder(_Box):
+    def inside(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return (x - self.cx) ** 2 + (y - self.cy) ** 2 <= (self.sx / 2) ** 2
+
+
+def _num(d: dict, key: str, source: str, where: str, default: float | None = None, n: int = 0) -> Any:
+    if key not in d:
+        if default is None:
+            raise ConfigError(source, f"{where}.{key}", "missing")
+        return default
+    v = d[key]
+    try:
+        if n:
+            if not isinstance(v, (list, tuple)) or len(v) != n:
+                raise TypeError
+            return tuple(float(a) for a in v)
+        if isinstance(v, bool):
+            raise TypeError
+        return float(v)
+    except (TypeError, ValueError) as e:
+        raise ConfigError(source, f"{where}.{key}", f"expected {n or 1} number(s), got {v!r}") from e
+
+
+def _parse_shapes(spec: dict, source: str) -> list[_Box]:
+    out: list[_Box] = []
+    keys = {"walls": {"from", "to", "thickness", "height"}, "boxes": {"center", "size", "yaw", "height"},
+            "cylinders": {"center", "radius", "height"}}
+    for kind, allowed in keys.items():
+        items = spec.get(kind) or []
+        if not isinstance(items, list):
+            raise ConfigError(source, kind, "expected a list")
+        for i, d in enumerate(items):
+            where = f"{kind}[{i}]"
+            if not isinstance(d, dict):
+                raise ConfigError(source, where, "expected a mapping")
+            for k in d:
+                if k not in allowed:
+                    known = ", ".join(sorted(allowed))
+                    raise ConfigError(source, f"{where}.{k}", f"unknown key (known keys: {known})")
+            h = _num(d, "height", source, where, 2.0 if kind == "walls" else None)
+            if h <= 0:
+                raise ConfigError(source, f"{where}.height", "must be > 0")
+            if kind == "walls":
+                (ax, ay), (bx, by) = _num(d, "from", source, where, n=2), _num(d, "to", source, where, n=2)
+                t = _num(d, "thickness", source, where, 0.1)
+                length = math.hypot(bx - ax, by - ay)
+                out.append(_Box((ax + bx) / 2, (ay + by) / 2, length + t, t, math.atan2(by - ay, bx - ax), h))
+            elif kind == "boxes":
+                cx, cy = _num(d, "center", source, where, n=2)
+                sx, sy = _num(d, "size", source, where, n=2)
+                if sx <= 0 or sy <= 0:
+                    raise ConfigError(source, f"{where}.size", "must be > 0")
+                out.append(_Box(cx, cy, sx, sy, _num(d, "yaw", source, where, 0.0), h))
+            else:
+                cx, cy = _num(d, "center", source, where, n=2)
+                r = _num(d, "radius", source, where)
+                if r <= 0:
+                    raise ConfigError(source, f"{where}.radius", "must be > 0")
+                out.append(_Cylinder(cx, cy, 2 * r, 2 * r, 0.0, h))
+    return out

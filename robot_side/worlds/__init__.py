@@ -1,0 +1,1 @@
+"""Simulator worlds (shapes YAML): room.yaml and corridor.yaml reproduce the tutorial section 4.3 tests."""

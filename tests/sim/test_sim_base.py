@@ -1,0 +1,134 @@
+import math
+
+import numpy as np
+import pytest
+from sim_helpers import empty_world, wall_world
+
+from common.geometry import Pose2D
+from common.messages import Twist
+from robot_side.sim.base import BaseParams, DiffDriveBase
+
+NOISE_OFF = dict(srr=0.0, srt=0.0, str=0.0, stt=0.0)
+
+
+def _run(base, twist, seconds, dt=0.01, t0=0.0, refresh=True):
+    n = round(seconds / dt)
+    for i in range(1, n + 1):
+        now = t0 + i * dt
+        if refresh:
+            base.set_cmd_vel(twist, now)
+        base.step(dt, now)
+    return t0 + n * dt
+
+
+def test_straight_line_with_acceleration_ramp_matches_analytic():
+    v, a, T = 0.5, 1.0, 3.0
+    base = DiffDriveBase(empty_world(), BaseParams(acc_lim_x=a, **NOISE_OFF), Pose2D(1.0, 2.0, 0.5))
+    T = _run(base, Twist.planar(v, 0.0), T, dt=0.013)  # a whole number of steps
+    dist = v * T - v * v / (2 * a)
+    assert base.pose.x == pytest.approx(1.0 + dist * math.cos(0.5), abs=1e-9)
+    assert base.pose.y == pytest.approx(2.0 + dist * math.sin(0.5), abs=1e-9)
+    assert base.odom.x == pytest.approx(dist, abs=1e-9)  # odometry starts at the odom origin
+
+
+def test_arc_matches_analytic():
+    v, w, T = 0.4, 0.5, 4.0
+    base = DiffDriveBase(empty_world(), BaseParams(**NOISE_OFF), Pose2D())
+    base.v, base.w = v, w  # already at speed
+    _run(base, Twist.planar(v, w), T)
+    r = v / w
+    assert base.pose.x == pytest.approx(r * math.sin(w * T), abs=1e-9)
+    assert base.pose.y == pytest.approx(r * (1 - math.cos(w * T)), abs=1e-9)
+    assert base.pose.theta == pytest.approx(w * T, abs=1e-9)
+
+
+def test_commands_are_clamped_and_acceleration_is_limited():
+    p = BaseParams(acc_lim_x=0.8, acc_lim_th=1.5, **NOISE_OFF)
+    base = DiffDriveBase(empty_world(), p, Pose2D())
+    dt, vs, ws = 0.02, [0.0], [0.0]
+    for i in range(1, 200):
+        cmd = Twist.planar(5.0, -9.0) if i < 120 else Twist.planar(-5.0, 9.0)
+        base.set_cmd_vel(cmd, i * dt)
+        base.step(dt, i * dt)
+        vs.append(base.v)
+        ws.append(base.w)
+    assert np.all(np.abs(np.diff(vs)) <= p.acc_lim_x * dt + 1e-12)
+    assert np.all(np.abs(np.diff(ws)) <= p.acc_lim_th * dt + 1e-12)
+    assert max(np.abs(vs)) == pytest.approx(p.max_vel_x)
+    assert max(np.abs(ws)) == pytest.approx(p.max_vel_theta)
+
+
+def test_stale_cmd_vel_stops_the_robot():
+    base = DiffDriveBase(empty_world(), BaseParams(cmd_vel_timeout=0.5, **NOISE_OFF), Pose2D())
+    base.set_cmd_vel(Twist.planar(0.5, 0.2), 0.0)
+    t = _run(base, None, 2.0, refresh=False)
+    assert base.v == 0.0
+    assert base.w == 0.0
+    before = base.pose
+    _run(base, None, 1.0, t0=t, refresh=False)
+    assert base.pose == before
+    assert 0.1 < before.x < 0.5  # it moved while the command was fresh, then decelerated
+
+
+def test_disabled_motors_do_not_move():
+    base = DiffDriveBase(empty_world(), BaseParams(motors_enabled=False, **NOISE_OFF), Pose2D())
+    _run(base, Twist.planar(0.5, 0.5), 1.0)
+    assert base.pose == Pose2D()
+    assert base.v == 0.0
+    base.set_motors(True)
+    _run(base, Twist.planar(0.5, 0.0), 1.0, t0=1.0)
+    assert base.pose.x > 0.1
+
+
+def test_collision_stops_counts_once_and_records_contact():
+    base = DiffDriveBase(wall_world(1.5, res=0.02), BaseParams(**NOISE_OFF), Pose2D())
+    _run(base, Twist.planar(0.5, 0.0), 6.0)
+    assert base.collisions == 1
+    assert base.v == 0.0
+    assert base.in_contact
+    assert len(base.footprint_hits(base.pose)) == 0  # never overlaps the wall
+    front = base.pose.x + 0.3302
+    assert 1.5 - 0.05 < front <= 1.5 + 0.02
+    assert base.contact[0] == pytest.approx(1.5, abs=0.03)
+    assert abs(base.contact[1]) < 0.06
+    _run(base, Twist.planar(-0.3, 0.0), 1.0, t0=6.0)  # backing off is allowed
+    assert base.pose.x < front - 0.3302 - 0.1
+    _run(base, Twist.planar(0.5, 0.0), 4.0, t0=7.0)  # a new run into the wall is a new collision
+    assert base.collisions == 2
+
+
+@pytest.mark.parametrize("dist", [1.0, 4.0])
+def test_odometry_error_std_grows_as_the_model_says(dist):
+    srr, str_ = 0.05, 0.03
+    ex, et = [], []
+    for seed in range(300):
+        base = DiffDriveBase(empty_world(res=0.5), BaseParams(srr=srr, srt=0.0, str=str_, stt=0.0, seed=seed),
+                             Pose2D())
+        base.v = 0.5
+        _run(base, Twist.planar(0.5, 0.0), dist / 0.5, dt=0.05)
+        ex.append(base.odom.x - base.pose.x)
+        et.append(base.odom.theta - base.pose.theta)
+    assert np.std(ex) == pytest.approx(srr * math.sqrt(dist), rel=0.2)
+    assert np.std(et) == pytest.approx(str_ * math.sqrt(dist), rel=0.2)
+
+
+def test_rotation_error_from_rotation():
+    stt, turn = 0.05, 2.0
+    errs = []
+    for seed in range(300):
+        base = DiffDriveBase(empty_world(res=0.5), BaseParams(srr=0.0, srt=0.0, str=0.0, stt=stt, seed=seed),
+                             Pose2D())
+        base.w = 1.0
+        _run(base, Twist.planar(0.0, 1.0), turn, dt=0.05)
+        errs.append(base.odom.theta - base.pose.theta)
+    assert np.std(errs) == pytest.approx(stt * math.sqrt(turn), rel=0.2)
+    assert base.odom.x == 0.0  # no translation noise without srt
+
+
+def test_odometry_is_reproducible_with_a_seed():
+    def run(seed):
+        b = DiffDriveBase(empty_world(), BaseParams(seed=seed), Pose2D())
+        _run(b, Twist.planar(0.4, 0.3), 2.0)
+        return b.odom
+    assert run(3) == run(3)
+    assert run(3) != run(4)

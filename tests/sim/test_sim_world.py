@@ -1,0 +1,104 @@
+import math
+
+import numpy as np
+import pytest
+
+from common.config import ConfigError
+from common.geometry import Pose2D
+from robot_side.sim.base import DiffDriveBase
+from robot_side.sim.pgm import read_pgm, write_pgm
+from robot_side.sim.simulator import WORLDS_DIR
+from robot_side.sim.world import World, WorldParams, load_world
+
+
+def _map(tmp_path, img, **yaml_extra):
+    write_pgm(tmp_path / "m.pgm", img)
+    lines = ["image: m.pgm", "resolution: 0.1", "origin: [-1.0, -2.0, 0.0]", "occupied_thresh: 0.65",
+             "free_thresh: 0.196", *(f"{k}: {v}" for k, v in yaml_extra.items())]
+    (tmp_path / "m.yaml").write_text("\n".join(lines) + "\n")
+    return tmp_path / "m.yaml"
+
+
+def _img():
+    img = np.full((8, 10), 254, np.uint8)  # free
+    img[0, 0] = 0  # occupied, top-left pixel = highest y, lowest x
+    img[7, 9] = 0  # occupied, bottom-right = lowest y, highest x
+    img[3, 4] = 205  # unknown
+    return img
+
+
+def test_map_server_map_becomes_obstacles_with_height(tmp_path):
+    w = load_world(_map(tmp_path, _img()), WorldParams(resolution=0.05, map_obstacle_height=1.5))
+    assert w.bounds == pytest.approx((-1.0, -2.0, 0.0, -1.2))
+    h = lambda x, y: float(w.height_at(np.array([x]), np.array([y]))[0])  # noqa: E731
+    assert h(-0.95, -1.25) == 1.5  # image (0, 0) -> top-left of the map
+    assert h(-0.05, -1.95) == 1.5  # image (7, 9) -> bottom-right
+    assert h(-0.55, -1.55) == 0.0  # unknown counts as free by default
+    assert h(-0.5, -1.6) == 0.0
+    assert w.occupied().sum() == 2 * 4  # two map cells, each 2x2 sim cells
+
+
+def test_map_unknown_negate_and_height_override(tmp_path):
+    w = load_world(_map(tmp_path, _img(), obstacle_height=0.7), WorldParams(unknown_is_obstacle=True))
+    assert w.heights.max() == pytest.approx(0.7)
+    assert w.occupied().sum() == 3 * 25
+    w = load_world(_map(tmp_path, 255 - _img(), negate=1))
+    assert w.occupied().sum() == 2 * 25
+
+
+def test_ascii_pgm(tmp_path):
+    (tmp_path / "a.pgm").write_text("P2\n# comment\n3 2\n255\n0 128 255\n10 20 30\n")
+    np.testing.assert_array_equal(read_pgm(tmp_path / "a.pgm"), [[0, 128, 255], [10, 20, 30]])
+
+
+def test_shapes_rasterise_with_heights():
+    w = World.from_shapes({
+        "bounds": [-3, -3, 3, 3],
+        "walls": [{"from": [-2, 2], "to": [2, 2], "thickness": 0.2, "height": 2.5}],
+        "boxes": [{"center": [0, 0], "size": [1.0, 0.4], "yaw": math.pi / 4, "height": 0.5}],
+        "cylinders": [{"center": [-1.5, -1.5], "radius": 0.3, "height": 0.8},
+                      {"center": [0.3, 0.3], "radius": 0.1, "height": 0.9}],
+        "start": [1, -1, 0.5], "goals": {"g": [2, 0, 0]},
+    })
+    h = lambda x, y: float(w.height_at(np.array([x]), np.array([y]))[0])  # noqa: E731
+    assert h(0, 2.05) == 2.5
+    assert h(2.05, 2) == 2.5
+    assert h(0, 2.15) == 0.0
+    assert h(0.3, 0.3) == pytest.approx(0.9)  # overlapping shapes: the max height
+    assert h(-0.25, -0.25) == pytest.approx(0.5)
+    assert h(0.4, -0.4) == 0.0
+    assert h(-1.5 + 0.27, -1.5) == pytest.approx(0.8)
+    assert h(-1.5 + 0.33, -1.5) == 0.0
+    assert w.start == Pose2D(1, -1, 0.5)
+    assert w.goals == {"g": Pose2D(2, 0, 0)}
+    assert w.with_start([0, 0, 1]).start == Pose2D(0, 0, 1)
+    grid = w.to_occupancy_grid(min_height=1.0)
+    assert grid.data.max() == 100
+    assert (grid.data == 100).sum() == (w.heights > 1.0).sum()
+
+
+def test_bad_shapes_are_reported_with_the_key():
+    with pytest.raises(ConfigError, match=r"boxes\[0\].colour"):
+        World.from_shapes({"boxes": [{"center": [0, 0], "size": [1, 1], "height": 1, "colour": "red"}]})
+    with pytest.raises(ConfigError, match=r"cylinders\[0\].radius"):
+        World.from_shapes({"cylinders": [{"center": [0, 0], "height": 1}]})
+    with pytest.raises(ConfigError, match="bounds"):
+        World.from_shapes({})
+
+
+@pytest.mark.parametrize("name", ["room", "corridor"])
+def test_shipped_worlds_have_free_start_and_goals(name):
+    w = load_world(WORLDS_DIR / f"{name}.yaml")
+    base = DiffDriveBase(w)
+    assert len(w.goals) >= 2
+    for pose in [w.start, *w.goals.values()]:
+        assert len(base.footprint_hits(pose)) == 0
+    assert load_world(WORLDS_DIR / f"{name}.yaml", start=[0.5, -1.0, 0.0]).start == Pose2D(0.5, -1.0, 0.0)
+
+
+def test_room_goal_is_behind_the_obstacle():
+    w = load_world(WORLDS_DIR / "room.yaml")
+    g = w.goals["across_obstacle"]
+    t = np.linspace(0, 1, 200)
+    xs, ys = w.start.x + t * (g.x - w.start.x), w.start.y + t * (g.y - w.start.y)
+    assert (w.height_at(xs, ys) > 0.35).any()
