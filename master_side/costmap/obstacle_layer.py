@@ -1,0 +1,116 @@
+"""Obstacle layer: marks sensor hits LETHAL and ray-traces free space (costmap_2d::ObstacleLayer).
+
+Per cycle: clear along every clearing ray (out to raytrace_range), then mark every marking point closer
+than obstacle_range, then (footprint_clearing_enabled) free the cells under the robot; the layer's grid
+is merged into the master with combination_method (0 overwrite, 1 maximum, 2 addition).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common.geometry import Pose2D
+from master_side.costmap.cost_values import FREE, LETHAL
+from master_side.costmap.costmap2d import (
+    Costmap2D,
+    Window,
+    update_with_addition,
+    update_with_max,
+    update_with_overwrite,
+)
+from master_side.costmap.footprint import transform_footprint
+from master_side.costmap.layer import Bounds, CostmapLayer, register_layer
+from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams
+from master_side.costmap.observation import Observation, ObservationBuffer
+from master_side.costmap.raytrace import trace_cells
+
+_COMBINE = {0: update_with_overwrite, 1: update_with_max, 2: update_with_addition}
+
+
+@register_layer("costmap_2d::ObstacleLayer", "nav2_costmap_2d::ObstacleLayer", "ObstacleLayer")
+class ObstacleLayer(CostmapLayer):
+    Params = ObstacleLayerParams
+
+    def __init__(self, name: str, params: ObstacleLayerParams,
+                 sources: dict[str, ObservationSourceParams] | None = None):
+        super().__init__(name, params)
+        self.buffers = {n: ObservationBuffer(n, p) for n, p in (sources or {}).items()}
+        self.footprint_world = np.zeros((0, 2))
+
+    # -- input -----------------------------------------------------------------------------------
+    def add_observation(self, source: str, points: np.ndarray, origin: np.ndarray, stamp: float) -> None:
+        """A reading of ``source``: points (N, 3) and sensor origin (3,) in the costmap's global frame."""
+        try:
+            buf = self.buffers[source]
+        except KeyError:
+            have = sorted(self.buffers)
+            raise KeyError(f"{self.name}: no observation source {source!r} (have {have})") from None
+        buf.add(points, origin, stamp)
+
+    def is_current(self, now: float) -> bool:
+        return all(b.is_current(now) for b in self.buffers.values())
+
+    def stale_sources(self, now: float) -> list[str]:
+        return [n for n, b in self.buffers.items() if not b.is_current(now)]
+
+    def _observations(self, kind: str) -> list[Observation]:
+        return [o for b in self.buffers.values() if getattr(b.params, kind) for o in b.observations]
+
+    # -- cycle -----------------------------------------------------------------------------------
+    def update_bounds(self, robot_pose: Pose2D, bounds: Bounds) -> Bounds:
+        for obs in self._observations("clearing"):
+            bounds = self._raytrace(obs, bounds)
+        for obs in self._observations("marking"):
+            bounds = self._mark(obs, bounds)
+        if self.params.footprint_clearing_enabled and len(self.layered.footprint):
+            self.footprint_world = transform_footprint(self.layered.footprint, robot_pose)
+            bounds = bounds.expand_points(self.footprint_world[:, 0], self.footprint_world[:, 1])
+        return bounds
+
+    def update_costs(self, master: Costmap2D, window: Window) -> None:
+        if self.params.footprint_clearing_enabled and len(self.footprint_world):
+            self.costmap.set_polygon_cost(self.footprint_world, FREE)
+        _COMBINE[self.params.combination_method](master, self.costmap.data, window)
+
+    def reset(self) -> None:
+        super().reset()
+        for b in self.buffers.values():
+            b.clear()
+
+    # -- marking / clearing (overridden by the voxel layer) ---------------------------------------
+    def _marking_points(self, obs: Observation) -> np.ndarray:
+        """Points that may mark: under max_obstacle_height and within [obstacle_min_range, obstacle_range)."""
+        p = obs.points
+        d2 = np.sum((p - obs.origin) ** 2, axis=1)
+        s = obs.source
+        keep = (p[:, 2] <= self.params.max_obstacle_height) & (d2 < s.obstacle_range ** 2)
+        if s.obstacle_min_range > 0:
+            keep &= d2 >= s.obstacle_min_range ** 2
+        return p[keep]
+
+    def _mark(self, obs: Observation, bounds: Bounds) -> Bounds:
+        p = self._marking_points(obs)
+        mx, my, ok = self.costmap.world_to_map(p[:, 0], p[:, 1])
+        self.costmap.data[my[ok], mx[ok]] = LETHAL
+        return bounds.expand_points(p[ok, 0], p[ok, 1])
+
+    def _raytrace(self, obs: Observation, bounds: Bounds) -> Bounds:
+        cm = self.costmap
+        ox, oy = obs.origin[0], obs.origin[1]
+        if not cm.world_to_map(ox, oy)[2] or len(obs.points) == 0:
+            return bounds  # ROS: the sensor origin is off the map, cannot raytrace
+        res = cm.resolution
+        start = np.array([(ox - cm.origin_x) / res, (oy - cm.origin_y) / res])
+        ends = (obs.points[:, :2] - np.array([cm.origin_x, cm.origin_y])) / res
+        length = np.hypot(*(obs.points[:, :2] - obs.origin[:2]).T)
+        t_limit = np.where(length > 0, obs.source.raytrace_range / np.maximum(length, 1e-12), 1.0)
+        cx, cy = trace_cells(start, ends, (cm.size_x, cm.size_y), t_limit)
+        if obs.source.raytrace_min_range > 0:
+            wx, wy = cm.map_to_world(cx, cy)
+            far = np.hypot(wx - ox, wy - oy) >= obs.source.raytrace_min_range
+            cx, cy = cx[far], cy[far]
+        cm.data.reshape(-1)[cy * cm.size_x + cx] = FREE
+        # ROS updateRaytraceBounds: the origin and each ray's end (cut to the raytrace range)
+        t = np.minimum(1.0, t_limit)[:, None]
+        tips = obs.origin[:2] + (obs.points[:, :2] - obs.origin[:2]) * t
+        return bounds.expand(ox, oy, ox, oy).expand_points(tips[:, 0], tips[:, 1])
