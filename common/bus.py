@@ -121,11 +121,23 @@ class Subscription:
         if callback is not None:
             self._worker = threading.Thread(target=self._deliver, daemon=True, name=f"sub:{topic}")
             self._worker.start()
-        # Latched topics: ask publishers for their last message.
-        node.session.get(self.key, self._on_reply, target=zenoh.QueryTarget.ALL)
+        # Latched topics: ask every publisher for its last message now, and again whenever a new
+        # publisher of this topic appears (its liveliness token), so neither start order matters.
+        self._fetch_latched()
+        self._pub_watch = node.session.liveliness().declare_subscriber(
+            f"zenavlive/{node.robot}/pub/*/{topic.strip('/')}", self._on_publisher)
+
+    def _fetch_latched(self) -> None:
+        if not self._closed:
+            self._node.session.get(self.key, self._on_reply, target=zenoh.QueryTarget.ALL,
+                                   consolidation=zenoh.ConsolidationMode.NONE)
+
+    def _on_publisher(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self._fetch_latched()
 
     def _on_reply(self, reply: zenoh.Reply) -> None:
-        if reply.ok is not None and self.received == 0:
+        if reply.ok is not None:
             self._ingest(reply.ok.payload.to_bytes(), reply.ok.attachment)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
@@ -198,10 +210,11 @@ class Subscription:
         with self._cv:
             self._closed = True
             self._cv.notify_all()
-        try:
-            self._sub.undeclare()
-        except zenoh.ZError:
-            pass
+        for ent in (self._sub, self._pub_watch):
+            try:
+                ent.undeclare()
+            except zenoh.ZError:
+                pass
 
 
 class Node:

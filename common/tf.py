@@ -1,0 +1,232 @@
+"""TF on the bus: listener, broadcasters and the static_transform_publisher argument parser.
+
+Topics (ROS names): ``tf`` (TFMessage, streamed) and ``tf_static`` (TFMessage, latched; each static
+broadcaster republishes all its transforms in one message, like tf2_ros). The buffer itself is pure:
+see ``common.tf_buffer``. Usage::
+
+    tf = TFListener(node)
+    ts = tf.buffer.lookup("map", "base_link", time=0.0, timeout=0.5)   # TransformStamped
+    TFBroadcaster(node).send(TransformStamped(Header(stamp, "odom"), "base_link", pose))
+    StaticTFBroadcaster(node).send(parse_static_args("0.1 0 0.35 0 pi/2 pi/2 base_link camera_link 100"))
+"""
+
+from __future__ import annotations
+
+import ast
+import contextlib
+import logging
+import math
+import operator
+import threading
+from typing import Any
+
+from common.config import strip_frame
+from common.geometry import Quaternion, Transform, Vector3
+from common.messages import Header, TFMessage, TransformStamped
+from common.tf_buffer import (
+    ConnectivityError,
+    EdgeInfo,
+    ExtrapolationError,
+    TFBuffer,
+    TFError,
+    UnknownFrameError,
+)
+
+__all__ = [
+    "TFBuffer", "TFError", "UnknownFrameError", "ConnectivityError", "ExtrapolationError", "EdgeInfo",
+    "TFListener", "TFBroadcaster", "StaticTFBroadcaster", "parse_static_args", "eval_number",
+]
+
+log = logging.getLogger("zenav.tf")
+
+# -- static_transform_publisher arguments ------------------------------------------------------
+
+_BINOPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
+_UNOPS = {ast.UAdd: operator.pos, ast.USub: operator.neg}
+_NAMES = {"pi": math.pi, "PI": math.pi}
+
+
+def eval_number(text: str) -> float:
+    """A number or a simple expression of numbers and ``pi`` with + - * / and parentheses
+    (``pi/2``, ``-0.5*pi``, ``1e-3``). Parsed with ``ast`` and evaluated node by node — never eval()."""
+
+    def ev(n: ast.AST) -> float:
+        if isinstance(n, ast.Expression):
+            return ev(n.body)
+        if isinstance(n, ast.Constant) and type(n.value) in (int, float):
+            return float(n.value)
+        if isinstance(n, ast.Name) and n.id in _NAMES:
+            return _NAMES[n.id]
+        if isinstance(n, ast.BinOp) and type(n.op) in _BINOPS:
+            return _BINOPS[type(n.op)](ev(n.left), ev(n.right))
+        if isinstance(n, ast.UnaryOp) and type(n.op) in _UNOPS:
+            return _UNOPS[type(n.op)](ev(n.operand))
+        raise ValueError(f"not a number or simple expression: {text!r}")
+
+    if len(text) > 100:
+        raise ValueError(f"expression too long: {text[:20]!r}...")
+    try:
+        value = ev(ast.parse(text.strip(), mode="eval"))
+    except (SyntaxError, ZeroDivisionError) as e:
+        raise ValueError(f"not a number or simple expression: {text!r} ({e})") from None
+    if not math.isfinite(value):
+        raise ValueError(f"not a finite number: {text!r}")
+    return value
+
+
+def _is_number(text: str) -> bool:
+    try:
+        eval_number(text)
+        return True
+    except ValueError:
+        return False
+
+
+def parse_static_args(args: str | list[str], stamp: float = 0.0) -> tuple[TransformStamped, float | None]:
+    """Parse ROS ``static_transform_publisher`` arguments; returns (transform, period_s or None).
+
+    ``x y z yaw pitch roll frame child [period_ms]`` or ``x y z qx qy qz qw frame child [period_ms]``
+    (yaw about z, pitch about y, roll about x, fixed axes; numbers may be expressions with ``pi``).
+    The transform maps ``child`` coordinates into ``frame``. Raises ValueError naming the problem."""
+    tok = args.split() if isinstance(args, str) else [str(a) for a in args]
+    n = len(tok)
+    # 9 tokens: tf2 quaternion form without period, or tf1 euler form with period (7th is a frame).
+    nums = 7 if n == 10 or (n == 9 and _is_number(tok[6])) else 6
+    if n not in (8, 9, 10) or (n == 8 and _is_number(tok[6])):
+        raise ValueError(f"static transform needs 'x y z yaw pitch roll frame child [period_ms]' or "
+                         f"'x y z qx qy qz qw frame child [period_ms]', got {n} arguments: {' '.join(tok)!r}")
+    names = ("x", "y", "z", "qx", "qy", "qz", "qw") if nums == 7 else ("x", "y", "z", "yaw", "pitch", "roll")
+    v = []
+    for name, t in zip(names, tok):
+        try:
+            v.append(eval_number(t))
+        except ValueError as e:
+            raise ValueError(f"argument {name}: {e}") from None
+    frame, child = strip_frame(tok[nums]), strip_frame(tok[nums + 1])
+    if not frame or not child or frame == child:
+        raise ValueError(f"static transform needs two different frame ids, got {frame!r} and {child!r}")
+    if nums == 7:
+        q = Quaternion(*v[3:7])
+        try:
+            q = q.normalized()
+        except ValueError:
+            raise ValueError("quaternion (qx qy qz qw) has zero length") from None
+    else:
+        yaw, pitch, roll = v[3:6]
+        q = Quaternion.from_euler(roll, pitch, yaw)
+    period = None
+    if n > nums + 2:
+        period_ms = eval_number(tok[-1])
+        if period_ms <= 0:
+            raise ValueError(f"period_ms must be > 0, got {tok[-1]!r}")
+        period = period_ms / 1000.0
+    return TransformStamped(Header(stamp, frame), child, Transform(Vector3(*v[:3]), q)), period
+
+
+# -- bus adapters --------------------------------------------------------------------------------
+
+def _as_list(transforms: TransformStamped | list | tuple) -> list[TransformStamped]:
+    items = [transforms] if isinstance(transforms, TransformStamped) else list(transforms)
+    out = []
+    for ts in items:
+        if not isinstance(ts, TransformStamped):
+            raise TypeError(f"expected TransformStamped, got {type(ts).__name__}")
+        out.append(TransformStamped(Header(ts.header.stamp, strip_frame(ts.header.frame_id)),
+                                    strip_frame(ts.child_frame_id), ts.transform))
+    return out
+
+
+class TFBroadcaster:
+    """Publishes transforms on ``tf``."""
+
+    def __init__(self, node) -> None:
+        self._pub = node.publisher("tf")
+
+    def send(self, transforms: TransformStamped | list[TransformStamped]) -> None:
+        self._pub.publish(TFMessage(tuple(_as_list(transforms))))
+
+    def close(self) -> None:
+        self._pub.close()
+
+
+class StaticTFBroadcaster:
+    """Publishes static transforms on latched ``tf_static``; every send republishes all transforms this
+    broadcaster has sent (keyed by child frame), so a late listener gets them all in one message."""
+
+    def __init__(self, node) -> None:
+        self._pub = node.publisher("tf_static", latched=True)
+        self._all: dict[str, TransformStamped] = {}
+        self._lock = threading.Lock()
+
+    def send(self, transforms: TransformStamped | list[TransformStamped]) -> None:
+        with self._lock:
+            for ts in _as_list(transforms):
+                self._all[ts.child_frame_id] = ts
+            self._pub.publish(TFMessage(tuple(self._all.values())))
+
+    def close(self) -> None:
+        self._pub.close()
+
+
+class TFListener:
+    """Fills ``self.buffer`` from ``tf`` and ``tf_static`` of the node's robot.
+
+    Each sample's publisher (the node name the bus puts in the attachment) is recorded per edge. Latched
+    static transforms are requested from *every* static publisher, again whenever a new one appears
+    (liveliness), so a listener started before or after them gets all of them."""
+
+    def __init__(self, node, cache_time: float = 10.0, buffer: TFBuffer | None = None) -> None:
+        import zenoh  # the adapter needs per-sample attachments and QueryTarget.ALL
+
+        from common.codec import DecodeError, decode
+
+        self._zenoh, self._decode, self._decode_error = zenoh, decode, DecodeError
+        self.buffer = buffer if buffer is not None else TFBuffer(cache_time, clock=node.clock)
+        self._node, self._session = node, node.session
+        self.malformed = 0
+        self.received = 0
+        self._key_tf, self._key_static = node.key("tf"), node.key("tf_static")
+        self._handles: list[Any] = [
+            self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False)),
+            self._session.declare_subscriber(self._key_static, lambda s: self._on_sample(s, True)),
+            self._session.liveliness().declare_subscriber(
+                f"zenavlive/{node.robot}/pub/*/tf_static", self._on_static_publisher, history=True),
+        ]
+        self._query_static()
+
+    def _on_static_publisher(self, sample) -> None:
+        if sample.kind == self._zenoh.SampleKind.PUT:
+            self._query_static()
+
+    def _query_static(self) -> None:
+        try:
+            # Every static publisher replies on the same key: no consolidation, or all but one are dropped.
+            self._session.get(self._key_static, self._on_reply, target=self._zenoh.QueryTarget.ALL,
+                              consolidation=self._zenoh.ConsolidationMode.NONE)
+        except self._zenoh.ZError as e:  # session closing
+            log.debug("tf_static query failed: %s", e)
+
+    def _on_reply(self, reply) -> None:
+        if reply.ok is not None:
+            self._ingest(reply.ok.payload.to_bytes(), reply.ok.attachment, True)
+
+    def _on_sample(self, sample, static: bool) -> None:
+        self._ingest(sample.payload.to_bytes(), sample.attachment, static)
+
+    def _ingest(self, data: bytes, attachment, static: bool) -> None:
+        try:
+            msg = self._decode(data, TFMessage)
+            who = attachment.to_bytes().decode(errors="replace") if attachment is not None else ""
+            for ts in msg.transforms:
+                self.buffer.set_transform(ts, authority=who, static=static)
+            self.received += 1
+        except (self._decode_error, ValueError, TypeError, AttributeError) as e:
+            self.malformed += 1
+            if self.malformed == 1 or self.malformed % 100 == 0:
+                log.warning("[%s] dropped bad TF message (#%d): %s", self._node.name, self.malformed, e)
+
+    def close(self) -> None:
+        for h in self._handles:
+            with contextlib.suppress(Exception):  # the session may already be closed
+                h.undeclare()
+        self._handles = []
