@@ -1,0 +1,1 @@
+"""Global (navfn) and local (DWA, trajectory rollout) planners: pure algorithms over costmap grids."""

@@ -1,0 +1,104 @@
+"""Path extraction by gradient descent on a navigation-function potential (navfn ``calcPath``).
+
+Steps of ``step`` cells along the bilinearly interpolated, per-cell normalised gradient (navfn's
+``gradCell``: central difference, one-sided next to unreached cells). Where the four interpolation
+cells are not all surrounded by reached cells (next to obstacles), where the gradient is flat, or when
+the path oscillates, it falls back to stepping to the lowest of the 8 neighbouring cells.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _cell_gradient(pot, k: int, cols: int) -> tuple[float, float, bool]:
+    """navfn gradCell at flat index k: downhill unit gradient (gx, gy) and whether k is 'smooth'.
+
+    Central difference, one-sided next to unreached cells; 'smooth' = k and its 8 neighbours reached.
+    """
+    inf = math.inf
+    cv = pot(k)
+    if cv == inf:  # also every cell of the padding ring, so the reads below stay in range
+        return 0.0, 0.0, False
+    nb8 = (
+        pot(k - cols - 1),
+        pot(k - cols),
+        pot(k - cols + 1),
+        pot(k - 1),
+        pot(k + 1),
+        pot(k + cols - 1),
+        pot(k + cols),
+        pot(k + cols + 1),
+    )
+    smooth = max(nb8) < inf
+    le, ri, up, dn = nb8[3], nb8[4], nb8[1], nb8[6]
+    dx = (le - cv if le < inf else 0.0) + (cv - ri if ri < inf else 0.0)
+    dy = (up - cv if up < inf else 0.0) + (cv - dn if dn < inf else 0.0)
+    n = math.hypot(dx, dy)
+    if n == 0.0:
+        return 0.0, 0.0, smooth
+    return dx / n, dy / n, smooth
+
+
+def descend(
+    pot2d: np.ndarray,
+    start_rc: tuple[int, int],
+    done_below: float,
+    *,
+    step: float = 0.5,
+    grid_only: bool = False,
+    max_steps: int = 100_000,
+) -> np.ndarray | None:
+    """Follow the potential downhill from padded cell ``start_rc`` until a cell with pot < done_below.
+
+    Returns (N, 2) padded grid coordinates (col, row) of the path, or None if it got stuck.
+    """
+    rows, cols = pot2d.shape
+    pot = pot2d.ravel().item  # scalar reads; converting the whole grid costs more than the walk
+    cache: dict[int, tuple[float, float, bool]] = {}
+
+    def grad(q: int) -> tuple[float, float, bool]:
+        g = cache.get(q)
+        if g is None:
+            g = cache[q] = _cell_gradient(pot, q, cols)
+        return g
+
+    nbrs = [dr * cols + dc for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
+    x, y = float(start_rc[1]), float(start_rc[0])
+    out = [(x, y)]
+    for _ in range(max_steps):
+        r, c = int(y + 0.5), int(x + 0.5)
+        if not (0 < r < rows - 1 and 0 < c < cols - 1):
+            return None
+        k = r * cols + c
+        if pot(k) < done_below:
+            return np.asarray(out)
+        c0, r0 = int(x), int(y)  # x, y > 0 inside the padded grid, so int() is floor()
+        k0 = r0 * cols + c0
+        k1, k2, k3 = k0 + 1, k0 + cols, k0 + cols + 1
+        vx = vy = 0.0
+        if not grid_only and not (len(out) > 2 and out[-1] == out[-3]):
+            (x0, y0, s0), (x1, y1, s1), (x2, y2, s2), (x3, y3, s3) = grad(k0), grad(k1), grad(k2), grad(k3)
+            if s0 and s1 and s2 and s3:
+                fx, fy = x - c0, y - r0
+                w0, w1, w2, w3 = (1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy
+                vx = w0 * x0 + w1 * x1 + w2 * x2 + w3 * x3
+                vy = w0 * y0 + w1 * y1 + w2 * y2 + w3 * y3
+        norm = math.hypot(vx, vy)
+        if norm > 1e-6:
+            x += step * vx / norm
+            y += step * vy / norm
+        else:  # obstacle nearby, flat gradient or oscillation: steepest 8-neighbour on the grid
+            best, bk = pot(k), k
+            for d in nbrs:
+                q = k + d
+                pq = pot(q)
+                if pq < best:
+                    best, bk = pq, q
+            if bk == k:
+                return None
+            y, x = float(bk // cols), float(bk % cols)
+        out.append((x, y))
+    return None

@@ -1,0 +1,226 @@
+"""Local planner interface and the behaviour shared by DWA and trajectory rollout.
+
+A cycle: prune the plan behind the robot, cut the part inside the local costmap, then either the goal
+approach (inside ``xy_goal_tolerance``: brake, rotate in place to the goal yaw, stop) or sample
+velocities, simulate, score and send the best. All in the local costmap's frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from common.geometry import Pose2D
+from master_side.planning.grid import check_grid
+from master_side.planning.local.costs import ObstacleCost, Oscillation
+from master_side.planning.local.map_grid import ScoringContext, angle_diff
+from master_side.planning.local.scoring import ScoredSamplingPlanner
+from master_side.planning.local.trajectories import Trajectories, simulate
+
+
+@dataclass(frozen=True)
+class LocalResult:
+    cmd: tuple[float, float, float]  # (vx, vy, w) robot frame, m/s and rad/s
+    ok: bool  # False: no valid command (cmd is a stop / brake command); see reason
+    reason: str  # "" when ok and driving; why not moving otherwise
+    trajectory: np.ndarray  # (T, 3) the chosen trajectory (empty if none)
+    n_samples: int  # trajectories scored this cycle
+    goal_approach: bool = False  # True while braking / rotating at the goal
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Velocity / acceleration limits and goal tolerances, common to both planners."""
+
+    vx: tuple[float, float]  # (min, max) m/s
+    vy: tuple[float, float]
+    vth: tuple[float, float]  # (min, max) rad/s, signed
+    min_in_place_vth: float  # |w| floor for rotating in place (friction)
+    max_in_place_vth: float
+    max_trans_vel: float
+    min_trans_vel: float
+    acc: tuple[float, float, float]  # m/s^2, m/s^2, rad/s^2
+    sim_period: float  # s, one control cycle
+    xy_goal_tolerance: float
+    yaw_goal_tolerance: float
+    latch_xy_goal_tolerance: bool
+    trans_stopped_vel: float = 0.1
+    rot_stopped_vel: float = 0.1
+
+
+def _toward(v: float, target: float, step: float) -> float:
+    return min(v + step, target) if target > v else max(v - step, target)
+
+
+class LocalPlanner:
+    """Shared logic; subclasses provide ``_samples(vel)`` and ``_simulate(pose, vel, samples)``."""
+
+    def __init__(
+        self, limits: Limits, scorer: ScoredSamplingPlanner, oscillation: Oscillation, prune_plan: bool = True
+    ):
+        self.limits = limits
+        self.scorer = scorer
+        self.oscillation = oscillation
+        self.prune_plan = prune_plan
+        self.collision = ObstacleCost()
+        self._plan = np.zeros((0, 3))
+        self._latched = False
+        self._rot_dir = 0.0
+
+    # --- interface -------------------------------------------------------------------------------------
+    def set_plan(self, path: np.ndarray) -> None:
+        """A new global plan (N, 3) in the local costmap's frame; resets goal latching and oscillation."""
+        path = np.asarray(path, dtype=float).reshape(-1, 3)
+        if len(self._plan) == 0 or len(path) == 0 or not np.allclose(path[-1], self._plan[-1]):
+            self._latched = False
+            self._rot_dir = 0.0
+            self.oscillation.reset()
+        self._plan = path.copy()
+
+    def is_goal_reached(self, pose: Pose2D, velocity: tuple[float, float, float]) -> bool:
+        if len(self._plan) == 0:
+            return False
+        lim, goal = self.limits, self._plan[-1]
+        xy_ok = self._latched or math.hypot(goal[0] - pose.x, goal[1] - pose.y) <= lim.xy_goal_tolerance
+        yaw_ok = abs(angle_diff(goal[2], pose.theta)) <= lim.yaw_goal_tolerance
+        vx, vy, w = velocity
+        stopped = math.hypot(vx, vy) <= lim.trans_stopped_vel and abs(w) <= lim.rot_stopped_vel
+        return xy_ok and yaw_ok and stopped
+
+    def compute_velocity(
+        self,
+        pose: Pose2D,
+        velocity: tuple[float, float, float],
+        grid: np.ndarray,
+        resolution: float,
+        origin: tuple[float, float],
+        footprint: np.ndarray,
+    ) -> LocalResult:
+        g = check_grid(grid, resolution)
+        p, v = pose.as_array(), np.asarray(velocity, dtype=float)
+        if len(self._plan) == 0:
+            return LocalResult((0.0, 0.0, 0.0), False, "no plan", np.zeros((0, 3)), 0)
+        if self.prune_plan:
+            self._prune(p)
+        ctx = ScoringContext(
+            p,
+            v,
+            g,
+            float(resolution),
+            np.asarray(origin[:2], float),
+            np.asarray(footprint, float).reshape(-1, 2),
+            self._plan,
+            self._plan[-1],
+        )
+        local = self._local_plan(ctx)
+        if len(local) == 0:
+            return LocalResult(
+                self._brake(v), False, "the plan is not on the local costmap", np.zeros((0, 3)), 0
+            )
+        ctx.plan, ctx.goal = local, local[-1]
+        goal = self._plan[-1]
+        dist = math.hypot(goal[0] - p[0], goal[1] - p[1])
+        if dist <= self.limits.xy_goal_tolerance and self.limits.latch_xy_goal_tolerance:
+            self._latched = True
+        if self._latched or dist <= self.limits.xy_goal_tolerance:
+            return self._approach_goal(ctx, goal)
+        samples = self._samples(v)
+        trajs = self._simulate(p, v, samples)
+        res = self.scorer.score(trajs, ctx)
+        if res.best < 0:
+            return self._all_rejected(ctx, trajs, res.reason)
+        cmd = trajs.vels[res.best]
+        self.oscillation.update(cmd, p)
+        return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.poses[res.best], len(trajs))
+
+    # --- hooks -----------------------------------------------------------------------------------------
+    def _samples(self, vel: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def _simulate(self, pose: np.ndarray, vel: np.ndarray, samples: np.ndarray) -> Trajectories:
+        raise NotImplementedError
+
+    def _all_rejected(self, ctx: ScoringContext, trajs: Trajectories, reason: str) -> LocalResult:
+        return LocalResult(self._brake(ctx.vel), False, reason, np.zeros((0, 3)), len(trajs))
+
+    # --- shared pieces ---------------------------------------------------------------------------------
+    def _prune(self, p: np.ndarray) -> None:
+        """Drop the plan poses before the one nearest the robot (base_local_planner prunePlan)."""
+        if len(self._plan) > 1:
+            d = np.hypot(self._plan[:, 0] - p[0], self._plan[:, 1] - p[1])
+            self._plan = self._plan[int(np.argmin(d)) :]
+
+    @staticmethod
+    def _local_plan(ctx: ScoringContext) -> np.ndarray:
+        """The plan from its start up to where it first leaves the local costmap."""
+        _, _, inside = ctx.cells(ctx.plan[:, :2])
+        if not inside.any():
+            return ctx.plan[:0]
+        first = int(np.argmax(inside))
+        out = np.flatnonzero(~inside[first:])
+        end = first + (int(out[0]) if out.size else len(inside) - first)
+        return ctx.plan[first:end]
+
+    def _brake(self, v: np.ndarray) -> tuple[float, float, float]:
+        """One cycle of deceleration toward zero at the acceleration limits."""
+        a, dt = self.limits.acc, self.limits.sim_period
+        return tuple(_toward(float(v[i]), 0.0, a[i] * dt) for i in range(3))
+
+    def _approach_goal(self, ctx: ScoringContext, goal: np.ndarray) -> LocalResult:
+        """Inside the xy tolerance: brake, then rotate in place to the goal yaw without ever reversing.
+
+        The rotation direction is latched when the rotation starts; the speed follows a stopping profile
+        so the robot comes to rest at the goal yaw. Only if a disturbance carries it past the tolerance
+        band on the other side, it first stops and then turns back (a new latch).
+        """
+        lim, v = self.limits, ctx.vel
+        err = angle_diff(goal[2], ctx.pose[2])
+        empty = np.zeros((0, 3))
+        a, dt = lim.acc, lim.sim_period
+        vx, vy = _toward(float(v[0]), 0.0, a[0] * dt), _toward(float(v[1]), 0.0, a[1] * dt)
+        if math.hypot(v[0], v[1]) > lim.trans_stopped_vel:
+            return LocalResult(
+                (vx, vy, _toward(float(v[2]), 0.0, a[2] * dt)), True, "braking at the goal", empty, 0, True
+            )
+        inside = abs(err) <= lim.yaw_goal_tolerance
+        if not self._rot_dir or (
+            err * self._rot_dir < -lim.yaw_goal_tolerance and abs(v[2]) <= lim.rot_stopped_vel
+        ):
+            self._rot_dir = 0.0 if inside else math.copysign(1.0, err)
+        if not self._rot_dir:
+            w = 0.0
+        else:
+            w = self._rotation_speed(err * self._rot_dir, float(v[2]) * self._rot_dir, inside) * self._rot_dir
+        if w == 0.0:
+            return LocalResult((vx, vy, 0.0), True, "", empty, 0, True)
+        trajs = simulate(ctx.pose, v, np.array([[0.0, 0.0, w]]), lim.sim_period * 2, 4)
+        self.collision.prepare(ctx)
+        if self.collision.score(trajs)[0] < 0:
+            return LocalResult(
+                self._brake(v), False, "rotation to the goal yaw would collide", empty, 1, True
+            )
+        return LocalResult((vx, vy, w), True, "", trajs.poses[0], 1, True)
+
+    def _rotation_speed(self, remaining: float, current: float, inside: bool) -> float:
+        """Non-negative rotation speed toward the goal yaw; ``remaining`` and ``current`` are signed
+        along the latched direction (negative remaining = already past the goal yaw).
+
+        Proportional to the remaining angle, never above what still allows stopping at the goal yaw
+        (sqrt(2 * acc * remaining)) or passing it within one cycle; ``min_in_place_vth`` is a floor only
+        where that stopping profile allows it; inside the tolerance the robot only slows down. Limited
+        to one cycle of acceleration from the current speed.
+        """
+        lim, dt = self.limits, self.limits.sim_period
+        acc = lim.acc[2]
+        if remaining <= 0.0:
+            target = 0.0
+        else:
+            stop_cap = min(math.sqrt(2.0 * acc * remaining), (remaining + 0.5 * lim.yaw_goal_tolerance) / dt)
+            target = min(remaining / max(4 * dt, 1e-3), lim.max_in_place_vth, stop_cap)
+            target = max(target, min(lim.min_in_place_vth, stop_cap))
+            if inside:
+                target = min(target, max(current, 0.0)) if current > lim.rot_stopped_vel else 0.0
+        speed = min(max(target, current - acc * dt), current + acc * dt)
+        return max(speed, 0.0)

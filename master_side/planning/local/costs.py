@@ -1,0 +1,227 @@
+"""Trajectory cost functions (base_local_planner TrajectoryCostFunction style).
+
+Each has ``scale``, ``prepare(ctx) -> bool`` (False: skip this cycle) and ``score(trajs) -> (S,)``
+where a negative value rejects the trajectory. Lower is better; the planner sums ``scale * score``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import ndimage
+
+from master_side.planning.grid import INSCRIBED, LETHAL
+from master_side.planning.local.map_grid import (
+    ScoringContext,
+    angle_diff,
+    footprint_outline,
+    footprint_radii,
+    polyline_distance,
+)
+from master_side.planning.local.trajectories import Trajectories
+
+REJECT = -1.0
+
+
+class CostFunction:
+    """Base: a named, scaled trajectory score."""
+
+    name = "Cost"
+
+    def __init__(self, scale: float = 1.0):
+        self.scale = float(scale)
+        self.ctx: ScoringContext | None = None
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        self.ctx = ctx
+        return True
+
+    def score(self, trajs: Trajectories) -> np.ndarray:
+        raise NotImplementedError
+
+
+class ObstacleCost(CostFunction):
+    """Max costmap cost under the footprint along each trajectory; rejects LETHAL / unknown / off-map.
+
+    Like base_local_planner's footprintCost: the centre cell must be below INSCRIBED, the footprint
+    outline must not touch a LETHAL or NO_INFORMATION cell, and no such cell may lie within the
+    inscribed radius. The outline is only rasterised for poses within reach of a non-free cell
+    (distance to the nearest lethal cell <= circumscribed radius + inflation extent); elsewhere every
+    footprint cell is FREE and the centre cost is exact.
+    """
+
+    name = "ObstacleCost"
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        super().prepare(ctx)
+        g = ctx.grid
+        blocked = g >= LETHAL
+        self.clear = (
+            ndimage.distance_transform_edt(~blocked) * ctx.resolution
+            if blocked.any()
+            else np.full(g.shape, np.inf)
+        )
+        soft = (g > 0) & (g < LETHAL)
+        self.extent = (
+            float(self.clear[soft].max()) if soft.any() and blocked.any() else (np.inf if soft.any() else 0.0)
+        )
+        self.inscribed, self.circumscribed = footprint_radii(ctx.footprint)
+        self.outline = footprint_outline(ctx.footprint, ctx.resolution)
+        return True
+
+    def score(self, trajs: Trajectories) -> np.ndarray:
+        ctx = self.ctx
+        s, t = trajs.poses.shape[:2]
+        pts = trajs.poses.reshape(-1, 3)
+        r, c, inside = ctx.cells(pts[:, :2])
+        centre = ctx.grid[r, c].astype(np.int64)
+        clear = self.clear[r, c]
+        res = ctx.resolution
+        bad = ~inside | (centre >= INSCRIBED) | (clear < self.inscribed - 0.5 * res)
+        cost = centre.astype(float)
+        # outline cells can be LETHAL only within the circumscribed radius; they can cost > 0 within
+        # circumscribed + inflation extent. Check the first band, drop rejected trajectories, then the second.
+        band = self.circumscribed + 1.5 * res  # cell-centre distances: allow for the discretisation
+        flat, w = ctx.grid.ravel(), ctx.grid.shape[1]
+        # the cost-only band samples every other outline point (about 2 cells apart): cheaper, and
+        # the inflation cost changes little over one cell
+        for lo, hi, outline in ((-np.inf, band, self.outline), (band, band + self.extent, self.outline[::2])):
+            dead = np.repeat(bad.reshape(s, t).any(axis=1), t)
+            near = np.flatnonzero(~dead & (clear <= hi) & (clear > lo))
+            if near.size == 0:
+                continue
+            p = pts[near]
+            cs, sn = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
+            ox, oy = outline[:, 0][None, :], outline[:, 1][None, :]
+            orr, occ, oin = ctx.cells_xy(p[:, 0:1] + cs * ox - sn * oy, p[:, 1:2] + sn * ox + cs * oy)
+            oc = flat[orr * w + occ]
+            bad[near] |= (~oin | (oc >= LETHAL)).any(axis=1)
+            cost[near] = np.maximum(cost[near], oc.max(axis=1))
+        bad_t = bad.reshape(s, t).any(axis=1)
+        out = cost.reshape(s, t).max(axis=1)
+        out[bad_t] = REJECT
+        return out
+
+
+class PathDistance(CostFunction):
+    """Distance (m) from the trajectory end point to the local plan (MapGrid path cost); off-map rejects."""
+
+    name = "PathDistance"
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        super().prepare(ctx)
+        return len(ctx.plan) > 0
+
+    def point(self, trajs: Trajectories) -> np.ndarray:
+        return trajs.poses[:, -1, :2]
+
+    def score(self, trajs: Trajectories) -> np.ndarray:
+        pts = self.point(trajs)
+        _, _, inside = self.ctx.cells(pts)
+        return np.where(inside, polyline_distance(pts, self.ctx.plan_polyline()), REJECT)
+
+
+class GoalDistance(CostFunction):
+    """Distance (m) from the trajectory end point to the local goal."""
+
+    name = "GoalDistance"
+
+    def point(self, trajs: Trajectories) -> np.ndarray:
+        return trajs.poses[:, -1, :2]
+
+    def score(self, trajs: Trajectories) -> np.ndarray:
+        d = self.point(trajs) - self.ctx.goal[None, :2]
+        return np.hypot(d[:, 0], d[:, 1])
+
+
+def _forward_point(trajs: Trajectories, distance: float) -> np.ndarray:
+    end = trajs.poses[:, -1]
+    return end[:, :2] + distance * np.stack((np.cos(end[:, 2]), np.sin(end[:, 2])), axis=1)
+
+
+class PathAlign(PathDistance):
+    """DWA: path distance of a point ``forward_point_distance`` ahead of the trajectory end pose.
+    Switched off near the goal (where the robot may have to turn away from the path)."""
+
+    name = "PathAlign"
+
+    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
+        super().__init__(scale)
+        self.forward = forward_point_distance
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        near_goal = math.hypot(*(ctx.goal[:2] - ctx.pose[:2])) < self.forward
+        return super().prepare(ctx) and self.forward > 0 and not near_goal
+
+    def point(self, trajs: Trajectories) -> np.ndarray:
+        return _forward_point(trajs, self.forward)
+
+
+class GoalAlign(GoalDistance):
+    """DWA: goal distance of a point ``forward_point_distance`` ahead of the trajectory end pose."""
+
+    name = "GoalAlign"
+
+    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
+        super().__init__(scale)
+        self.forward = forward_point_distance
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        near_goal = math.hypot(*(ctx.goal[:2] - ctx.pose[:2])) < self.forward
+        return super().prepare(ctx) and self.forward > 0 and not near_goal
+
+    def point(self, trajs: Trajectories) -> np.ndarray:
+        return _forward_point(trajs, self.forward)
+
+
+class Twirling(CostFunction):
+    """|w| of the sample: prefers trajectories that do not spin."""
+
+    name = "Twirling"
+
+    def score(self, trajs: Trajectories) -> np.ndarray:
+        return np.abs(trajs.vels[:, 2])
+
+
+class Oscillation(CostFunction):
+    """Rejects reversing a motion direction (x, y or rotation) right after the robot reversed it once.
+
+    After the chosen command flips the sign of an axis, only the new sign is allowed on that axis
+    until the robot has moved ``reset_dist`` or turned ``reset_angle`` (base_local_planner flags).
+    """
+
+    name = "Oscillation"
+
+    def __init__(self, reset_dist: float = 0.05, reset_angle: float = 0.2, eps: float = 1e-3):
+        super().__init__(1.0)
+        self.reset_dist, self.reset_angle, self.eps = reset_dist, reset_angle, eps
+        self.reset()
+
+    def reset(self) -> None:
+        self.last_sign = np.zeros(3)
+        self.allowed = np.zeros(3)  # 0: any sign, else the only sign allowed on that axis
+        self.anchor: np.ndarray | None = None
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        super().prepare(ctx)
+        if self.anchor is not None:
+            moved = math.hypot(*(ctx.pose[:2] - self.anchor[:2]))
+            if moved >= self.reset_dist or abs(angle_diff(ctx.pose[2], self.anchor[2])) >= self.reset_angle:
+                self.allowed[:] = 0.0
+                self.anchor = None
+        return bool(self.allowed.any())
+
+    def score(self, trajs: Trajectories) -> np.ndarray:
+        sg = np.sign(np.where(np.abs(trajs.vels) > self.eps, trajs.vels, 0.0))
+        wrong = ((self.allowed[None, :] != 0) & (sg == -self.allowed[None, :])).any(axis=1)
+        return np.where(wrong, REJECT, 0.0)
+
+    def update(self, cmd: np.ndarray, pose: np.ndarray) -> None:
+        """Record the command chosen this cycle (call after every cycle that moved the robot)."""
+        sg = np.sign(np.where(np.abs(cmd) > self.eps, cmd, 0.0))
+        flipped = (sg != 0) & (self.last_sign != 0) & (sg != self.last_sign)
+        if flipped.any():
+            self.allowed[flipped] = sg[flipped]
+            self.anchor = np.array(pose, dtype=float)
+        self.last_sign = np.where(sg != 0, sg, self.last_sign)

@@ -1,0 +1,92 @@
+"""Velocity sampling in the dynamic window and vectorised forward simulation of all samples."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Trajectories:
+    """S simulated trajectories: ``poses`` (S, T, 3) with row 0 the start pose, ``vels`` (S, 3) samples."""
+
+    poses: np.ndarray
+    vels: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.vels.shape[0])
+
+    def subset(self, idx: np.ndarray) -> Trajectories:
+        return Trajectories(self.poses[idx], self.vels[idx])
+
+
+def linspace_window(lo: float, hi: float, n: int) -> np.ndarray:
+    """n samples from lo to hi inclusive (one sample: hi if lo == hi else the middle); always includes 0
+    when 0 lies inside the window so 'stop' and 'pure rotation' are candidates."""
+    if hi < lo:
+        return np.zeros(0)
+    if n <= 1 or hi - lo < 1e-9:
+        v = np.array([0.0 if lo <= 0.0 <= hi else 0.5 * (lo + hi)])
+        return v
+    v = np.linspace(lo, hi, n)
+    if lo < 0.0 < hi and not np.any(np.abs(v) < 1e-9):
+        v[np.argmin(np.abs(v))] = 0.0
+    return v
+
+
+def sample_grid(vx: np.ndarray, vy: np.ndarray, vth: np.ndarray) -> np.ndarray:
+    """Cartesian product of per-axis samples -> (S, 3)."""
+    g = np.meshgrid(vx, vy, vth, indexing="ij")
+    return np.stack([a.ravel() for a in g], axis=1)
+
+
+def simulate(
+    start: np.ndarray,
+    vel0: np.ndarray,
+    samples: np.ndarray,
+    sim_time: float,
+    steps: int,
+    acc: np.ndarray | None = None,
+) -> Trajectories:
+    """Forward-simulate (S, 3) velocity samples (robot frame vx, vy, w) from pose ``start`` (3,).
+
+    ``acc`` None: each sample is held constant for sim_time (DWA). Otherwise the velocity ramps from
+    ``vel0`` toward the sample at the (3,) acceleration limits (trajectory rollout). Euler steps with the
+    heading at the start of each step, like base_local_planner.
+    """
+    samples = np.asarray(samples, dtype=float).reshape(-1, 3)
+    s, t = samples.shape[0], max(int(steps), 1)
+    dt = sim_time / t
+    if acc is None:
+        v = np.broadcast_to(samples[:, None, :], (s, t, 3))
+    else:
+        k = np.arange(1, t + 1)[None, :, None] * dt
+        lo = np.asarray(vel0, float)[None, None, :] - np.asarray(acc, float)[None, None, :] * k
+        hi = np.asarray(vel0, float)[None, None, :] + np.asarray(acc, float)[None, None, :] * k
+        v = np.clip(samples[:, None, :], lo, hi)
+    th = np.empty((s, t + 1))
+    th[:, 0] = start[2]
+    np.cumsum(v[:, :, 2] * dt, axis=1, out=th[:, 1:])
+    th[:, 1:] += start[2]
+    c, sn = np.cos(th[:, :-1]), np.sin(th[:, :-1])
+    poses = np.empty((s, t + 1, 3))
+    poses[:, 0, 0], poses[:, 0, 1] = start[0], start[1]
+    np.cumsum((v[:, :, 0] * c - v[:, :, 1] * sn) * dt, axis=1, out=poses[:, 1:, 0])
+    np.cumsum((v[:, :, 0] * sn + v[:, :, 1] * c) * dt, axis=1, out=poses[:, 1:, 1])
+    poses[:, 1:, 0] += start[0]
+    poses[:, 1:, 1] += start[1]
+    poses[:, :, 2] = th
+    return Trajectories(poses, samples)
+
+
+def num_steps(
+    samples: np.ndarray, sim_time: float, sim_granularity: float, angular_granularity: float
+) -> int:
+    """Steps so the fastest sample moves at most sim_granularity (m) / angular_granularity (rad) per step."""
+    if samples.size == 0:
+        return 1
+    trans = float(np.max(np.hypot(samples[:, 0], samples[:, 1]))) * sim_time
+    rot = float(np.max(np.abs(samples[:, 2]))) * sim_time
+    return max(1, math.ceil(max(trans / sim_granularity, rot / angular_granularity)))

@@ -1,0 +1,173 @@
+"""DWA and trajectory rollout driving a perfect kinematic robot; p3at parameter files."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from planning_helpers import P3AT_FOOTPRINT, drive, free_map, inflate
+
+from common.config import ConfigError, load_params, read_yaml
+from common.geometry import Pose2D
+from master_side.planning.grid import INSCRIBED, LETHAL
+from master_side.planning.local import (
+    DWAPlanner,
+    DWAPlannerParams,
+    TrajectoryPlanner,
+    TrajectoryPlannerParams,
+)
+from master_side.planning.local.costs import ObstacleCost
+from master_side.planning.local.map_grid import ScoringContext, angle_diff
+from master_side.planning.local.trajectories import Trajectories
+from master_side.planning.navfn import NavFn
+
+RES = 0.05
+
+
+def _p3at(shared_dir, name: str, section: str, cls):
+    path = shared_dir / "reference" / "p3at" / name
+    data = read_yaml(path)
+    return load_params(
+        cls, {**data[section], "controller_frequency": 10.0}, source=str(path), section=section
+    )
+
+
+@pytest.fixture
+def dwa_params(shared_dir) -> DWAPlannerParams:
+    return _p3at(shared_dir, "dwa_planner_ros.yaml", "DWAPlannerROS", DWAPlannerParams)
+
+
+@pytest.fixture
+def tp_params(shared_dir) -> TrajectoryPlannerParams:
+    return _p3at(
+        shared_dir, "base_local_planner_params.yaml", "TrajectoryPlannerROS", TrajectoryPlannerParams
+    )
+
+
+def test_p3at_files_load_unchanged(shared_dir):
+    ref = shared_dir / "reference" / "p3at"
+    dwa = load_params(
+        DWAPlannerParams,
+        read_yaml(ref / "dwa_planner_ros.yaml")["DWAPlannerROS"],
+        source="dwa_planner_ros.yaml",
+        section="DWAPlannerROS",
+    )
+    assert (dwa.min_vel_x, dwa.max_vel_x, dwa.acc_lim_th, dwa.xy_goal_tolerance) == (-0.55, 0.55, 2.0, 0.3)
+    assert dwa.latch_xy_goal_tolerance
+    assert not dwa.holonomic_robot
+    tp = load_params(
+        TrajectoryPlannerParams,
+        read_yaml(ref / "base_local_planner_params.yaml")["TrajectoryPlannerROS"],
+        source="base_local_planner_params.yaml",
+        section="TrajectoryPlannerROS",
+    )
+    assert (tp.max_vel_x, tp.min_vel_x, tp.acc_lim_theta, tp.escape_vel) == (0.5, 0.1, 0.5, -0.1)
+    assert tp.min_in_place_vel_theta == 0.5
+    assert tp.max_vel_theta == 0.5
+
+
+@pytest.mark.parametrize(
+    ("cls", "data"),
+    [
+        (DWAPlannerParams, {"acc_lim_x": -1.0}),
+        (DWAPlannerParams, {"min_vel_x": 0.6, "max_vel_x": 0.5}),
+        (DWAPlannerParams, {"vx_samples": 0}),
+        (DWAPlannerParams, {"sim_tim": 1.0}),
+        (DWAPlannerParams, {"holonomic_robot": "no"}),
+        (TrajectoryPlannerParams, {"escape_vel": 0.1}),
+        (TrajectoryPlannerParams, {"min_vel_theta": 0.5}),
+        (TrajectoryPlannerParams, {"sim_time": 0.0}),
+    ],
+)
+def test_bad_values_raise_config_error(cls, data):
+    with pytest.raises(ConfigError):
+        load_params(cls, data, source="test.yaml", section="X")
+
+
+def _footprint_collisions(grid: np.ndarray, poses: np.ndarray) -> int:
+    ctx = ScoringContext(poses[0], np.zeros(3), grid, RES, np.zeros(2), P3AT_FOOTPRINT, poses[:2], poses[1])
+    cost = ObstacleCost()
+    cost.prepare(ctx)
+    return int((cost.score(Trajectories(poses[:, None, :], np.zeros((len(poses), 3)))) < 0).sum())
+
+
+def _check_run(planner, grid, start: Pose2D, goal: Pose2D, params):
+    plan = NavFn().make_plan(grid, RES, (0.0, 0.0), start, goal)
+    planner.set_plan(plan)
+    reached, poses, cmds, results = drive(planner, start, grid, RES, P3AT_FOOTPRINT)
+    assert reached, results[-1].reason
+    end = poses[-1]
+    assert math.hypot(end[0] - goal.x, end[1] - goal.y) <= params.xy_goal_tolerance + 1e-9
+    assert abs(angle_diff(goal.theta, end[2])) <= params.yaw_goal_tolerance
+    r, c = (poses[:, 1] / RES).astype(int), (poses[:, 0] / RES).astype(int)
+    assert grid[r, c].max() < INSCRIBED
+    assert _footprint_collisions(grid, poses) == 0
+    final_w = cmds[[res.goal_approach for res in results], 2]
+    signs = np.sign(final_w[np.abs(final_w) > 1e-9])
+    assert signs.size > 0
+    assert np.all(signs == signs[0])
+    return poses
+
+
+def test_dwa_reaches_goal_in_free_space(dwa_params):
+    grid = free_map(80, 120)
+    _check_run(DWAPlanner(dwa_params), grid, Pose2D(1.0, 2.0, 0.0), Pose2D(4.5, 2.5, 2.0), dwa_params)
+
+
+def test_dwa_drives_around_an_obstacle_without_touching_lethal_cells(dwa_params):
+    grid = free_map(100, 160)
+    grid[30:70, 70:75] = LETHAL
+    grid = inflate(grid, RES)
+    poses = _check_run(
+        DWAPlanner(dwa_params), grid, Pose2D(1.0, 2.5, 0.3), Pose2D(6.5, 2.6, -1.5), dwa_params
+    )
+    assert np.abs(poses[:, 1] - 2.5).max() > 1.0  # went round the wall
+
+
+def test_trajectory_rollout_reaches_goal_around_an_obstacle(tp_params):
+    grid = free_map(100, 160)
+    grid[30:70, 70:75] = LETHAL
+    grid = inflate(grid, RES)
+    params = dataclasses.replace(tp_params, xy_goal_tolerance=0.15, yaw_goal_tolerance=0.1)
+    _check_run(TrajectoryPlanner(params), grid, Pose2D(1.0, 2.5, 0.0), Pose2D(6.5, 2.6, 1.5), params)
+
+
+def test_goal_rotation_slows_down_and_never_reverses(dwa_params):
+    planner = DWAPlanner(dwa_params)
+    grid = free_map(60, 60)
+    goal = Pose2D(1.5, 1.5, 2.5)
+    planner.set_plan(np.array([[1.4, 1.5, 0.0], [1.5, 1.5, 2.5]]))
+    reached, poses, cmds, results = drive(planner, Pose2D(1.5, 1.5, -0.4), grid, RES, P3AT_FOOTPRINT)
+    assert reached
+    w = cmds[:, 2]
+    assert np.all(w >= -1e-12)  # +2.9 rad is the short way: only positive rotation
+    assert abs(w[-1]) <= dwa_params.rot_stopped_vel
+    assert abs(angle_diff(goal.theta, poses[-1, 2])) <= dwa_params.yaw_goal_tolerance
+    assert np.all(np.abs(np.diff(w)) <= dwa_params.acc_lim_th / 10.0 + 1e-9)  # acceleration limit
+
+
+def test_all_rejected_reports_why_not_moving(dwa_params):
+    grid = free_map(60, 60)
+    grid[:, 26:] = LETHAL  # wall just in front of the nose, nothing else reachable
+    grid[:, :14] = LETHAL
+    planner = DWAPlanner(dataclasses.replace(dwa_params, min_vel_x=0.0))
+    planner.set_plan(np.array([[1.0, 1.5, 0.0], [2.8, 1.5, 0.0]]))
+    res = planner.compute_velocity(
+        Pose2D(1.0, 1.5, 0.0), (0.0, 0.0, 0.0), grid, RES, (0.0, 0.0), P3AT_FOOTPRINT
+    )
+    assert not res.ok
+    assert "ObstacleCost" in res.reason
+    assert res.cmd == (0.0, 0.0, 0.0)
+
+
+def test_dwa_samples_respect_the_dynamic_window(dwa_params):
+    p = dataclasses.replace(dwa_params, vx_samples=20, vth_samples=20)
+    planner = DWAPlanner(p)
+    s = planner._samples(np.array([0.3, 0.0, 0.2]))
+    dt = 1.0 / p.controller_frequency
+    assert len(s) >= 200
+    assert np.all(np.abs(s[:, 0] - 0.3) <= p.acc_lim_x * dt + 1e-9)
+    assert np.all(np.abs(s[:, 2] - 0.2) <= p.acc_lim_th * dt + 1e-9)
+    assert np.all(s[:, 1] == 0.0)  # holonomic_robot: false
