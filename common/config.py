@@ -180,3 +180,20 @@ def describe(cls: type) -> str:
         d = f.default if f.default is not dataclasses.MISSING else "(computed)"
         rows.append(f"  {f.name:<28} {d!s:<12} {_allowed(f):<22} {f.metadata.get('doc', '')}")
     return "\n".join(rows)
+
+
+def include(value: Any, source: str, key: str) -> tuple[dict, str]:
+    """A config entry that is either an inline mapping or a path to a YAML file (relative to the
+    file ``source``). Returns (mapping, file it came from)."""
+    if value is None:
+        return {}, source
+    if isinstance(value, dict):
+        return value, source
+    if isinstance(value, str):
+        p = Path(value).expanduser()
+        if not p.is_absolute():
+            p = Path(source).parent / p
+        if not p.exists():
+            raise ConfigError(source, key, f"file not found: {p}")
+        return read_yaml(p), str(p)
+    raise ConfigError(source, key, f"expected a mapping or a file path, got {value!r}")

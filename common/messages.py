@@ -21,7 +21,7 @@ __all__ = [
     "Pose", "Twist", "Odometry", "LaserScan", "DepthImage", "CameraInfo", "PointCloud", "OccupancyGrid",
     "Costmap", "Path", "PoseStamped", "TransformStamped", "TFMessage", "GoalStatus", "MotorState",
     "BatteryState", "Clock", "PolygonStamped", "Text", "Empty", "Collision", "NodeState", "Scalar",
-    "MoveBaseStatus", "empty_f32",
+    "MoveBaseStatus", "PlanRequest", "PlanResult", "empty_f32",
 ]
 
 
@@ -343,4 +343,23 @@ class NodeState:
     detail: str = ""
 
 
-assert Pose is Transform
+
+@register("PlanRequest")
+@dataclass(frozen=True)
+class PlanRequest:
+    """make_plan service request (nav_msgs/GetPlan): start and goal in any frame."""
+
+    start: PoseStamped = PoseStamped()
+    goal: PoseStamped = PoseStamped()
+    tolerance: float = -1.0  # m; < 0 = the planner's default_tolerance
+
+
+@register("PlanResult")
+@dataclass(frozen=True)
+class PlanResult:
+    """make_plan service reply: the plan and the goal actually planned to."""
+
+    path: Path = Path()
+    goal_used: Pose2D = Pose2D()
+    goal_offset_m: float = 0.0
+    planning_time_s: float = 0.0

@@ -73,7 +73,10 @@ class LocalPlanner:
     def set_plan(self, path: np.ndarray) -> None:
         """A new global plan (N, 3) in the local costmap's frame; resets goal latching and oscillation."""
         path = np.asarray(path, dtype=float).reshape(-1, 3)
-        if len(self._plan) == 0 or len(path) == 0 or not np.allclose(path[-1], self._plan[-1]):
+        # A goal that moved only a little (the same plan re-expressed after a map->odom correction)
+        # keeps the xy latch and the rotation direction; a new goal resets them.
+        if len(self._plan) == 0 or len(path) == 0 or math.hypot(*(path[-1, :2] - self._plan[-1, :2])) > 0.25 \
+                or abs(angle_diff(path[-1, 2], self._plan[-1, 2])) > 0.2:
             self._latched = False
             self._rot_dir = 0.0
             self.oscillation.reset()
