@@ -1,1 +1,53 @@
+"""zenav deployment: the ``zenav`` command (``deploy.cli``) and its subcommands (``deploy.cmd_*``).
 
+Small helpers shared by the subcommands live here (zenoh is imported lazily so ``zenav --help``
+stays fast).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+import time
+
+
+def robot_pattern(args, all_by_default: bool) -> str:
+    """The robot (or ``*`` pattern) a command looks at: --robot, else $ZENAV_ROBOT, else all/'robot'."""
+    robot = getattr(args, "robot", None) or os.environ.get("ZENAV_ROBOT")
+    if not robot:
+        robot = "*" if all_by_default else "robot"
+    if "/" in robot:
+        raise ValueError(f"robot name {robot!r} must not contain '/'")
+    return robot
+
+
+def open_session():
+    """A raw Zenoh session with the bus config from the environment (no liveliness token of its own,
+    so inspecting the system does not change what ``zenav nodes`` shows)."""
+    import zenoh
+
+    from common.zenoh_config import BusConfig
+
+    env = dict(os.environ)
+    if "*" in env.get("ZENAV_ROBOT", ""):
+        env.pop("ZENAV_ROBOT")
+    return zenoh.open(BusConfig.from_env(env).to_zenoh())
+
+
+def wait(stop: threading.Event, duration: float | None) -> None:
+    """Block until ``stop`` is set, ``duration`` seconds pass (None = forever) or Ctrl-C."""
+    end = None if duration is None else time.monotonic() + duration
+    while not stop.is_set():
+        left = 0.2 if end is None else min(0.2, end - time.monotonic())
+        if left <= 0:
+            return
+        stop.wait(left)
+
+
+def close_quietly(*objs) -> None:
+    for o in objs:
+        if o is None:
+            continue
+        with contextlib.suppress(Exception):  # best effort on the way out
+            o.undeclare() if hasattr(o, "undeclare") else o.close()

@@ -1,0 +1,99 @@
+"""``zenav nodes`` — nodes alive on the bus, from their liveliness tokens (like rosnode list)."""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from collections import defaultdict
+
+from deploy import close_quietly, open_session, robot_pattern, wait
+
+
+def add_parser(subparsers):
+    p = subparsers.add_parser(
+        "nodes",
+        help="nodes alive on the bus (liveliness)",
+        description="Nodes from their liveliness tokens zenavlive/<robot>/node/<name>. A node whose process "
+        "dies or whose machine is cut off disappears within about a second (link lease). "
+        "--robot '*' (default without $ZENAV_ROBOT) = all robots.",
+    )
+    p.add_argument(
+        "--watch",
+        action="store_true",
+        help="keep running and print '+ robot node' / '- robot node' as nodes appear and disappear",
+    )
+    p.add_argument(
+        "-l", "--long", action="store_true", help="also list each node's publications and services"
+    )
+    p.add_argument(
+        "--wait",
+        type=float,
+        default=1.0,
+        metavar="S",
+        help="how long to collect tokens before printing the list (default 1 s)",
+    )
+    p.add_argument("--duration", type=float, default=None, metavar="S", help="--watch: exit after S seconds")
+    p.set_defaults(func=run)
+    return p
+
+
+def _parse(key: str) -> tuple[str, str, str, str] | None:
+    """zenavlive/<robot>/<kind>/<node>[/<name...>] -> (robot, kind, node, name)."""
+    parts = key.split("/")
+    if len(parts) < 4 or parts[0] != "zenavlive":
+        return None
+    return parts[1], parts[2], parts[3], "/".join(parts[4:])
+
+
+def run(args) -> int:
+    import zenoh
+
+    robot = robot_pattern(args, all_by_default=True)
+    lock = threading.Lock()
+    live: set[tuple[str, str, str, str]] = set()
+    ready = threading.Event()  # --watch: history is printed as the initial list, then events
+
+    def on_token(s: zenoh.Sample) -> None:
+        item = _parse(str(s.key_expr))
+        if item is None:
+            return
+        with lock:
+            if s.kind == zenoh.SampleKind.PUT:
+                live.add(item)
+            else:
+                live.discard(item)
+            if args.watch and ready.is_set() and item[1] == "node":
+                sign = "+" if s.kind == zenoh.SampleKind.PUT else "-"
+                stamp = time.strftime("%H:%M:%S") + f".{int(time.time() * 1000) % 1000:03d}"
+                print(f"{stamp} {sign} {item[0]} {item[2]}", flush=True)
+
+    session = open_session()
+    sub = None
+    try:
+        key = f"zenavlive/{robot}/**" if args.long else f"zenavlive/{robot}/node/*"
+        sub = session.liveliness().declare_subscriber(key, on_token, history=True)
+        wait(threading.Event(), args.wait)
+        with lock:
+            _print_list(live, args.long)
+            ready.set()
+        if args.watch:
+            wait(threading.Event(), args.duration)
+    finally:
+        close_quietly(sub, session)
+    return 0
+
+
+def _print_list(live: set, long: bool) -> None:
+    nodes = sorted({(r, n) for r, k, n, _ in live if k == "node"})
+    if not nodes:
+        print("no nodes", file=sys.stderr, flush=True)
+    details: dict[tuple[str, str], list[str]] = defaultdict(list)
+    for r, k, n, name in sorted(live):
+        if k != "node" and name:
+            details[(r, n)].append(f"{k}:{name}")
+    for r, n in nodes:
+        line = f"{r}  {n}"
+        if long and details[(r, n)]:
+            line += "  " + " ".join(details[(r, n)])
+        print(line, flush=True)

@@ -1,0 +1,47 @@
+"""Simulated time: a node with use_sim_time follows the `clock` topic (faster than real time)."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+from bushelp import wait_for
+
+from common.messages import Clock
+
+
+def test_timer_follows_sim_clock_published_5x_faster_than_real_time(node_pair):
+    sim = node_pair("sim")
+    clock_pub = sim.publisher("clock")
+    node = node_pair("planner", use_sim_time=True)
+    assert node.clock.simulated
+    assert node.clock.now() == 0.0
+    wait_for(lambda: clock_pub._pub.matching_status.matching, timeout=30, what="clock subscriber matched")
+    ticks: list[float] = []
+    node.timer(0.1, lambda: ticks.append(node.clock.now()))
+
+    speed, step = 5.0, 0.005  # 5x real time; one clock message per 5 simulated ms
+    sim_t, sim_end = 0.0, 3.0
+    wall0 = time.monotonic()
+    stop = threading.Event()
+    while sim_t < sim_end and not stop.is_set():
+        sim_t = round(sim_t + step, 6)
+        clock_pub.publish(Clock(sim_t))
+        # pace at `speed` x real time (pacing only; correctness does not depend on it)
+        delay = wall0 + sim_t / speed - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+    wall = time.monotonic() - wall0
+    wait_for(lambda: node.clock.now() >= sim_end, timeout=30, what="node clock reached the end")
+    # The timer ran on simulated time: ~10 ticks per simulated second, in far less wall time.
+    in_window = [t for t in ticks if 1.0 <= t < 3.0]
+    assert 16 <= len(in_window) <= 21, (len(in_window), ticks)
+    assert all(0.05 < b - a < 0.35 for a, b in zip(in_window, in_window[1:])), ticks
+    assert wall < sim_end * 0.8, f"clock publishing took {wall:.1f} s wall for {sim_end} s simulated"
+    # Stopped clock: no more ticks though wall time passes.
+    n = len(ticks)
+    t_end = time.monotonic() + 0.5
+    while time.monotonic() < t_end:
+        node.clock.now()
+        time.sleep(0.05)
+    assert len(ticks) <= n + 1
