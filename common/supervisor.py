@@ -1,0 +1,427 @@
+"""A process supervisor for zenav agents (the roslaunch replacement).
+
+A launch is an ordered list of ``NodeSpec``. Each node runs as its own process in its own session
+(process group), started in order once its ``after`` nodes are RUNNING and a message was seen on each
+of its ``wait_for`` topics (the tutorial's "merger launched before virtualizer" problem). Respawn-marked
+nodes are restarted after ``respawn_delay`` (doubling while deaths pile up; more than
+``crash_loop[0]`` deaths in ``crash_loop[1]`` s -> FAILED). A ``required`` node that ends or fails
+stops the whole launch. Shutdown: ``stop_first`` nodes (the base) are stopped and waited for first,
+then the others in reverse start order, one at a time: SIGTERM to its process group, SIGKILL after
+``grace`` s.
+Children get ``PR_SET_PDEATHSIG`` (SIGKILL) so they die with the supervising thread even if the agent
+itself is SIGKILLed. All spawning happens on the supervisor's own thread for that reason.
+
+Child output lines are prefixed ``[name] ``; a status table goes to stderr on every change; with a
+bus ``Node`` the states are published as ``NodeState`` on ``agent/<agent>/state``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any, TextIO
+
+from common.messages import Header, NodeState
+from common.zenoh_config import BusConfig
+
+WAITING, STARTING, RUNNING, RESTARTING = "WAITING", "STARTING", "RUNNING", "RESTARTING"
+EXITED, FAILED, STOPPING, STOPPED = "EXITED", "FAILED", "STOPPING", "STOPPED"
+TERMINAL = (EXITED, FAILED, STOPPED)
+
+
+@dataclass(frozen=True)
+class NodeSpec:
+    name: str
+    module: str = ""                    # python -m target
+    cmd: tuple[str, ...] = ()           # or an explicit argv
+    args: tuple[str, ...] = ()          # extra arguments appended to the command line
+    config: str = ""                    # --config FILE (module nodes)
+    section: str = ""                   # --section KEY
+    env: dict[str, str] = field(default_factory=dict)
+    respawn: bool = False
+    respawn_delay: float = 0.2
+    required: bool = False
+    wait_for: tuple[str, ...] = ()      # topics that must carry a message before the first start
+    wait_timeout: float = 30.0
+    after: tuple[str, ...] = ()         # node names that must be RUNNING first
+    stop_first: bool = False
+
+    def __post_init__(self):
+        if not self.name or any(c in self.name for c in "/*. "):
+            raise ValueError(f"bad node name {self.name!r}")
+        if bool(self.module) == bool(self.cmd):
+            raise ValueError(f"node {self.name!r}: give exactly one of module / cmd")
+
+    def argv(self) -> list[str]:
+        if self.cmd:
+            return [*self.cmd, *self.args]
+        out = [sys.executable, "-m", self.module, "--name", self.name]
+        if self.config:
+            out += ["--config", self.config]
+        if self.section:
+            out += ["--section", self.section]
+        return out + list(self.args)
+
+
+@dataclass
+class NodeStatus:
+    spec: NodeSpec
+    state: str = WAITING
+    pid: int = 0
+    restarts: int = 0
+    detail: str = ""
+    exit_code: int | None = None
+    pids: list[int] = field(default_factory=list)          # every pid ever started
+    deaths: deque = field(default_factory=lambda: deque(maxlen=64))
+    proc: subprocess.Popen | None = None
+    start_at: float = 0.0                                   # RESTARTING: when to spawn
+    seen: set = field(default_factory=set)                  # wait_for topics seen
+    wait_since: float = 0.0
+    tail: deque = field(default_factory=lambda: deque(maxlen=5))
+
+
+def validate_launch(specs: list[NodeSpec]) -> None:
+    """Unique names, known ``after`` targets, no cycles. Raises ValueError."""
+    names = [s.name for s in specs]
+    dup = {n for n in names if names.count(n) > 1}
+    if dup:
+        raise ValueError(f"duplicate node names: {sorted(dup)}")
+    for s in specs:
+        for a in s.after:
+            if a not in names:
+                raise ValueError(f"node {s.name!r}: after: unknown node {a!r}")
+    by_name, done, visiting = {s.name: s for s in specs}, set(), set()
+
+    def visit(n: str, path: list[str]) -> None:
+        if n in done:
+            return
+        if n in visiting:
+            raise ValueError(f"dependency cycle: {' -> '.join(path + [n])}")
+        visiting.add(n)
+        for a in by_name[n].after:
+            visit(a, path + [n])
+        visiting.discard(n)
+        done.add(n)
+
+    for s in specs:
+        visit(s.name, [])
+
+
+def child_bus_env(cfg: BusConfig) -> dict[str, str]:
+    """Bus env for children: same network, but listening on ephemeral ports (the agent's own listen
+    ports would clash) and connecting to the agent's listen endpoints as well."""
+    def host_port(ep: str) -> tuple[str, str]:
+        proto_addr = ep.split("#", 1)[0]
+        head, _, port = proto_addr.rpartition(":")
+        return head, port
+
+    connect, listen = list(cfg.connect), []
+    for ep in cfg.listen:
+        head, port = host_port(ep)
+        listen.append(f"{head}:0")
+        if port not in ("", "0"):
+            connect.append(ep.split("#", 1)[0].replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]"))
+    return BusConfig(**{**cfg.__dict__, "connect": tuple(dict.fromkeys(connect)),
+                        "listen": tuple(dict.fromkeys(listen))}).to_env()
+
+
+try:
+    _LIBC = ctypes.CDLL(None, use_errno=True) if sys.platform.startswith("linux") else None
+except OSError:  # pragma: no cover
+    _LIBC = None
+_PR_SET_PDEATHSIG = 1
+
+
+def _make_preexec(parent: int):
+    def preexec() -> None:   # runs in the child between fork and exec: no locks, no imports
+        if _LIBC is not None:
+            _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+            if os.getppid() != parent:   # parent already gone before prctl took effect
+                os._exit(1)
+    return preexec
+
+
+def _killpg(pid: int, sig: int) -> None:
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(pid, sig)
+
+
+class Supervisor:
+    def __init__(self, specs: list[NodeSpec], bus_config: BusConfig | None = None, node: Any = None,
+                 agent: str = "agent", grace: float = 3.0, crash_loop: tuple[int, float] = (5, 10.0),
+                 out: TextIO | None = None, status: TextIO | None = None, extra_env: dict | None = None,
+                 max_respawn_delay: float = 5.0) -> None:
+        validate_launch(specs)
+        self.specs, self.agent, self.grace, self.crash_loop = list(specs), agent, grace, crash_loop
+        self.bus_config = bus_config or BusConfig.from_env()
+        self.node, self.out, self.status_out = node, out or sys.stdout, status
+        self.max_respawn_delay = max_respawn_delay
+        self.nodes = {s.name: NodeStatus(s) for s in specs}
+        self.start_order: list[str] = []
+        self.reason = ""            # why the launch stopped ('' = asked to)
+        self.failed = False         # stopped because of a failure
+        self._env = {**os.environ, **child_bus_env(self.bus_config), **(extra_env or {}),
+                     "ZENAV_PARENT_PID": str(os.getpid()), "PYTHONUNBUFFERED": "1"}
+        self._wake = threading.Event()
+        self._stop_req = threading.Event()
+        self._done = threading.Event()
+        self._lock = threading.RLock()
+        self._out_lock = threading.Lock()
+        self._dirty: set[str] = set()
+        self._subs: dict[str, Any] = {}
+        self._pub = node.publisher(f"agent/{agent}/state") if node is not None else None
+        self._last_table = ""
+        self._table_pending, self._last_print = False, 0.0
+        self._last_publish_all = 0.0
+        self._thread: threading.Thread | None = None
+
+    # -- public API -------------------------------------------------------------------------------
+    def start(self) -> Supervisor:
+        self._thread = threading.Thread(target=self._loop, name=f"supervisor:{self.agent}", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self, reason: str = "", failed: bool = False) -> None:
+        """Ask for an orderly shutdown (any thread, signal handlers included)."""
+        with self._lock:
+            if not self._stop_req.is_set():
+                self.reason, self.failed = reason, failed
+                self._stop_req.set()
+        self._wake.set()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        return self._done.wait(timeout)
+
+    def run(self) -> int:
+        """Start, stop on SIGINT / SIGTERM (main thread), return 0 or 1 (launch failed)."""
+        def on_signal(signum, _frame):
+            if self._stop_req.is_set():     # second Ctrl-C: no more patience
+                self.grace = 0.2
+            self.stop(f"received {signal.Signals(signum).name}")
+        old = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            self.start()
+            while not self._done.wait(0.2):
+                pass
+        finally:
+            for s, h in old.items():
+                signal.signal(s, h)
+        return 1 if self.failed else 0
+
+    def state(self, name: str) -> NodeStatus:
+        return self.nodes[name]
+
+    def table(self) -> str:
+        w = max(12, *(len(n) for n in self.nodes))
+        rows = [f"{'NODE':<{w}} {'STATE':<10} {'PID':>7} {'RESTARTS':>8}  DETAIL"]
+        for n, st in self.nodes.items():
+            rows.append(f"{n:<{w}} {st.state:<10} {st.pid or '-':>7} {st.restarts:>8}  {st.detail}")
+        return "\n".join(rows)
+
+    # -- state changes ----------------------------------------------------------------------------
+    def _set(self, st: NodeStatus, state: str, detail: str = "") -> None:
+        with self._lock:
+            if (st.state, st.detail) != (state, detail):
+                st.state, st.detail = state, detail
+                self._dirty.add(st.spec.name)
+
+    def _report(self, force: bool = False) -> None:
+        with self._lock:
+            dirty, self._dirty = self._dirty, set()
+        now = time.monotonic()
+        if self._pub is not None and (dirty or now - self._last_publish_all > 1.0):
+            names = list(self.nodes) if now - self._last_publish_all > 1.0 else sorted(dirty)
+            if len(names) == len(self.nodes):
+                self._last_publish_all = now
+            for n in names:
+                st = self.nodes[n]
+                with contextlib.suppress(Exception):   # the bus must never take the supervisor down
+                    self._pub.publish(NodeState(header=Header(stamp=time.time()), node=n, state=st.state,
+                                                pid=st.pid, restarts=st.restarts, detail=st.detail))
+        self._table_pending |= bool(dirty)
+        if self._table_pending and self.status_out is not None and (force or now - self._last_print >= 0.3):
+            self._table_pending, self._last_print = False, now
+            table = self.table()
+            if table != self._last_table:
+                self._last_table = table
+                with self._out_lock:
+                    print(f"--- zenav {self.agent} ---\n{table}", file=self.status_out, flush=True)
+
+    # -- processes --------------------------------------------------------------------------------
+    def _spawn(self, st: NodeStatus) -> None:
+        spec = st.spec
+        env = {**self._env, **{k: str(v) for k, v in spec.env.items()}}
+        try:
+            proc = subprocess.Popen(spec.argv(), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
+                                    stderr=subprocess.STDOUT, env=env, start_new_session=True,
+                                    preexec_fn=_make_preexec(os.getpid()))
+        except OSError as e:
+            self._died(st, None, f"cannot start: {e}")
+            return
+        st.proc, st.pid, st.exit_code = proc, proc.pid, None
+        st.pids.append(proc.pid)
+        if spec.name not in self.start_order:
+            self.start_order.append(spec.name)
+        self._set(st, RUNNING, "")
+        threading.Thread(target=self._pump, args=(st, proc), daemon=True, name=f"out:{spec.name}").start()
+        threading.Thread(target=self._reap, args=(proc,), daemon=True, name=f"wait:{spec.name}").start()
+
+    def _pump(self, st: NodeStatus, proc: subprocess.Popen) -> None:
+        prefix = f"[{st.spec.name}] "
+        for raw in iter(proc.stdout.readline, b""):
+            line = raw.decode(errors="replace").rstrip()
+            st.tail.append(line)
+            with self._out_lock, contextlib.suppress(ValueError, OSError):
+                print(prefix + line, file=self.out, flush=True)
+        proc.stdout.close()
+
+    def _reap(self, proc: subprocess.Popen) -> None:
+        proc.wait()
+        self._wake.set()
+
+    def _died(self, st: NodeStatus, code: int | None, why: str = "") -> None:
+        """Handle the end of a node's process (not during shutdown)."""
+        spec, now = st.spec, time.monotonic()
+        st.proc, st.exit_code = None, code
+        last = next((ln for ln in reversed(st.tail) if ln.strip()), "")
+        why = why or (f"exit code {code}" if code is not None and code >= 0 else f"killed by signal {-code}")
+        if last:
+            why += f": {last[-120:]}"
+        st.deaths.append(now)
+        if spec.respawn:
+            n_max, window = self.crash_loop
+            recent = sum(1 for t in st.deaths if now - t <= window)
+            if recent > n_max:
+                self._set(st, FAILED, f"crash loop ({recent} deaths in {window:g} s); {why}")
+            else:
+                delay = min(spec.respawn_delay * 2 ** (recent - 1), self.max_respawn_delay)
+                st.start_at = now + delay
+                self._set(st, RESTARTING, f"{why}; restart in {delay:.1f} s")
+                return
+        else:
+            self._set(st, EXITED if code == 0 else FAILED, why)
+        if spec.required:
+            self.stop(f"required node '{spec.name}' ended ({why})", failed=True)
+
+    # -- wait_for ---------------------------------------------------------------------------------
+    def _watch(self, topic: str) -> None:
+        if topic in self._subs or self.node is None:
+            return
+        key = self.node.key(topic)
+
+        def seen(*_a) -> None:
+            for st in self.nodes.values():
+                if topic in st.spec.wait_for:
+                    st.seen.add(topic)
+            self._wake.set()
+
+        sess = self.node.session
+        self._subs[topic] = sess.declare_subscriber(key, seen)
+        sess.get(key, lambda r: seen() if r.ok is not None else None)   # latched publishers
+
+    def _unwatch_unused(self) -> None:
+        wanted = {t for st in self.nodes.values() if st.state == WAITING for t in st.spec.wait_for}
+        for t in [t for t in self._subs if t not in wanted]:
+            with contextlib.suppress(Exception):
+                self._subs.pop(t).undeclare()
+
+    def _try_start(self, st: NodeStatus, now: float) -> None:
+        spec = st.spec
+        for a in spec.after:
+            dep = self.nodes[a]
+            if dep.state == FAILED or (dep.state == EXITED and dep.exit_code != 0):
+                self._set(st, FAILED, f"dependency '{a}' {dep.state.lower()}")
+                if spec.required:
+                    self.stop(f"required node '{spec.name}' cannot start: dependency '{a}' failed", True)
+                return
+        pending = [a for a in spec.after if a not in self.start_order]
+        if spec.wait_for and self.node is None:
+            self._set(st, FAILED, "wait_for needs a bus node")
+            return
+        missing = [t for t in spec.wait_for if t not in st.seen]
+        if not pending and not missing:
+            self._spawn(st)
+            return
+        if not st.wait_since:
+            st.wait_since = now
+            for t in spec.wait_for:
+                self._watch(t)
+        if missing and not pending and now - st.wait_since > spec.wait_timeout:
+            self._set(st, FAILED, f"no message on {', '.join(missing)} within {spec.wait_timeout:g} s")
+            if spec.required:
+                self.stop(f"required node '{spec.name}' failed: nothing on {', '.join(missing)}", True)
+            return
+        what = [f"node{'s' * (len(pending) > 1)} {', '.join(pending)}"] if pending else []
+        what += [f"topic{'s' * (len(missing) > 1)} {', '.join(missing)}"] if missing else []
+        self._set(st, WAITING, "waiting for " + "; ".join(what))
+
+    # -- main loop --------------------------------------------------------------------------------
+    def _loop(self) -> None:
+        try:
+            while not self._stop_req.is_set():
+                self._wake.clear()
+                now = time.monotonic()
+                for st in self.nodes.values():
+                    if st.proc is not None and st.proc.poll() is not None:
+                        self._died(st, st.proc.returncode)
+                if self._stop_req.is_set():
+                    break
+                for st in self.nodes.values():
+                    if st.state == WAITING:
+                        self._try_start(st, now)
+                    elif st.state == RESTARTING and now >= st.start_at:
+                        st.restarts += 1
+                        self._spawn(st)
+                self._unwatch_unused()
+                self._report()
+                if all(st.state in TERMINAL for st in self.nodes.values()):
+                    bad = [n for n, st in self.nodes.items() if st.state == FAILED]
+                    self.stop("all nodes ended" + (f" ({', '.join(bad)} failed)" if bad else ""),
+                              failed=bool(bad))
+                    break
+                self._wake.wait(0.1)
+            self._shutdown()
+        finally:
+            self._report(force=True)
+            self._done.set()
+
+    def _shutdown(self) -> None:
+        for t in list(self._subs):
+            with contextlib.suppress(Exception):
+                self._subs.pop(t).undeclare()
+        for st in self.nodes.values():
+            if st.proc is None and st.state in (WAITING, RESTARTING):
+                self._set(st, STOPPED, "not started" if st.state == WAITING else st.detail)
+        order = [n for n in reversed(self.start_order)]
+        first = [n for n in order if self.nodes[n].spec.stop_first]
+        rest = [n for n in order if not self.nodes[n].spec.stop_first]
+        for group in (first, rest):
+            self._stop_group([self.nodes[n] for n in group if self.nodes[n].proc is not None])
+
+    def _stop_group(self, sts: list[NodeStatus]) -> None:
+        """One node after the other (the order is a guarantee, as in roslaunch): SIGTERM to the
+        group, SIGKILL after ``grace`` s, then SIGKILL whatever is left of the group."""
+        for st in sts:
+            self._set(st, STOPPING, "SIGTERM")
+            self._report()
+            _killpg(st.pid, signal.SIGTERM)
+            try:
+                st.proc.wait(self.grace)
+            except subprocess.TimeoutExpired:
+                _killpg(st.pid, signal.SIGKILL)
+                self._set(st, STOPPING, f"no exit {self.grace:g} s after SIGTERM: SIGKILL")
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    st.proc.wait(5.0)
+            _killpg(st.pid, signal.SIGKILL)    # leftovers of the group (grandchildren)
+            st.exit_code = st.proc.returncode
+            self._set(st, STOPPED, st.detail if "SIGKILL" in st.detail else f"exit code {st.exit_code}")
+            st.proc = None
+        self._report()

@@ -1,0 +1,58 @@
+"""The master agent: ``zenav master --config FILE [--robot NAME]``.
+
+Same mechanism as the robot agent (``common.supervisor`` + ``common.launch``) for the master's nodes
+(costmaps, planners, move_base, SLAM, map server). One section, ``nodes:``::
+
+    robot: pioneer1
+    use_sim_time: true
+    nodes:
+      map_server: {module: master_side.mapping.map_server_node, params: {yaml: maps/room.yaml}}
+      move_base:
+        module: master_side.planning.move_base_node
+        config: move_base.yaml          # or params: {...}
+        respawn: true
+        wait_for: [map, odom]
+
+Exit status: 0 after Ctrl-C / SIGTERM, 1 when a required node ended or failed, 2 for a bad config.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from common.config import ConfigError
+from common.launch import Launch, Section, load_launch, run_agent
+
+SECTIONS = [Section("nodes")]
+EXIT_CONFIG = 2
+
+
+def load(path: str) -> Launch:
+    return load_launch(path, SECTIONS)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", required=True, metavar="FILE", help="master YAML with a nodes: section")
+    p.add_argument("--robot", metavar="NAME", default=argparse.SUPPRESS,
+                   help="robot served (keys zenav/<robot>/...); "
+                                                   "default $ZENAV_ROBOT, then the file's robot:")
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        launch = load(args.config)
+    except ConfigError as e:
+        print(f"zenav master: config error: {e}", file=sys.stderr)
+        return EXIT_CONFIG
+    return run_agent("master", launch, robot=getattr(args, "robot", None))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="zenav master", description=__doc__.split("\n\n")[0])
+    add_arguments(ap)
+    return run(ap.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,86 @@
+"""The robot agent: ``zenav robot --config FILE [--world W] [--start X Y YAW] [--speed N] [--robot NAME]``.
+
+Reads one YAML laid out like the tutorial's launch file (section 3.6) and runs every node as its own
+process under ``common.supervisor.Supervisor``:
+
+    platform:     PLATFORM SPECIFIC - the base driver (real p2os driver or robot_side.sim.node);
+                  entries here default to stop_first: true, so the base stops before anything else
+    transforms:   TRANSFORMS - name: {args: "x y z yaw pitch roll parent child [period_ms]"}
+                  (or just the string), one common.static_tf_node each
+    sensors:      SENSORS CONFIGURATION - laser / depth camera / depth conversion nodes
+
+``--world``, ``--start`` and ``--speed`` override the ``world``, ``start`` and ``speed`` parameters of
+the simulator node(s) (module ``robot_side.sim.node``). Exit status: 0 after Ctrl-C / SIGTERM,
+1 when a required node ended or failed, 2 for a bad config file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from common.config import ConfigError
+from common.launch import Launch, Section, load_launch, run_agent
+
+SIM_MODULE = "robot_side.sim.node"
+SECTIONS = [
+    Section("platform", stop_first=True),
+    Section("transforms", default_module="common.static_tf_node", tf_args=True),
+    Section("sensors"),
+]
+EXIT_CONFIG = 2
+
+
+def load(path: str, world: str | None = None, start: list[float] | None = None,
+         speed: float | None = None) -> Launch:
+    """The validated launch of a robot config, with the simulator overrides applied."""
+    launch = load_launch(path, SECTIONS)
+    overrides: dict = {}
+    if world is not None:
+        overrides["world"] = os.path.abspath(world) if os.path.exists(world) else world
+    if start is not None:
+        overrides["start"] = [float(v) for v in start]
+    if speed is not None:
+        if not speed > 0:
+            raise ConfigError("--speed", "speed", f"must be > 0, got {speed}")
+        overrides["speed"] = float(speed)
+    if overrides:
+        sims = [e for e in launch.entries if e.opts.module == SIM_MODULE]
+        if not sims:
+            opts = "/".join(f"--{k}" for k in overrides)
+            raise ConfigError(path, "platform", f"{opts} need a simulator node (module {SIM_MODULE})")
+        for e in sims:
+            launch.override(e.name, **overrides)
+    return launch
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", required=True, metavar="FILE",
+                   help="robot YAML (platform / transforms / sensors), e.g. robot_side/config/p3at_sim.yaml")
+    p.add_argument("--world", metavar="W", help="simulator world file (overrides the config)")
+    p.add_argument("--start", nargs=3, type=float, metavar=("X", "Y", "YAW"),
+                   help="simulator start pose in m, m, rad")
+    p.add_argument("--speed", type=float, metavar="N", help="simulated time N x real time")
+    p.add_argument("--robot", metavar="NAME", default=argparse.SUPPRESS,
+                   help="robot name (keys zenav/<robot>/...); "
+                                                   "default $ZENAV_ROBOT, then the file's robot:")
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        launch = load(args.config, args.world, args.start, args.speed)
+    except ConfigError as e:
+        print(f"zenav robot: config error: {e}", file=sys.stderr)
+        return EXIT_CONFIG
+    return run_agent("robot", launch, robot=getattr(args, "robot", None))
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="zenav robot", description=__doc__.split("\n\n")[0])
+    add_arguments(ap)
+    return run(ap.parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
