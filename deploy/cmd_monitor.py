@@ -13,8 +13,10 @@ DESCRIPTION = """\
 Join the bus as a Zenoh peer (on any machine: robot, master or a laptop) and log one robot's
 topics to Rerun: map, costmap layers, footprint, global/local plan, goal, laser scan, depth image
 and point cloud, odometry trail, TF frames, cmd_vel and loop-time plots, node states and
-move_base state changes. Heavy streams are throttled per message type (--rate) so long runs keep
-the viewer's memory bounded.
+move_base state changes. Heavy streams are throttled per entity (--rate; the newest message of
+each entity is always logged in the end) so long runs keep the viewer's memory bounded, together
+with --memory-limit. Times are the message stamps (timeline `stamp`: a duration under simulated
+time, a timestamp under wall time).
 
 Outputs (pick one; default: --spawn when a display is available, else --save):
   --spawn              start the native viewer on this machine
@@ -34,29 +36,30 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     out.add_argument("--save", metavar="FILE", help="save a .rrd recording")
     p.add_argument("--grpc-port", type=int, default=9876, help="gRPC port used with --serve-web")
     p.add_argument("--rate", action="append", default=[], metavar="TYPE=HZ",
-                   help="max logging rate per message type, e.g. Costmap=1 PointCloud=0.5 (0 = all)")
+                   help="max logging rate per entity for a message type or a topic, e.g. --rate Costmap=1 "
+                        "--rate camera/depth/points=0.5 (0 = every message; repeatable or comma list)")
     p.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0 = Ctrl-C)")
-    p.add_argument("--memory-limit", default="2GiB", help="viewer memory limit (spawn/serve)")
+    p.add_argument("--memory-limit", default="2GiB",
+                   help="memory limit of the spawned viewer / of the web server's buffer; the oldest data "
+                        "is dropped beyond it (spawn, serve-web)")
     p.set_defaults(func=run)
     return p
 
 
 def parse_rates(items: list[str]) -> dict[str, float]:
-    rates = {}
-    for item in items:
-        name, _, hz = item.partition("=")
-        try:
-            rates[name.strip()] = float(hz)
-        except ValueError:
-            raise SystemExit(f"zenav monitor: --rate expects TYPE=HZ, got {item!r}") from None
-    return rates
+    from deploy.monitor.pacing import parse_rates as parse
+
+    try:
+        return parse(items)
+    except ValueError as e:
+        raise SystemExit(f"zenav monitor: {e}") from None
 
 
 def open_recording(args, robot: str):
     """A Rerun recording stream with the sink the user asked for; returns (rec, description)."""
     import rerun as rr
 
-    from deploy.monitor.monitor import blueprint
+    from deploy.monitor.layout import blueprint
 
     rec = rr.RecordingStream(f"zenav_{robot}")
     bp = blueprint()
@@ -76,6 +79,11 @@ def open_recording(args, robot: str):
 
 
 def run(args) -> int:
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):  # first thing: a signal during start-up still ends cleanly
+        signal.signal(sig, lambda *_: stop.set())
+    rates = parse_rates(args.rate)
+
     import zenoh
 
     from common.zenoh_config import BusConfig
@@ -90,23 +98,21 @@ def run(args) -> int:
     robot = cfg.robot
     rec, where = open_recording(args, robot)
     session = zenoh.open(cfg.to_zenoh())
-    mon = Monitor(session, robot, rec, parse_rates(args.rate))
-    print(f"zenav monitor: robot '{robot}', {where}. Ctrl-C to stop.", file=sys.stderr)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    t0 = time.monotonic()
-    while not stop.wait(1.0):
-        if args.duration and time.monotonic() - t0 >= args.duration:
+    mon = Monitor(session, robot, rec, rates)
+    print(f"zenav monitor: robot '{robot}', {where}. Ctrl-C to stop.", file=sys.stderr, flush=True)
+    deadline = time.monotonic() + args.duration if args.duration > 0 else None
+    while not stop.is_set():
+        left = 1.0 if deadline is None else deadline - time.monotonic()
+        if left <= 0:
             break
-    mon.close()
-    rec.flush()
+        stop.wait(min(left, 1.0))
+    mon.close()  # logs what the throttle still held
     session.close()
-    s = mon.stats
-    print(f"zenav monitor: received={s.received} logged={s.logged} throttled={s.throttled} "
-          f"malformed={s.malformed}", file=sys.stderr)
+    rec.flush()
     if args.save:
-        rec.disconnect() if hasattr(rec, "disconnect") else None
+        rec.disconnect()  # closes the file sink: the .rrd gets its footer
+    print(f"zenav monitor: {mon.stats.line()}", file=sys.stderr, flush=True)
+    if args.save:
         print(f"zenav monitor: recording saved; view it with `rerun {args.save}` or serve it to a browser "
               f"with `rerun --serve-web {args.save}`", file=sys.stderr)
     return 0

@@ -11,6 +11,7 @@ apt_pkgs=()
 command -v ip >/dev/null 2>&1 || apt_pkgs+=(iproute2)
 if (( want_test )); then
   command -v socat >/dev/null 2>&1 || apt_pkgs+=(socat)
+  command -v chromium >/dev/null 2>&1 || apt_pkgs+=(chromium)  # web viewer check (tests/monitor)
 fi
 if (( ${#apt_pkgs[@]} )); then
   if [[ $(id -u) -eq 0 ]] && command -v apt-get >/dev/null 2>&1; then

@@ -16,15 +16,27 @@ COSTMAP_COLORMAP = rr.components.Colormap.RvizCostmap
 MAP_COLORMAP = rr.components.Colormap.RvizMap
 
 
+def aligned(a: np.ndarray, dtype=None) -> np.ndarray:
+    """A C-contiguous, *aligned* array. Decoded message arrays are views into the payload and may be
+    misaligned; handing such a buffer to Rerun aborts the process (a Rust panic in arrow), so every
+    array from a message goes through here before ``rec.log``."""
+    return np.require(a, dtype=dtype, requirements=["C", "A"])
+
+
+def frame_name(frame_id: str, default: str = "map") -> str:
+    """A ROS frame id as a Rerun frame name ('/odom' -> 'odom'; empty -> ``default``)."""
+    return frame_id.strip().lstrip("/") or default
+
+
 def _frame(header: m.Header) -> rr.CoordinateFrame:
-    return rr.CoordinateFrame(header.frame_id or "map")
+    return rr.CoordinateFrame(frame_name(header.frame_id))
 
 
 def _grid(rec, path: str, header, resolution: float, origin: m.Pose2D, data: np.ndarray, colormap,
           opacity: float, draw_order: float) -> None:
     h, w = data.shape
     rec.log(path, _frame(header), rr.GridMap(
-        data=np.ascontiguousarray(data).view(np.uint8).tobytes(),
+        data=aligned(data).view(np.uint8).tobytes(),
         format=rr.components.ImageFormat(width=w, height=h, color_model="L", channel_datatype="U8"),
         cell_size=resolution, translation=[origin.x, origin.y, 0.0],
         rotation_axis_angle=rr.RotationAxisAngle([0, 0, 1], origin.theta),
@@ -39,18 +51,22 @@ def log_costmap(rec, path: str, msg: m.Costmap) -> None:
     _grid(rec, path, msg.header, msg.resolution, msg.origin, msg.data, COSTMAP_COLORMAP, 0.6, -5.0)
 
 
-def log_scan(rec, path: str, msg: m.LaserScan) -> None:
+def scan_points(msg: m.LaserScan) -> np.ndarray:
+    """(N, 3) end points of the valid returns (finite, within range_min..range_max), laser frame."""
     r = msg.ranges.astype(np.float64)
     a = msg.angles()
     ok = np.isfinite(r) & (r >= msg.range_min) & (r <= msg.range_max)
-    pts = np.column_stack((r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok]), np.zeros(ok.sum())))
-    rec.log(path, _frame(msg.header), rr.Points3D(pts, radii=0.02, colors=[255, 40, 40]))
+    return np.column_stack((r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok]), np.zeros(ok.sum())))
+
+
+def log_scan(rec, path: str, msg: m.LaserScan) -> None:
+    rec.log(path, _frame(msg.header), rr.Points3D(scan_points(msg), radii=0.03, colors=[255, 40, 40]))
 
 
 def log_cloud(rec, path: str, msg: m.PointCloud, max_points: int = 20000) -> None:
-    pts = msg.points
+    pts = aligned(msg.points, np.float32)
     if len(pts) > max_points:
-        pts = pts[:: int(np.ceil(len(pts) / max_points))]
+        pts = aligned(pts[:: int(np.ceil(len(pts) / max_points))])
     z = pts[:, 2] if len(pts) else np.zeros(0)
     rec.log(path, _frame(msg.header), rr.Points3D(pts, radii=0.01, colors=_height_colors(z)))
 
@@ -61,7 +77,7 @@ def _height_colors(z: np.ndarray) -> np.ndarray:
 
 
 def log_depth_image(rec, path: str, msg: m.DepthImage) -> None:
-    rec.log(path, rr.DepthImage(msg.depth, meter=1.0, colormap="Turbo"))
+    rec.log(path, rr.DepthImage(aligned(msg.depth, np.float32), meter=1.0, colormap="Turbo"))
 
 
 def log_path(rec, path: str, msg: m.Path, color=(40, 200, 40)) -> None:
@@ -75,44 +91,51 @@ def log_polygon(rec, path: str, msg: m.PolygonStamped, color=(60, 120, 255)) -> 
     if len(p):
         p = np.vstack((p, p[:1]))
     strip = np.column_stack((p[:, 0], p[:, 1], np.full(len(p), 0.03))) if len(p) else np.zeros((0, 3))
-    rec.log(path, _frame(msg.header), rr.LineStrips3D([strip], colors=[color], radii=0.01))
+    rec.log(path, _frame(msg.header), rr.LineStrips3D([strip], colors=[color], radii=0.02))
 
 
 def log_pose(rec, path: str, msg: m.PoseStamped, color=(255, 0, 200), length: float = 0.5) -> None:
     p = msg.pose.to_pose2d()
-    tip = [p.x + length * np.cos(p.theta), p.y + length * np.sin(p.theta), 0.05]
-    rec.log(path, _frame(msg.header), rr.Arrows3D(origins=[[p.x, p.y, 0.05]], vectors=[np.subtract(tip, [p.x, p.y, 0.05])],
+    vec = [length * np.cos(p.theta), length * np.sin(p.theta), 0.0]
+    rec.log(path, _frame(msg.header), rr.Arrows3D(origins=[[p.x, p.y, 0.05]], vectors=[vec],
                                                   colors=[color], radii=0.03))
 
 
-def log_transforms(rec, path: str, msg: m.TFMessage, static: bool = False, set_time=None) -> None:
-    """Each edge at ``path/<child>``; ``set_time(stamp)`` positions it on the timeline."""
-    for ts in msg.transforms:
-        t, q = ts.transform.translation, ts.transform.rotation
-        child = ts.child_frame_id.lstrip("/")
-        if set_time is not None and not static:
-            set_time(ts.header.stamp)
-        rec.log(f"{path}/{child}", rr.Transform3D(
-            translation=[t.x, t.y, t.z], quaternion=[q.x, q.y, q.z, q.w],
-            parent_frame=ts.header.frame_id.lstrip("/"), child_frame=child), static=static)
+def log_transform(rec, path: str, ts: m.TransformStamped, static: bool = False) -> None:
+    """One TF edge. Rerun's default relation is ROS's: the pose of ``child_frame`` in ``parent_frame``
+    (maps child coordinates into the parent). Each child frame must always be logged at the same entity,
+    so the caller uses ``tf/<child>``."""
+    t, q = ts.transform.translation, ts.transform.rotation
+    rec.log(path, rr.Transform3D(
+        translation=[t.x, t.y, t.z], quaternion=[q.x, q.y, q.z, q.w],
+        parent_frame=frame_name(ts.header.frame_id), child_frame=frame_name(ts.child_frame_id)),
+        static=static)
 
 
 class OdomTrail:
-    """Accumulates odometry positions into a bounded trail."""
+    """The odometry trail as line-strip segments ``path/<k>`` of at most ``segment`` points.
 
-    def __init__(self, max_points: int = 5000, min_step: float = 0.02) -> None:
+    Re-logging one ever-growing strip would store O(n^2) points over a run; a finished segment is never
+    logged again (it stays visible as the latest value of its entity), so each update costs at most
+    ``segment`` points and the whole run O(n). A new point is taken every ``min_step`` metres.
+    """
+
+    def __init__(self, segment: int = 100, min_step: float = 0.05) -> None:
         self.points: list[tuple[float, float]] = []
-        self.max_points, self.min_step = max_points, min_step
+        self.segment, self.min_step, self.index = segment, min_step, 0
 
-    def log(self, rec, path: str, msg: m.Odometry) -> None:
+    def log(self, rec, path: str, msg: m.Odometry) -> bool:
         p = msg.pose2d
         if self.points and np.hypot(p.x - self.points[-1][0], p.y - self.points[-1][1]) < self.min_step:
-            return
+            return False
         self.points.append((p.x, p.y))
-        del self.points[: -self.max_points]
         arr = np.array(self.points)
         strip = np.column_stack((arr, np.full(len(arr), 0.01)))
-        rec.log(path, _frame(msg.header), rr.LineStrips3D([strip], colors=[[250, 200, 0]], radii=0.01))
+        rec.log(f"{path}/{self.index}", _frame(msg.header),
+                rr.LineStrips3D([strip], colors=[[250, 200, 0]], radii=0.015))
+        if len(self.points) >= self.segment:  # start the next segment where this one ends
+            self.points, self.index = self.points[-1:], self.index + 1
+        return True
 
 
 def log_twist(rec, path: str, msg: m.Twist) -> None:

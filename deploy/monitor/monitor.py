@@ -1,33 +1,37 @@
 """The monitor: a Zenoh peer that logs one robot's topics to Rerun (our rviz).
 
 It subscribes once to ``zenav/<robot>/**`` and dispatches on the decoded message type, so new
-topics show up without configuration. Heavy streams are throttled per entity (rates configurable)
-so a long run keeps the viewer's memory bounded. Time comes from the message stamps.
+topics show up without configuration. Latched topics (map, tf_static) published before it started
+are fetched from every publisher that announces them (liveliness), never from services.
+Heavy streams are throttled per entity (``pacing.Throttle``, latest wins) so a long run keeps the
+viewer's memory bounded. Time comes from the message stamps (``pacing.StampTimeline``).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import re
 import threading
-import time
 from dataclasses import dataclass, field
+from typing import Callable
 
 import rerun as rr
-import rerun.blueprint as rrb
 import zenoh
 
 from common import messages as m
 from common.codec import DecodeError, decode
 from deploy.monitor import loggers as L
+from deploy.monitor.layout import blueprint  # noqa: F401 - re-exported for callers
+from deploy.monitor.pacing import DEFAULT_RATES, StampTimeline, Throttle  # noqa: F401
 
 log = logging.getLogger("zenav.monitor")
 
-# Default max logging rate per message type (Hz); 0 = every message.
-DEFAULT_RATES: dict[str, float] = {
-    "OccupancyGrid": 0.5, "Costmap": 2.0, "PointCloud": 2.0, "DepthImage": 2.0, "LaserScan": 10.0,
-    "Odometry": 10.0, "Twist": 20.0, "Path": 5.0, "PolygonStamped": 5.0, "TFMessage": 20.0,
-}
-IGNORED = {"Clock", "CameraInfo", "Empty"}
+IGNORED = {"CameraInfo", "Empty"}
+STATUS_NAMES = {0: "PENDING", 1: "ACTIVE", 2: "PREEMPTED", 3: "SUCCEEDED", 4: "ABORTED", 5: "REJECTED",
+                8: "RECALLED"}
+NODE_LEVELS = {"FAILED": "ERROR", "RESTARTING": "WARN", "EXITED": "WARN"}
+PLAN_COLORS = {"local_plan": (0, 200, 255)}
 
 
 @dataclass
@@ -36,44 +40,50 @@ class MonitorStats:
     logged: int = 0
     throttled: int = 0
     malformed: int = 0
+    errors: int = 0
     by_entity: dict = field(default_factory=dict)
 
-
-def blueprint() -> rrb.Blueprint:
-    """The layout: map view (map frame), local view (odom frame), depth, plots and logs."""
-    return rrb.Blueprint(
-        rrb.Horizontal(
-            rrb.Spatial3DView(name="Map (map frame)", origin="/", contents=["/world/**", "/tf/**"],
-                              spatial_information=rrb.SpatialInformation(target_frame="map")),
-            rrb.Vertical(
-                rrb.Spatial3DView(name="Local (odom frame)", origin="/",
-                                  contents=["/world/local_costmap/**", "/world/scan", "/world/footprint/**",
-                                            "/world/move_base/**", "/world/camera/**", "/tf/**",
-                                            "/world/odom_trail"],
-                                  spatial_information=rrb.SpatialInformation(target_frame="odom")),
-                rrb.Tabs(rrb.Spatial2DView(name="Depth", origin="/camera"),
-                         rrb.TimeSeriesView(name="cmd_vel", origin="/plots/cmd_vel"),
-                         rrb.TimeSeriesView(name="loop times & metrics", origin="/plots")),
-                rrb.TextLogView(name="Events", origin="/log"),
-                row_shares=[3, 2, 2]),
-            column_shares=[3, 2]),
-        collapse_panels=True)
+    def line(self) -> str:
+        return (f"received={self.received} logged={self.logged} throttled={self.throttled} "
+                f"malformed={self.malformed} errors={self.errors}")
 
 
 class Monitor:
     def __init__(self, session: zenoh.Session, robot: str, rec: rr.RecordingStream,
-                 rates: dict[str, float] | None = None) -> None:
-        self.robot, self.rec = robot, rec
-        self.rates = dict(DEFAULT_RATES, **(rates or {}))
+                 rates: dict[str, float] | None = None, flush_period: float = 0.05) -> None:
+        self.robot, self.rec, self.session = robot, rec, session
+        self.throttle = Throttle(rates)
+        self.timeline = StampTimeline()
         self.stats = MonitorStats()
-        self._last_log: dict[str, float] = {}
         self._last_text: dict[str, str] = {}
         self._trail = L.OdomTrail()
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()
         self._prefix = f"zenav/{robot}/"
-        self._sub = session.declare_subscriber(f"zenav/{robot}/**", self._on_sample)
-        # Latched topics (map, tf_static) published before we started.
-        session.get(f"zenav/{robot}/**", self._on_reply, target=zenoh.QueryTarget.ALL)
+        self._queried: set[str] = set()
+        self._stop = threading.Event()
+        self._handles = [
+            session.declare_subscriber(f"zenav/{robot}/**", self._on_sample),
+            session.liveliness().declare_subscriber(f"zenavlive/{robot}/pub/**", self._on_publisher,
+                                                    history=True),
+        ]
+        self._flusher = threading.Thread(target=self._flush_loop, args=(flush_period,), daemon=True,
+                                         name="monitor-flush")
+        self._flusher.start()
+
+    # -- input -----------------------------------------------------------------------------------
+    def _on_publisher(self, sample) -> None:
+        """A publisher appeared: fetch its topic's latched message (no-op for unlatched ones)."""
+        if sample.kind != zenoh.SampleKind.PUT:
+            return
+        parts = str(sample.key_expr).split("/", 4)  # zenavlive/<robot>/pub/<node>/<topic>
+        if len(parts) < 5 or parts[4] in self._queried:
+            return
+        self._queried.add(parts[4])
+        try:
+            self.session.get(self._prefix + parts[4], self._on_reply, target=zenoh.QueryTarget.ALL,
+                             consolidation=zenoh.ConsolidationMode.NONE)
+        except zenoh.ZError as e:  # session closing
+            log.debug("latched query failed: %s", e)
 
     def _on_reply(self, reply) -> None:
         if reply.ok is not None:
@@ -81,99 +91,174 @@ class Monitor:
 
     def _on_sample(self, sample) -> None:
         key = str(sample.key_expr)
-        if "/srv/" in key:
+        if not key.startswith(self._prefix) or key.startswith(self._prefix + "srv/"):
             return
         topic = key[len(self._prefix):]
         try:
             msg = decode(sample.payload.to_bytes())
-        except DecodeError:
-            self.stats.malformed += 1
-            return
-        self.stats.received += 1
-        try:
+        except DecodeError as e:
             with self._lock:
+                self.stats.malformed += 1
+                if self.stats.malformed in (1, 10, 100) or self.stats.malformed % 1000 == 0:
+                    log.warning("malformed payload on %s (#%d): %s", topic, self.stats.malformed, e)
+            return
+        with self._lock:
+            self.stats.received += 1
+            try:
                 self.handle(topic, msg)
-        except Exception as e:  # a logging bug must not kill the monitor
-            log.warning("could not log %s (%s): %s", topic, type(msg).__name__, e)
+            except Exception as e:  # noqa: BLE001 - a bad message or logging bug must not kill the monitor
+                self.stats.errors += 1
+                log.warning("could not log %s (%s): %s", topic, type(msg).__name__, e)
 
-    def _due(self, entity: str, kind: str) -> bool:
-        hz = self.rates.get(kind, 0.0)
-        now = time.monotonic()
-        if hz > 0 and now - self._last_log.get(entity, -1e9) < 1.0 / hz:
-            self.stats.throttled += 1
-            return False
-        self._last_log[entity] = now
+    # -- pacing ----------------------------------------------------------------------------------
+    def _set_time(self, stamp: float | None) -> None:
+        self.rec.reset_time()  # time is per thread: never inherit another message's stamp
+        t = self.timeline.resolve(stamp)
+        if t is not None:
+            self.rec.set_time("stamp", **{t[0]: t[1]})
+
+    def _submit(self, entity: str, topic: str, kind: str, stamp: float | None,
+                fn: Callable[[], None]) -> None:
+        if self.throttle.offer(entity, self.throttle.period(topic, kind), (stamp, fn)):
+            self._emit(entity, stamp, fn)
+        else:
+            self.stats.throttled = self.throttle.dropped
+
+    def _emit(self, entity: str, stamp: float | None, fn: Callable[[], None]) -> None:
+        self._set_time(stamp)
+        fn()
         self.stats.logged += 1
         self.stats.by_entity[entity] = self.stats.by_entity.get(entity, 0) + 1
-        return True
 
-    def _time(self, stamp: float) -> None:
-        if stamp > 1e8:
-            self.rec.set_time("stamp", timestamp=stamp)
-        else:  # simulated time starts near zero
-            self.rec.set_time("stamp", duration=stamp)
+    def _flush_loop(self, period: float) -> None:
+        while not self._stop.wait(period):
+            self.flush_pending()
 
+    def flush_pending(self, flush_all: bool = False) -> None:
+        with self._lock:
+            for entity, (stamp, fn) in self.throttle.due(flush_all):
+                try:
+                    self._emit(entity, stamp, fn)
+                except Exception as e:  # noqa: BLE001
+                    self.stats.errors += 1
+                    log.warning("could not log %s: %s", entity, e)
+            self.stats.throttled = self.throttle.dropped
+
+    # -- dispatch --------------------------------------------------------------------------------
     def handle(self, topic: str, msg) -> None:
         kind = type(msg).__name__
+        rec, sub = self.rec, self._submit
         if kind in IGNORED:
             return
-        header = getattr(msg, "header", None)
-        if header is not None:
-            self._time(header.stamp)
-        rec = self.rec
+        if isinstance(msg, m.Clock):  # simulated time advances even when nothing else is stamped
+            self.timeline.resolve(msg.clock)
+            return
         if isinstance(msg, m.TFMessage):
             static = topic == "tf_static"
-            if static or self._due("tf", kind):
-                L.log_transforms(rec, "tf", msg, static=static, set_time=self._time)
+            for ts in msg.transforms:
+                child = L.frame_name(ts.child_frame_id, "")
+                if not child:
+                    continue
+
+                def fn(ts=ts, e=f"tf/{child}") -> None:
+                    L.log_transform(rec, e, ts, static)
+
+                if static:  # static data needs no time and is never throttled
+                    self._emit(f"tf/{child}", None, fn)
+                else:
+                    sub(f"tf/{child}", topic, kind, ts.header.stamp, fn)
             return
+        stamp = msg.header.stamp if hasattr(msg, "header") else None
         spatial = {
             m.OccupancyGrid: L.log_occupancy_grid, m.Costmap: L.log_costmap, m.LaserScan: L.log_scan,
-            m.PointCloud: L.log_cloud, m.Path: L.log_path, m.PolygonStamped: L.log_polygon,
-            m.PoseStamped: L.log_pose,
+            m.PointCloud: L.log_cloud, m.PolygonStamped: L.log_polygon, m.PoseStamped: L.log_pose,
         }
-        fn = spatial.get(type(msg))
-        if fn is not None:
+        if type(msg) in spatial:
             entity = "world/" + topic
-            if self._due(entity, kind):
-                fn(rec, entity, msg)
-            return
-        if isinstance(msg, m.DepthImage):
-            if self._due("camera/" + topic, kind):
-                L.log_depth_image(rec, "camera/depth", msg)
+            sub(entity, topic, kind, stamp, lambda: spatial[type(msg)](rec, entity, msg))
+        elif isinstance(msg, m.Path):
+            color = PLAN_COLORS.get(topic.rsplit("/", 1)[-1], (40, 200, 40))
+            sub("world/" + topic, topic, kind, stamp, lambda: L.log_path(rec, "world/" + topic, msg, color))
+        elif isinstance(msg, m.DepthImage):
+            entity = "camera/" + topic.removeprefix("camera/")
+            sub(entity, topic, kind, stamp, lambda: L.log_depth_image(rec, entity, msg))
         elif isinstance(msg, m.Odometry):
-            if self._due("odom", kind):
+            def odom() -> None:
                 self._trail.log(rec, "world/odom_trail", msg)
                 rec.log("plots/odom/speed", rr.Scalars(msg.twist.linear.x))
+            sub("world/odom_trail", topic, kind, stamp, odom)
         elif isinstance(msg, m.Twist):
-            if self._due(topic, kind):
-                rec.set_time("wall", timestamp=time.time())
-                L.log_twist(rec, f"plots/{topic}", msg)
+            sub(f"plots/{topic}", topic, kind, None, lambda: L.log_twist(rec, f"plots/{topic}", msg))
         elif isinstance(msg, m.Scalar):
-            rec.log(f"plots/{topic}", rr.Scalars(msg.value))
+            entity = scalar_entity(topic)
+            sub(entity, topic, kind, stamp, lambda: rec.log(entity, rr.Scalars(msg.value)))
         elif isinstance(msg, m.MoveBaseStatus):
-            rec.log("plots/move_base/distance_to_goal", rr.Scalars(msg.distance_to_goal_m))
-            self._text_on_change("log/move_base", f"{msg.state} {msg.goal_id}: {msg.reason or 'moving'}")
+            sub("plots/move_base/distance_to_goal", topic, kind, stamp,
+                lambda: rec.log("plots/move_base/distance_to_goal", rr.Scalars(msg.distance_to_goal_m)))
+            self._move_base_status(topic, msg)
         elif isinstance(msg, m.NodeState):
-            self._text_on_change(f"log/nodes/{msg.node}", f"{msg.node}: {msg.state} {msg.detail}".strip())
+            self._node_state(topic, msg)
         elif isinstance(msg, m.GoalStatus):
-            self._text_on_change(f"log/{topic}", f"goal {msg.goal_id} status {msg.status} {msg.text}")
+            name = STATUS_NAMES.get(msg.status, str(msg.status))
+            self._text_on_change(f"log/{topic}", stamp, f"goal {msg.goal_id} {name} {msg.text}".strip())
         elif isinstance(msg, m.Collision):
-            self._text_on_change("log/collisions", f"collision #{msg.count} at ({msg.x:.2f}, {msg.y:.2f})",
-                                 level="WARN")
+            self._text_on_change("log/collisions", stamp,
+                                 f"collision #{msg.count} at ({msg.x:.2f}, {msg.y:.2f})", level="WARN")
         elif isinstance(msg, m.Text):
-            self._text_on_change(f"log/{topic}", msg.data)
+            self._text_on_change(f"log/{topic}", stamp, msg.data)
         elif isinstance(msg, m.BatteryState):
-            rec.log("plots/battery_voltage", rr.Scalars(msg.voltage))
+            sub("plots/battery_voltage", topic, kind, stamp,
+                lambda: rec.log("plots/battery_voltage", rr.Scalars(msg.voltage)))
         elif isinstance(msg, m.MotorState):
-            self._text_on_change("log/motors", f"motors {'enabled' if msg.enabled else 'disabled'}")
+            self._text_on_change("log/motors", stamp, f"motors {'enabled' if msg.enabled else 'disabled'}")
 
-    def _text_on_change(self, entity: str, text: str, level: str = "INFO") -> None:
-        if self._last_text.get(entity) != text:
-            self._last_text[entity] = text
-            L.log_text(self.rec, entity, text, level)
+    def _move_base_status(self, topic: str, msg: m.MoveBaseStatus) -> None:
+        """One event per change of goal / status / state / recovery / reason (numbers in it ignored)."""
+        status = STATUS_NAMES.get(msg.status, str(msg.status))
+        text = f"{msg.state or '-'} [{status}] goal {msg.goal_id or '-'}"
+        if msg.reason:
+            text += f": {msg.reason}"
+        if msg.recovery_count:
+            text += f" (recoveries {msg.recovery_count})"
+        level = ("ERROR" if status in ("ABORTED", "REJECTED")
+                 else "WARN" if msg.state.upper().startswith(("CLEAR", "RECOVER")) or msg.reason else "INFO")
+        key = re.sub(r"-?\d+(\.\d+)?", "#", msg.reason)
+        self._text_on_change(f"log/{topic.rsplit('/', 1)[0]}", msg.header.stamp, text, level,
+                             change=f"{msg.goal_id}|{msg.status}|{msg.state}|{msg.recovery_count}|{key}")
+
+    def _node_state(self, topic: str, msg: m.NodeState) -> None:
+        """``agent/<name>/state`` -> one event per node state change at ``log/agent/<name>``."""
+        parts = topic.split("/")
+        entity = f"log/agent/{parts[1]}" if len(parts) == 3 and parts[0] == "agent" else f"log/{topic}"
+        text = f"{msg.node}: {msg.state}"
+        if msg.restarts:
+            text += f" (restarts {msg.restarts})"
+        if msg.detail:
+            text += f" {msg.detail}"
+        self._text_on_change(entity, msg.header.stamp, text, NODE_LEVELS.get(msg.state, "INFO"),
+                             key=f"{entity}|{msg.node}", change=f"{msg.state}|{msg.restarts}|{msg.detail}")
+
+    def _text_on_change(self, entity: str, stamp: float | None, text: str, level: str = "INFO",
+                        key: str | None = None, change: str | None = None) -> None:
+        """Log ``text`` when it differs from the last one under ``key`` (default: the entity)."""
+        key = key or entity
+        change = text if change is None else change
+        if self._last_text.get(key) != change:
+            self._last_text[key] = change
+            self._emit(entity, stamp, lambda: L.log_text(self.rec, entity, text, level))
 
     def close(self) -> None:
-        try:
-            self._sub.undeclare()
-        except zenoh.ZError:
-            pass
+        """Stop receiving, then log what the throttle still held (the newest state of each entity)."""
+        self._stop.set()
+        for h in self._handles:
+            with contextlib.suppress(zenoh.ZError):
+                h.undeclare()
+        self._flusher.join(2.0)
+        self.flush_pending(flush_all=True)
+
+
+def scalar_entity(topic: str) -> str:
+    """``<node>/loop_time`` -> ``plots/loop_time/<node>``; any other Scalar topic -> ``plots/<topic>``."""
+    if topic.endswith("/loop_time"):
+        return "plots/loop_time/" + topic[: -len("/loop_time")]
+    return "plots/" + topic

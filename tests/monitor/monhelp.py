@@ -1,0 +1,74 @@
+"""Helpers for monitor tests: loopback bus configs, waiting, reading a recording back."""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+from pathlib import Path
+
+import pyarrow as pa
+import pytest
+from rerun.chunk import RrdReader
+
+REPO = Path(__file__).resolve().parents[2]
+FOOTER_MAGIC = b"RRF2FOOT"
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_for(cond, timeout: float = 30.0, what: str = "condition", step: float = 0.05):
+    end = time.monotonic() + timeout
+    while True:
+        v = cond()
+        if v:
+            return v
+        if time.monotonic() > end:
+            pytest.fail(f"timed out after {timeout:.0f} s waiting for {what}")
+        time.sleep(step)
+
+
+def child_env(robot: str, connect: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
+    env.update(ZENAV_ROBOT=robot, ZENAV_MULTICAST="0", ZENAV_CONNECT=connect, PYTHONUNBUFFERED="1",
+               PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH", "")])))
+    return env
+
+
+def has_footer(path: Path) -> bool:
+    """A properly closed .rrd ends with the footer magic (``RRF2FOOT`` + version)."""
+    with open(path, "rb") as f:
+        f.seek(max(0, path.stat().st_size - 16))
+        return FOOTER_MAGIC in f.read()
+
+
+def read_rrd(path: Path) -> dict[str, list[dict]]:
+    """entity path -> rows (dicts of component -> value), sorted by ``stamp`` when present.
+
+    Timeline columns are returned as integers (ns); ``_stamp_type`` holds the arrow type of ``stamp``.
+    """
+    out: dict[str, list[dict]] = {}
+    for chunk in RrdReader(str(path)).stream().to_chunks():
+        rb = chunk.to_record_batch()
+        cols = {}
+        for name in rb.schema.names:
+            col = rb.column(name)
+            if pa.types.is_timestamp(col.type) or pa.types.is_duration(col.type):
+                cols[name] = col.cast(pa.int64()).to_pylist()
+                cols["_stamp_type" if name == "stamp" else f"_{name}_type"] = [str(col.type)] * len(col)
+            else:
+                cols[name] = col.to_pylist()
+        rows = [dict(zip(cols, vals)) for vals in zip(*cols.values())]
+        out.setdefault(chunk.entity_path, []).extend(rows)
+    for rows in out.values():
+        rows.sort(key=lambda r: r.get("stamp") or 0)
+    return out
+
+
+def values(rows: list[dict], component: str) -> list:
+    """The non-null values of ``component`` (each a list, as logged) in row order."""
+    return [r[component] for r in rows if r.get(component) is not None]
