@@ -1,0 +1,314 @@
+"""Simulator bus node: the simulated Pioneer publishes what the real drivers publish, on the same keys.
+
+    python -m robot_side.sim.node --config FILE [--section KEY] [--world W] [--start X Y YAW] [--speed N]
+
+Mapping: ``world`` (default ``room``), ``start``, ``world_params``, ``sim``, ``base``, ``laser``,
+``depth_camera`` (see ``Simulator.from_config``; here a sensor exists only when its key is present and
+not null/false — ``laser: {}`` for the defaults) plus the node keys of ``SimNodeParams`` (``speed``,
+``start_time``, rates, battery, ``mount_tf``).
+
+Published (all stamps sim time; sim time starts at the wall time at start unless ``start_time``)::
+
+    clock                       Clock           every physics step (dt = sim.dt, 100 Hz sim time)
+    odom                        Odometry        odom -> base_link, odom_rate (50 Hz sim time)
+    tf                          TFMessage       odom -> base_link, with every odom message
+    tf_static (latched)         TFMessage       base_link -> laser, base_link -> camera_link (mount_tf),
+                                                camera_link -> camera_depth_frame (identity, or see
+                                                mount_tf) -> camera_depth_optical_frame
+    scan                        LaserScan       laser.rate, when a laser is configured
+    camera/depth/image          DepthImage      depth_camera.rate / (data_skip + 1), when configured
+    camera/depth/camera_info    CameraInfo      with every depth image
+    ground_truth                Odometry        map -> base_link, ground_truth_rate (evaluation only)
+    collision (latched)         Collision       on each new collision (count since start)
+    motor_state (latched)       MotorState      motor_state_rate (1 Hz) + on change
+    battery_state               BatteryState    battery_rate (1 Hz), a slowly draining fake
+
+Subscribed: ``cmd_vel`` (Twist; the timeout ``base.cmd_vel_timeout`` runs in sim time) and
+``cmd_motor_state`` (MotorState; disabled motors ignore cmd_vel).
+The physics runs on its own thread paced by ``Pacer`` at ``speed`` x real time; when the machine cannot
+keep up for more than ``max_lag`` wall seconds, the sim runs slower instead of bursting to catch up.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import threading
+import time
+from typing import Any
+
+from common.config import ConfigError, load_params
+from common.geometry import Transform
+from common.messages import BatteryState, Clock, Header, MotorState, TransformStamped, Twist
+from common.tf import StaticTFBroadcaster, TFBroadcaster, TFError, TFListener
+from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
+from robot_side.sim.node_params import SIMULATOR_KEYS, SimNodeParams
+from robot_side.sim.simulator import Pacer, Simulator, resolve_world
+
+log = logging.getLogger("zenav.sim")
+
+CAMERA_LINK = "camera_link"
+
+
+def _restamp(msg: Any, offset: float) -> Any:
+    return dataclasses.replace(msg, header=dataclasses.replace(msg.header, stamp=msg.header.stamp + offset))
+
+
+class _Tick:
+    """True once per period of sim time (first at t = 0)."""
+
+    def __init__(self, rate: float) -> None:
+        self.rate, self.last = rate, -1
+
+    def __call__(self, t: float) -> bool:
+        k = math.floor(t * self.rate + 1e-6)
+        if k > self.last:
+            self.last = k
+            return True
+        return False
+
+
+def load(cfg: dict | None, source: str) -> tuple[SimNodeParams, Simulator, str]:
+    cfg = dict(cfg or {})
+    sim_cfg = {k: cfg.pop(k) for k in SIMULATOR_KEYS if k in cfg}
+    names = {a for f in dataclasses.fields(SimNodeParams) for a in (f.name, *f.metadata.get("aliases", ()))}
+    for k in cfg:
+        if k not in names:
+            known = ", ".join(sorted((*SIMULATOR_KEYS, *names)))
+            raise ConfigError(source, str(k), f"unknown key (known keys: {known})")
+    p = load_params(SimNodeParams, cfg, source)
+    sim_cfg.setdefault("world", p.default_world)
+    for sensor in ("laser", "depth_camera"):  # absent = no such sensor (one scan publisher per robot)
+        sim_cfg.setdefault(sensor, None)
+    sim = Simulator.from_config(sim_cfg, source)
+    if sim.camera is not None and sim.camera.p.frame_id in (CAMERA_LINK, p.depth_frame_id):
+        raise ConfigError(source, "depth_camera.frame_id",
+                          f"must name the optical frame, not {sim.camera.p.frame_id!r}")
+    return p, sim, str(resolve_world(sim_cfg["world"], source))
+
+
+class SimNode:
+    def __init__(self, node, p: SimNodeParams, sim: Simulator, world_path: str = "") -> None:
+        self.node, self.p, self.sim = node, p, sim
+        self.speed = p.speed if p.speed is not None else sim.params.real_time_factor
+        self.offset = time.time() if p.start_time is None else p.start_time
+        self.lock = threading.Lock()
+        self._stop = threading.Event()
+        self.lag_events = 0
+        pub = node.publisher
+        self.pub_clock, self.pub_odom = pub("clock"), pub("odom")
+        self.tf = TFBroadcaster(node)
+        self.static = StaticTFBroadcaster(node)
+        self.pub_gt = pub("ground_truth")
+        self.pub_collision = pub("collision", latched=True)
+        self.pub_motor = pub("motor_state", latched=True)
+        self.pub_battery = pub("battery_state")
+        self.pub_scan = pub("scan") if sim.laser else None
+        self.pub_depth = pub("camera/depth/image", reliable=False) if sim.camera else None
+        self.pub_info = pub("camera/depth/camera_info") if sim.camera else None
+        self._odom_tick, self._gt_tick = _Tick(p.odom_rate), _Tick(p.ground_truth_rate)
+        self._motor_tick, self._battery_tick = _Tick(p.motor_state_rate), _Tick(p.battery_rate)
+        self._collisions = sim.base.collisions
+        self._motors_sent: bool | None = None
+        self.static.send(self._static_transforms())
+        self._listener = None
+        if not p.mount_tf:
+            self._listener = TFListener(node)
+            threading.Thread(target=self._follow_mount_tf, name="sim:mount_tf", daemon=True).start()
+        self.subs = [node.subscribe("cmd_vel", Twist, callback=self._on_cmd_vel),
+                     node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state)]
+        node.log.info("%s", self.summary(world_path))
+        self._thread = threading.Thread(target=self._run, name="sim:loop", daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ description
+    def summary(self, world_path: str = "") -> str:
+        s, b = self.sim, self.sim.base
+        parts = [f"world '{s.world.name}' ({world_path})" if world_path else f"world '{s.world.name}'",
+                 f"start x={b.pose.x:.2f} y={b.pose.y:.2f} yaw={b.pose.theta:.2f}"]
+        if s.laser:
+            lp = s.laser.p
+            fov = math.degrees(lp.angle_max - lp.angle_min)
+            parts.append(f"laser '{lp.frame_id}' {lp.samples} beams {fov:.0f} deg {lp.range_max:g} m "
+                         f"{lp.rate:g} Hz")
+        if s.camera:
+            cp = s.camera.p
+            parts.append(f"depth '{cp.frame_id}' {s.camera.width}x{s.camera.height} {cp.publish_rate:g} Hz")
+        if not (s.laser or s.camera):
+            parts.append("no sensors")
+        start = "wall time" if self.p.start_time is None else f"{self.p.start_time:g} s"
+        parts.append(f"speed {self.speed:g}x, dt {s.params.dt:g} s, sim time from {start}, "
+                     f"cmd_vel timeout {b.p.cmd_vel_timeout:g} s")
+        return "simulator: " + ", ".join(parts)
+
+    def _static_transforms(self, camera_link_to_depth: Transform | None = None) -> list[TransformStamped]:
+        s, base, t0 = self.sim, self.sim.base.p.base_frame_id, self.offset
+        out = []
+        if s.laser and self.p.mount_tf:
+            lp = s.laser.p
+            out.append(TransformStamped(Header(t0, base), lp.frame_id,
+                                        Transform.from_xyz_rpy(lp.x, lp.y, lp.z, 0.0, 0.0, lp.yaw)))
+        if s.camera:
+            cp, depth = s.camera.p, self.p.depth_frame_id
+            mount = Transform.from_xyz_rpy(cp.x, cp.y, cp.z, 0.0, 0.0, cp.yaw)
+            if self.p.mount_tf:
+                out.append(TransformStamped(Header(t0, base), CAMERA_LINK, mount))
+                out.append(TransformStamped(Header(t0, CAMERA_LINK), depth, Transform()))
+            elif camera_link_to_depth is not None:
+                out.append(TransformStamped(Header(t0, CAMERA_LINK), depth, camera_link_to_depth))
+            out.append(TransformStamped(Header(t0, depth), cp.frame_id, OPTICAL_FROM_LINK))
+        return out
+
+    def _follow_mount_tf(self) -> None:
+        """mount_tf false: base_link -> camera_link belongs to a static transform node. Publish
+        camera_link -> camera_depth_frame so that base_link -> camera_depth_frame is the rendered mount;
+        check a configured laser's edge against its mount (a warning: the sim cannot fix that one)."""
+        s, base = self.sim, self.sim.base.p.base_frame_id
+        last, laser_checked = None, s.laser is None
+        while not self._stop.wait(0.2 if last is None else 1.0):
+            buf = self._listener.buffer
+            if s.camera:
+                cp = s.camera.p
+                try:
+                    link = buf.lookup(base, CAMERA_LINK).transform
+                    corr = link.inverse().compose(Transform.from_xyz_rpy(cp.x, cp.y, cp.z, 0.0, 0.0, cp.yaw))
+                    if last is None or not _same(corr, last):
+                        last = corr
+                        self.static.send(self._static_transforms(corr))
+                        self.node.log.info("%s -> %s is owned by another node; publishing %s -> %s to match "
+                                           "the rendered camera", base, CAMERA_LINK, CAMERA_LINK,
+                                           self.p.depth_frame_id)
+                except TFError:
+                    pass
+            if not laser_checked:
+                lp = s.laser.p
+                try:
+                    got = buf.lookup(base, lp.frame_id).transform
+                    laser_checked = True
+                    if not _same(got, Transform.from_xyz_rpy(lp.x, lp.y, lp.z, 0.0, 0.0, lp.yaw), 1e-3):
+                        self.node.log.warning("TF %s -> %s (%s) differs from the simulated laser mount x=%g "
+                                              "y=%g z=%g yaw=%g", base, lp.frame_id, got, lp.x, lp.y, lp.z,
+                                              lp.yaw)
+                except TFError:
+                    pass
+
+    # ------------------------------------------------------------------ inputs
+    def _on_cmd_vel(self, twist: Twist) -> None:
+        with self.lock:
+            self.sim.cmd_vel(twist)
+
+    def _on_motor_state(self, msg: MotorState) -> None:
+        with self.lock:
+            self.sim.set_motors(bool(msg.enabled))
+            out = self._motor_msg()
+        self.pub_motor.publish(out)
+
+    def _motor_msg(self) -> MotorState:
+        self._motors_sent = self.sim.base.motors_enabled
+        return _restamp(self.sim.motor_state(), self.offset)
+
+    # ------------------------------------------------------------------ loop
+    def _run(self) -> None:
+        dt, pacer = self.sim.params.dt, Pacer(self.speed)
+        t0, sim0 = time.monotonic(), self.sim.time
+        while not self._stop.is_set():
+            n = pacer.steps_due(time.monotonic() - t0, self.sim.time - sim0, dt)
+            if n == 0:
+                due = t0 + (self.sim.time - sim0 + dt) / self.speed
+                self._stop.wait(max(0.0, due - time.monotonic()))
+                continue
+            for _ in range(n):
+                if self._stop.is_set():
+                    return
+                try:
+                    self._step()
+                except Exception:  # noqa: BLE001 - a bad step must not silently kill the robot's clock
+                    log.exception("simulation step failed")
+            behind = (time.monotonic() - t0) - (self.sim.time - sim0) / self.speed
+            if behind > self.p.max_lag:
+                t0 = time.monotonic() - (self.sim.time - sim0) / self.speed
+                self.lag_events += 1
+                if self.lag_events == 1 or self.lag_events % 20 == 0:
+                    log.warning("simulator cannot keep up with %gx real time (%.2f s behind, #%d): "
+                                "running slower", self.speed, behind, self.lag_events)
+
+    def _step(self) -> None:
+        sim, off, out = self.sim, self.offset, []
+        with self.lock:
+            due = sim.step()
+            t = sim.time
+            out.append((self.pub_clock, Clock(t + off)))
+            if self._odom_tick(t):
+                out.append((self.pub_odom, _restamp(sim.odometry(), off)))
+                out.append((self.tf, _restamp(sim.odom_transform(), off)))
+            if self._gt_tick(t):
+                out.append((self.pub_gt, _restamp(sim.ground_truth_odometry(), off)))
+            if sim.base.collisions != self._collisions:
+                self._collisions = sim.base.collisions
+                out.append((self.pub_collision, _restamp(sim.collision(), off)))
+            if self._motor_tick(t) or sim.base.motors_enabled != self._motors_sent:
+                out.append((self.pub_motor, self._motor_msg()))
+            if self._battery_tick(t):
+                out.append((self.pub_battery, self._battery(t + off)))
+            if "laser" in due:
+                out.append((self.pub_scan, _restamp(sim.scan(), off)))
+            if "depth_camera" in due:
+                img, info = sim.depth_frame()
+                out.append((self.pub_info, _restamp(info, off)))
+                out.append((self.pub_depth, _restamp(img, off)))
+        for pub, msg in out:
+            if pub is self.tf:
+                pub.send(msg)
+            else:
+                pub.publish(msg)
+
+    def _battery(self, stamp: float) -> BatteryState:
+        p = self.p
+        frac = max(0.0, p.battery_start - p.battery_drain_per_hour * self.sim.time / 3600.0)
+        volts = p.battery_empty_voltage + frac * (p.battery_full_voltage - p.battery_empty_voltage)
+        return BatteryState(Header(stamp, self.sim.base.p.base_frame_id), volts, frac)
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(5.0)
+        for sub in self.subs:
+            sub.close()
+        if self._listener is not None:
+            self._listener.close()
+
+
+def _same(a: Transform, b: Transform, tol: float = 1e-6) -> bool:
+    d = a.inverse().compose(b)
+    q = d.rotation
+    return math.dist(d.translation.as_array(), (0, 0, 0)) < tol and abs(abs(q.w) - 1.0) < tol
+
+
+def start(node, cfg: dict, source: str) -> SimNode:
+    p, sim, world = load(cfg, source)
+    return SimNode(node, p, sim, world)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``node_main`` plus the simulator's own overrides: --world, --start X Y YAW, --speed N."""
+    import argparse
+
+    from common.runner import node_main
+
+    ap = argparse.ArgumentParser(add_help=False)
+    ap.add_argument("--world")
+    ap.add_argument("--start", nargs=3, type=float)
+    ap.add_argument("--speed", type=float)
+    ap.add_argument("--start-time", dest="start_time", type=float)
+    over, rest = ap.parse_known_args(argv)
+    extra = {k: v for k, v in vars(over).items() if v is not None}
+
+    def start_with_overrides(node, cfg: dict, source: str) -> SimNode:
+        return start(node, {**(cfg or {}), **extra}, source)
+
+    return node_main("sim", start_with_overrides, rest)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

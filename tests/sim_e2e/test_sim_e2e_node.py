@@ -1,0 +1,147 @@
+"""Issue 3 acceptance against ``python -m robot_side.sim.node`` driven from a separate Zenoh peer."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from common.messages import BatteryState, CameraInfo, Clock, DepthImage, LaserScan, MotorState, Odometry
+from common.tf import TFListener
+from robot_side.sim.base import BaseParams
+from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
+from tests.sim_e2e.conftest import Recorder, open_world, publisher_matched, wait_until
+from tests.sim_e2e.e2e_checks import (
+    Rig,
+    check_odom_tf_ground_truth_agree,
+    check_stale_cmd_vel_stops,
+    check_wall_collision,
+)
+
+NOISY = {"srr": 0.05, "srt": 0.05, "str": 0.05, "stt": 0.05, "seed": 3}
+
+
+def test_odom_tf_and_ground_truth_agree_within_the_error_model(bus, sim, tmp_path):
+    node, _ = bus
+    proc = sim({"world": str(open_world(tmp_path)), "speed": 2.0, "base": NOISY})
+    rig = Rig(node, proc)
+    tf = TFListener(node)
+    check_odom_tf_ground_truth_agree(rig, tf, BaseParams(**NOISY))
+
+
+def test_stale_cmd_vel_stops_the_robot_within_the_timeout_in_sim_time(bus, sim, tmp_path):
+    node, _ = bus
+    base = {"cmd_vel_timeout": 0.5, "acc_lim_x": 1000.0, "acc_lim_th": 1000.0}
+    proc = sim({"world": str(open_world(tmp_path)), "speed": 1.0, "base": base})
+    check_stale_cmd_vel_stops(Rig(node, proc), BaseParams(**base))
+
+
+def test_driving_into_a_wall_reports_a_collision_and_never_goes_through(bus, sim, tmp_path):
+    node, _ = bus
+    proc = sim({"world": str(open_world(tmp_path, wall_x=1.5)), "speed": 2.0})
+    check_wall_collision(Rig(node, proc), wall_x=1.5, resolution=0.05)
+
+
+def test_speed_5_runs_ten_sim_seconds_in_about_two_wall_seconds(bus, sim, tmp_path):
+    node, _ = bus
+    clock = Recorder(node, "clock", Clock)
+    odom = Recorder(node, "odom", Odometry)
+    scan = Recorder(node, "scan", LaserScan)
+    wall_start = time.time()
+    proc = sim({"world": str(open_world(tmp_path)), "laser": {"rate": 25.0}}, "--speed", "5")
+    wait_until(lambda: len(clock) and len(scan) or not proc.alive(), 90, "clock and scan")
+    assert proc.alive(), proc.log()
+    w0, c0 = clock.timed()[-1][0], clock.last().clock
+    # sim time starts at the wall time at start (default start_time)
+    assert wall_start - 1.0 <= c0 - 0.0 <= time.time() + 5 * (time.time() - wall_start) + 1.0
+    w1 = wait_until(lambda: next((w for w, m in clock.timed() if m.clock >= c0 + 10.0), None), 60,
+                    "10 s of sim time")
+    assert 1.2 < w1 - w0 < 4.0, f"10 sim seconds took {w1 - w0:.2f} wall seconds at --speed 5"
+    assert "speed 5x" in proc.log()
+
+    clocks = np.array([m.clock for m in clock.msgs() if m.clock <= c0 + 10.0])
+    odoms = np.array([m.header.stamp for m in odom.msgs() if c0 <= m.header.stamp <= c0 + 10.0])
+    scans = np.array([m.header.stamp for m in scan.msgs() if c0 <= m.header.stamp <= c0 + 10.0])
+    for name, s in (("clock", clocks), ("odom", odoms), ("scan", scans)):
+        assert len(s) > 10, name
+        assert np.all(np.diff(s) > 0), f"{name} stamps not strictly increasing"
+    # one time base: every odom / scan stamp is a published clock value, on its rate's grid
+    grid = set(np.round(clocks, 6))
+    assert all(round(t, 6) in grid for t in odoms[odoms <= clocks[-1]])
+    assert all(round(t, 6) in grid for t in scans[scans <= clocks[-1]])
+    assert np.allclose(np.diff(clocks), 0.01, atol=1e-6), "a clock step was skipped"
+    assert np.allclose(np.diff(odoms), 0.02, atol=1e-6)
+    assert np.allclose(np.diff(scans), 0.04, atol=1e-6)
+
+
+def test_disabled_motors_ignore_cmd_vel(bus, sim, tmp_path):
+    node, _ = bus
+    proc = sim({"world": str(open_world(tmp_path)), "speed": 2.0})
+    rig = Rig(node, proc)
+    motors = Recorder(node, "motor_state", MotorState)
+    wait_until(lambda: motors.last() is not None and motors.last().enabled, 30, "motor_state enabled")
+    pub = node.publisher("cmd_motor_state")
+    publisher_matched(pub)
+    pub.publish(MotorState(enabled=False))
+    wait_until(lambda: not motors.last().enabled, 30, "motor_state disabled")
+    x0 = rig.gt.last().pose2d.x
+    t0 = rig.now()
+    rig.drive([(1.5, 0.5, 0.3)])
+    moved = [m for m in rig.odom.msgs() if m.header.stamp > t0 and abs(m.twist.linear.x) > 0]
+    assert not moved, "odom moved with the motors disabled"
+    assert abs(rig.gt.last().pose2d.x - x0) < 1e-9, "moved with the motors disabled"
+    # periodic motor_state (1 Hz sim time) keeps saying disabled
+    n = len(motors)
+    rig.wait_sim(1.2)
+    assert len(motors) > n
+    assert not motors.last().enabled
+    pub.publish(MotorState(enabled=True))
+    wait_until(lambda: motors.last().enabled, 30, "motor_state enabled again")
+    rig.drive([(1.0, 0.5, 0.0)])
+    assert rig.gt.last().pose2d.x - x0 > 0.1, "cmd_vel ignored after re-enabling the motors"
+    assert proc.stop() == 0, proc.log()  # SIGINT: clean shutdown
+
+
+def test_sensor_frames_match_what_the_depth_nodes_look_up(bus, sim, tmp_path):
+    node, _ = bus
+    cam = {"depth_mode": 8, "x": 0.1, "z": 0.35}
+    img = Recorder(node, "camera/depth/image", DepthImage)
+    info = Recorder(node, "camera/depth/camera_info", CameraInfo)
+    scan = Recorder(node, "scan", LaserScan)
+    battery = Recorder(node, "battery_state", BatteryState)
+    tf = TFListener(node)
+    proc = sim({"world": str(open_world(tmp_path, wall_x=2.0)), "laser": {"model": "sick_s300"},
+                "depth_camera": cam})
+    wait_until(lambda: len(img) and len(info) and len(scan) and len(battery) or not proc.alive(), 90,
+               "depth image, camera_info, scan and battery_state")
+    assert proc.alive(), proc.log()
+    image, ci, sc = img.last(), info.last(), scan.last()
+    assert image.depth.shape == (120, 160)
+    assert (ci.width, ci.height) == (160, 120)
+    assert image.header.frame_id == ci.header.frame_id == "camera_depth_optical_frame"
+    # the image's frame in base_link: level camera at the mount, optical axes (z forward, x right)
+    t = tf.buffer.lookup("base_link", image.header.frame_id, image.header.stamp, timeout=10.0).transform
+    want = np.array([[0.1, 0, 0.35], [0.1, 0, 1.35], [0.1, -1, 0.35]])  # origin, z, x of the optical frame
+    got = t.apply(np.array([[0, 0, 0], [0, 0, 1], [1, 0, 0]], float))
+    assert np.allclose(got[0], want[0], atol=1e-6)
+    assert np.allclose(got[1], [1.1, 0, 0.35], atol=1e-6)
+    assert np.allclose(got[2], want[2], atol=1e-6)
+    # depth_to_scan publishes in camera_depth_frame (x forward): level too
+    d = tf.buffer.lookup("base_link", "camera_depth_frame", timeout=10.0).transform
+    assert np.allclose(d.apply(np.array([[1.0, 0, 0]])), [[1.1, 0, 0.35]], atol=1e-6)
+    optical = tf.buffer.lookup("camera_depth_frame", image.header.frame_id).transform
+    assert np.allclose(optical.rotation.as_array(), OPTICAL_FROM_LINK.rotation.as_array(), atol=1e-9)
+    # the laser at its mount; its straight-ahead beam sees the wall at 2.0 - 0.1 m
+    assert sc.header.frame_id == "laser"
+    assert len(sc.ranges) == 541
+    lz = tf.buffer.lookup("base_link", "laser", timeout=10.0).transform
+    assert np.allclose(lz.translation.as_array(), [0.1, 0, 0.35], atol=1e-6)
+    assert abs(sc.ranges[270] - 1.9) < 0.06
+    centre = image.depth[60, 75:85]
+    assert np.all(np.abs(centre - 1.9) < 0.1), centre
+    b = battery.last()
+    assert 0.0 < b.percentage <= 1.0
+    assert 11.0 <= b.voltage <= 12.8
+    assert math.isfinite(image.header.stamp)
+    assert abs(image.header.stamp - sc.header.stamp) < 1.0
