@@ -21,7 +21,7 @@ __all__ = [
     "Pose", "Twist", "Odometry", "LaserScan", "DepthImage", "CameraInfo", "PointCloud", "OccupancyGrid",
     "Costmap", "Path", "PoseStamped", "TransformStamped", "TFMessage", "GoalStatus", "MotorState",
     "BatteryState", "Clock", "PolygonStamped", "Text", "Empty", "Collision", "NodeState", "Scalar",
-    "MoveBaseStatus", "PlanRequest", "PlanResult", "empty_f32",
+    "MoveBaseStatus", "PlanRequest", "PlanResult", "MoveBaseGoal", "empty_f32",
 ]
 
 
@@ -363,3 +363,12 @@ class PlanResult:
     goal_used: Pose2D = Pose2D()
     goal_offset_m: float = 0.0
     planning_time_s: float = 0.0
+
+
+@register("MoveBaseGoal")
+@dataclass(frozen=True)
+class MoveBaseGoal:
+    """A goal with a caller-chosen id (``move_base/goal``); ``move_base_simple/goal`` takes a bare pose."""
+
+    goal_id: str = ""
+    target_pose: PoseStamped = PoseStamped()

@@ -32,6 +32,7 @@ COMMANDS = [
     "deploy.cmd_robot",
     "deploy.cmd_master",
     "deploy.cmd_monitor",
+    "deploy.cmd_goal",
 ]
 
 EPILOG = """\

@@ -7,7 +7,8 @@ Config mapping (paths relative to the config file, or inline mappings):
   costmap_common: costmap_common_params.yaml   # for the footprint
   local_costmap: local_costmap_params.yaml     # for the local frame
 
-Topics: in ``move_base_simple/goal`` (PoseStamped, any frame), ``move_base/cancel`` (Empty),
+Topics: in ``move_base_simple/goal`` (PoseStamped, any frame), ``move_base/goal`` (MoveBaseGoal, with
+an id), ``move_base/cancel`` (any message),
 ``odom``, ``global_costmap/costmap``, ``local_costmap/costmap``, TF. Out ``cmd_vel``,
 ``move_base/status`` + ``move_base/result`` (MoveBaseStatus), ``move_base/global_plan``,
 ``move_base/local_plan`` (Path), ``move_base/current_goal`` (PoseStamped), ``move_base/loop_time``.
@@ -25,9 +26,10 @@ import numpy as np
 from common.bus import Node
 from common.config import ConfigError, include, load_params, strip_frame
 from common.geometry import Pose2D
-from common.messages import (Costmap, Empty, GoalStatus, Header, MoveBaseStatus, Odometry, Path,
+from common.messages import (Costmap, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, Odometry, Path,
                              PlanRequest, PlanResult, PoseStamped, Scalar, Twist)
 from common.tf import TFListener
+from master_side.costmap.footprint import pad_footprint
 from master_side.costmap.params import load_costmap_config
 from master_side.move_base.controller import LocalController
 from master_side.move_base.params import MoveBaseParams
@@ -60,8 +62,11 @@ class MoveBaseNode:
         self.local_frame = strip_frame(lc.costmap.global_frame)
         self.global_frame, self.base_frame = strip_frame(p.global_frame), strip_frame(p.robot_base_frame)
         lp, lp_src = include(cfg.get("local_planner"), source, "local_planner")
+        # The local planner checks the footprint against cells: obstacles are marked at the cell
+        # that holds the hit, so the footprint is padded by one and a half cells of safety margin.
+        margin = 1.5 * lc.costmap.resolution
         self.controller = LocalController(build_local_planner(p.base_local_planner.split("/")[0], lp, lp_src),
-                                          np.asarray(lc.footprint, float))
+                                          pad_footprint(np.asarray(lc.footprint, float), margin))
         gp, gp_src = include(cfg.get("global_planner"), source, "global_planner")
         self.navfn = NavFn(load_params(NavfnParams, gp.get("NavfnROS", gp), gp_src, "NavfnROS"))
         self.tf = TFListener(node)
@@ -84,23 +89,25 @@ class MoveBaseNode:
         self.goal_pub = node.publisher("move_base/current_goal", latched=True)
         self.loop_pub = node.publisher("move_base/loop_time")
         node.subscribe("move_base_simple/goal", PoseStamped, callback=self._on_goal, mode="queue")
+        node.subscribe("move_base/goal", MoveBaseGoal, mode="queue",
+                       callback=lambda g: self._on_goal(g.target_pose, g.goal_id))
         node.subscribe("move_base/cancel", None, callback=lambda _m: self.cancel(), mode="queue")
         node.service("make_plan", self._make_plan_service, PlanRequest)
         self.timer = node.timer(1.0 / p.controller_frequency, self.cycle)
 
     # -- inputs ------------------------------------------------------------------------------------
-    def _on_goal(self, msg: PoseStamped) -> None:
+    def _on_goal(self, msg: PoseStamped, goal_id: str = "") -> None:
         frame = strip_frame(msg.header.frame_id) or self.global_frame
         now = self.node.clock.now()
         try:
             to_global = self.tf.buffer.lookup_pose2d(self.global_frame, frame, 0.0, 1.0)
         except Exception as e:  # noqa: BLE001 - any TF problem rejects the goal with the reason
             self._publish_status(GoalStatus.REJECTED, f"goal rejected: no transform {self.global_frame} <- "
-                                                      f"{frame}: {e}", terminal=True)
+                                                      f"{frame}: {e}", terminal=True, gid=goal_id or "rejected")
             return
         goal = to_global.compose(msg.pose.to_pose2d())
         with self.lock:
-            gid = f"goal-{next(self.ids)}"
+            gid = goal_id or f"goal-{next(self.ids)}"
             self.goal_msg = PoseStamped(Header(now, self.global_frame), goal.to_transform())
             self.result = PlanResult()
             self.machine.set_goal(gid, goal, now)
@@ -217,10 +224,12 @@ class MoveBaseNode:
         terminal = m.state is State.IDLE and m.status in TERMINAL
         self._publish_status(m.status, m.reason, terminal, dist)
 
-    def _publish_status(self, status: int, reason: str, terminal: bool, dist: float = 0.0) -> None:
+    def _publish_status(self, status: int, reason: str, terminal: bool, dist: float = 0.0,
+                        gid: str | None = None) -> None:
         m = self.machine
         now = self.node.clock.now()
-        gid = m.goal.goal_id if m.goal else ""
+        if gid is None:
+            gid = m.goal.goal_id if m.goal else ""
         used = self.result.goal_used
         msg = MoveBaseStatus(Header(now, self.global_frame), gid, status, m.state.value, reason,
                              self.goal_msg or PoseStamped(),

@@ -1,0 +1,111 @@
+"""``zenav goal X Y YAW [--frame F]``: send a navigation goal to move_base and follow it."""
+
+from __future__ import annotations
+
+import argparse
+import threading
+import time
+import uuid
+
+DESCRIPTION = """\
+Send a goal to move_base (like publishing on move_base_simple/goal in ROS), print its progress and
+wait for the result. The pose may be given in any TF frame: `--frame base_link` means relative to
+where the robot is now. Ctrl-C cancels the goal.
+
+exit status: 0 goal reached, 1 aborted / rejected / cancelled, 2 no answer from move_base
+"""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser("goal", help="send a navigation goal and wait for the result",
+                              description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("x", type=float, help="m")
+    p.add_argument("y", type=float, help="m")
+    p.add_argument("yaw", type=float, help="rad")
+    p.add_argument("--frame", default="map", help="frame of the pose (default map)")
+    p.add_argument("--timeout", type=float, default=300.0, help="give up after this many seconds")
+    p.add_argument("--quiet", action="store_true", help="print only the result")
+    p.set_defaults(func=run)
+    return p
+
+
+def send_goal(node, x: float, y: float, yaw: float, frame: str, timeout: float, echo=print,
+              cancel: threading.Event | None = None):
+    """Send one goal and wait; returns (exit code, final MoveBaseStatus or None)."""
+    from common.geometry import Pose2D
+    from common.messages import Empty, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
+
+    gid = f"goal-{uuid.uuid4().hex[:8]}"
+    status = node.subscribe("move_base/status", MoveBaseStatus, mode="latest")
+    result = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
+    pub = node.publisher("move_base/goal")
+    cancel_pub = node.publisher("move_base/cancel")
+    goal = MoveBaseGoal(gid, PoseStamped(Header(node.clock.now(), frame), Pose2D(x, y, yaw).to_transform()))
+    t0 = time.monotonic()
+    # move_base may still be starting: wait until it is there (its status stream) before sending.
+    while status.latest() is None:
+        if time.monotonic() - t0 > min(timeout, 60.0):
+            echo("zenav goal: move_base is not running (no move_base/status)")
+            return 2, None
+        if cancel is not None and cancel.is_set():
+            return 1, None
+        time.sleep(0.05)
+    pub.publish(goal)
+    echo(f"goal {gid}: ({x:.2f}, {y:.2f}, {yaw:.2f}) in {frame}")
+    last_line, last_print, accepted = "", 0.0, False
+    while time.monotonic() - t0 < timeout:
+        if cancel is not None and cancel.is_set():
+            cancel_pub.publish(Empty())
+            echo(f"goal {gid}: cancel sent")
+            cancel = None
+        try:
+            r = result.get(timeout=0.2)
+            if r.goal_id == gid:
+                return _final(r, gid, echo)
+        except TimeoutError:
+            pass
+        s = status.latest()
+        if s is None:
+            continue
+        if s.goal_id == gid:
+            accepted = True
+            line = f"  {s.state:<11} {s.distance_to_goal_m:5.2f} m to go  {s.reason}"
+            if line != last_line or time.monotonic() - last_print > 5.0:
+                echo(line)
+                last_line, last_print = line, time.monotonic()
+            if s.status in (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED,
+                            GoalStatus.REJECTED) and s.state == "IDLE":
+                return _final(s, gid, echo)
+        elif not accepted and time.monotonic() - t0 > 10.0:
+            pub.publish(goal)  # the first one may have been lost while move_base started
+            t0 = time.monotonic() - 5.0
+    echo(f"goal {gid}: no result within {timeout:.0f} s")
+    return 2, status.latest()
+
+
+def _final(s, gid: str, echo):
+    from common.messages import GoalStatus
+
+    names = {GoalStatus.SUCCEEDED: "SUCCEEDED", GoalStatus.ABORTED: "ABORTED",
+             GoalStatus.PREEMPTED: "PREEMPTED (cancelled)", GoalStatus.REJECTED: "REJECTED"}
+    used = s.goal_used.pose.to_pose2d()
+    echo(f"goal {gid}: {names.get(s.status, s.status)} — {s.reason}")
+    echo(f"  goal used ({used.x:.2f}, {used.y:.2f}, {used.theta:.2f}), {s.goal_offset_m:.2f} m from the "
+         f"requested one; {s.distance_to_goal_m:.2f} m from the robot at the end")
+    return (0 if s.status == GoalStatus.SUCCEEDED else 1), s
+
+
+def run(args) -> int:
+    from common.bus import Node
+
+    stop = threading.Event()
+    import signal
+
+    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    with Node(f"goal_{uuid.uuid4().hex[:6]}") as node:
+        echo = (lambda *_a, **_k: None) if args.quiet else (lambda s: print(s, flush=True))
+        code, s = send_goal(node, args.x, args.y, args.yaw, args.frame, args.timeout, echo, stop)
+        if args.quiet and s is not None:
+            print(f"status={s.status} reason={s.reason!r} distance_m={s.distance_to_goal_m:.3f}")
+        return code
+
