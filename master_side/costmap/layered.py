@@ -95,6 +95,10 @@ class LayeredCostmap:
         bounds = Bounds()
         for layer in enabled:
             bounds = layer.update_bounds(robot_pose, bounds)
+        if getattr(self, "_full_update", False):  # after a clear: recompute everything once
+            self._full_update = False
+            bounds = bounds.expand_points(np.array([m.origin_x, m.origin_x + m.size_in_meters_x]),
+                                          np.array([m.origin_y, m.origin_y + m.size_in_meters_y]))
         self.initialized = True
         window = m.window_from_world(bounds.min_x, bounds.min_y, bounds.max_x, bounds.max_y)
         self.last_window = window
@@ -110,6 +114,26 @@ class LayeredCostmap:
         self.master.reset()
         for layer in self.layers:
             layer.reset()
+
+    def clear_outside(self, robot_pose: Pose2D, distance: float) -> None:
+        """ClearCostmapRecovery: forget obstacles outside a square of side ``distance`` centred on the
+        robot (0 = everywhere); the static layer is kept."""
+        from master_side.costmap.obstacle_layer import ObstacleLayer
+
+        for layer in self.layers:
+            if not isinstance(layer, ObstacleLayer) or layer.costmap is None:
+                continue
+            cm = layer.costmap
+            xs = cm.origin_x + (np.arange(cm.size_x) + 0.5) * cm.resolution
+            ys = cm.origin_y + (np.arange(cm.size_y) + 0.5) * cm.resolution
+            inside_x = np.abs(xs - robot_pose.x) <= distance / 2.0
+            inside_y = np.abs(ys - robot_pose.y) <= distance / 2.0
+            outside = ~(inside_y[:, None] & inside_x[None, :])
+            cm.data[outside] = cm.default_value
+            if hasattr(layer, "marked"):
+                layer.marked[:, outside] = False
+                layer.unknown[:, outside] = True
+        self._full_update = True
 
     def is_current(self, now: float) -> bool:
         return all(getattr(x, "is_current", lambda _t: True)(now) for x in self.layers if x.enabled)

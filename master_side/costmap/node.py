@@ -47,7 +47,7 @@ class CostmapNode:
                 cb = partial(self._on_map, layer)
                 topic = layer.params.map_topic.lstrip("/")
                 self.subs.append(node.subscribe(topic, OccupancyGrid, callback=cb))
-        node.service(f"{self.name}/clear", lambda _req: (self.reset(), Empty())[1])
+        node.service(f"{self.name}/clear", self._on_clear)
         c = cfg.costmap
         self.timers = [node.timer(1.0 / c.update_frequency, self.update)] if c.update_frequency > 0 else []
         if c.publish_frequency > 0:
@@ -111,6 +111,17 @@ class CostmapNode:
             if self.pose is not None:
                 polygon = transform_footprint(self.lcm.footprint, self.pose).astype("float32")
                 self.fp_pub.publish(PolygonStamped(header, polygon))
+
+    def _on_clear(self, req) -> Empty:
+        """``<name>/clear``: a Scalar request keeps obstacles within a square of that side around the
+        robot (move_base's conservative / aggressive reset); any other request clears everything."""
+        distance = getattr(req, "value", 0.0)
+        with self.lock:
+            if distance > 0 and self.pose is not None:
+                self.lcm.clear_outside(self.pose, distance)
+            else:
+                self.lcm.reset()
+        return Empty()
 
     def reset(self) -> None:
         """Forget all obstacles (move_base recovery / ``<name>/clear``)."""

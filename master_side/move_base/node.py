@@ -29,7 +29,7 @@ from common.geometry import Pose2D
 from common.messages import (Costmap, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, Odometry, Path,
                              PlanRequest, PlanResult, PoseStamped, Scalar, Twist)
 from common.tf import TFListener
-from master_side.costmap.footprint import pad_footprint
+from master_side.costmap.footprint import inscribed_circumscribed, pad_footprint
 from master_side.costmap.params import load_costmap_config
 from master_side.move_base.controller import LocalController
 from master_side.move_base.params import MoveBaseParams
@@ -72,7 +72,8 @@ class MoveBaseNode:
         self.tf = TFListener(node)
         self.lock = threading.RLock()
         self.machine = MoveBaseMachine(p, self._plan, self.controller,
-                                       default_recoveries(p, self._clear_costmaps, self._blocked))
+                                       default_recoveries(p, self._clear_costmaps, self._blocked,
+                                                          inscribed_circumscribed(np.asarray(lc.footprint))[1]))
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None
         self.result = PlanResult()

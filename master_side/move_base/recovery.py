@@ -59,11 +59,13 @@ class RotateRecovery:
         return (0.0, 0.0, self.speed), False
 
 
-def default_recoveries(params, clear: Callable[[float], None], blocked=None) -> list:
-    """ROS move_base's default list: conservative reset, rotate, aggressive reset, rotate."""
+def default_recoveries(params, clear: Callable[[float], None], blocked=None,
+                       circumscribed_radius: float = 0.0) -> list:
+    """ROS move_base's default list: conservative reset, rotate, aggressive reset (keeps 4 ×
+    the circumscribed radius around the robot, as move_base does), rotate."""
     return [
         ClearCostmapRecovery(clear, params.conservative_reset_dist, "conservative reset"),
         RotateRecovery(params.rotate_recovery_vel, blocked),
-        ClearCostmapRecovery(clear, 0.0, "aggressive reset"),
+        ClearCostmapRecovery(clear, 4.0 * circumscribed_radius, "aggressive reset"),
         RotateRecovery(params.rotate_recovery_vel, blocked),
     ]

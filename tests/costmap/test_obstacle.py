@@ -119,3 +119,17 @@ def test_scan_to_points_handles_inf_as_ros_does():
     assert len(scan_to_points(scan)) == 1
     pts = scan_to_points(scan, inf_is_valid=True)
     np.testing.assert_allclose(pts[1], [0.0, 4.0 - 1e-4, 0.0], atol=1e-6)
+
+
+def test_conservative_reset_keeps_obstacles_near_the_robot_and_forgets_far_ones():
+    lc = layered(6.0, 0.1)
+    ob = obstacle_layer(lc)
+    near, origin = beam((3.05, 3.05), (3.55, 3.05))  # hit 0.5 m from the robot
+    far, _ = beam((3.05, 3.05), (5.05, 3.05))  # hit 2.0 m away
+    ob.add_observation("scan", np.vstack((near[-1:], far[-1:])), origin, 0.0)
+    lc.update_map(Pose2D(3.05, 3.05, 0.0))
+    assert lc.master.data[30, 35] == LETHAL and lc.master.data[30, 50] == LETHAL
+    lc.clear_outside(Pose2D(3.05, 3.05, 0.0), 2.0)
+    lc.update_map(Pose2D(3.05, 3.05, 0.0))
+    assert lc.master.data[30, 35] == LETHAL  # inside the 2 m square: kept
+    assert lc.master.data[30, 50] != LETHAL  # outside: cleared
