@@ -133,6 +133,8 @@ class LayeredCostmap:
             if hasattr(layer, "marked"):
                 layer.marked[:, outside] = False
                 layer.unknown[:, outside] = True
+            for buf in layer.buffers.values():  # buffered readings would mark the cleared cells again
+                buf.clear()
         self._full_update = True
 
     def is_current(self, now: float) -> bool:
