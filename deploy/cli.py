@@ -33,6 +33,7 @@ COMMANDS = [
     "deploy.cmd_master",
     "deploy.cmd_monitor",
     "deploy.cmd_goal",
+    "deploy.cmd_demo",
 ]
 
 EPILOG = """\

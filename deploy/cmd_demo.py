@@ -1,0 +1,87 @@
+"""``zenav demo``: the whole system in one command, on the simulator."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+
+DESCRIPTION = """\
+Run the reference tutorial's scenario on this machine: the simulated Pioneer 3-AT (robot agent),
+navigation on the world's known map (master agent: map server, global + local costmaps, move_base
+with navfn and the DWA or trajectory-rollout planner) and the Rerun monitor, as separate processes
+talking over a private loopback Zenoh network. It drives the goals of the room world (one wooden
+obstacle in the middle) and of the corridor world, prints progress, and exits 0 when every goal is
+reached without a collision (1 otherwise, with the reason).
+
+Watching: with a display the Rerun viewer opens (--spawn); without one the run is saved to
+zenav-demo.rrd (open it with `rerun zenav-demo.rrd`, or serve it to a browser with
+`rerun --serve-web zenav-demo.rrd`). --serve-web PORT shows it live in a browser instead.
+"""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser("demo", help="run the whole system on the simulator (tutorial scenario)",
+                              description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--world", action="append", choices=("room", "corridor"),
+                   help="world(s) to run (repeatable; default: room then corridor)")
+    p.add_argument("--planner", choices=("dwa", "trajectory"), default="dwa", help="local planner")
+    p.add_argument("--goals", type=int, default=0, help="at most this many goals per world (0 = all)")
+    p.add_argument("--speed", type=float, default=1.0, help="simulated time / real time")
+    p.add_argument("--goal-timeout", type=float, default=180.0, help="seconds allowed per goal")
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("--spawn", action="store_true", help="open the native Rerun viewer")
+    out.add_argument("--serve-web", type=int, metavar="PORT", help="serve the web viewer on PORT")
+    out.add_argument("--save", metavar="FILE", help="save the recording (default without a display)")
+    out.add_argument("--no-monitor", action="store_true", help="run without the monitor")
+    p.add_argument("--workdir", help="folder for logs and generated configs (default: a temp folder)")
+    p.set_defaults(func=run)
+    return p
+
+
+def monitor_args(args) -> tuple[str, ...]:
+    if args.no_monitor:
+        return ()
+    if args.serve_web:
+        return ("--serve-web", str(args.serve_web), "--grpc-port", str(args.serve_web + 1))
+    if args.spawn or (not args.save and (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))):
+        return ("--spawn",)
+    args.save = os.path.abspath(args.save or "zenav-demo.rrd")
+    return ("--save", args.save)
+
+
+def run(args) -> int:
+    from deploy.demo import Demo, DemoOptions
+
+    worlds = tuple(args.world or ("room", "corridor"))
+    opts = DemoOptions(worlds=worlds, planner=args.planner, max_goals=args.goals, speed=args.speed,
+                       goal_timeout=args.goal_timeout, monitor_args=monitor_args(args),
+                       workdir=args.workdir or "")
+    t0 = time.monotonic()
+    demo = Demo(opts, echo=lambda s: print(s, flush=True))
+    print(f"[demo] logs and generated configs in {demo.work}", flush=True)
+    ok, error = False, ""
+    try:
+        ok = demo.run()
+    except KeyboardInterrupt:
+        error = "interrupted"
+    except RuntimeError as e:
+        error = str(e)
+    finally:
+        demo.close()
+    print("[demo] ---- summary ----")
+    for r in opts.results:
+        print(f"[demo] {r.world:<9} {r.name:<22} {'OK  ' if r.ok else 'FAIL'} {r.seconds:6.1f} s  "
+              f"error {r.xy_error:.2f} m {math.degrees(r.yaw_error):5.1f} deg")
+    if args.save:
+        print(f"[demo] recording: {args.save}\n[demo]   view it:  rerun {args.save}\n"
+              f"[demo]   or in a browser: rerun --serve-web {args.save}  (then open http://localhost:9090)")
+    total = time.monotonic() - t0
+    if ok:
+        print(f"[demo] all {len(opts.results)} goals reached in {total:.0f} s")
+        return 0
+    why = error or next((f"{r.world} '{r.name}': {r.reason}" for r in opts.results if not r.ok), "no goal ran")
+    print(f"[demo] FAILED: {why} (logs in {demo.work})", file=sys.stderr)
+    return 1

@@ -1,0 +1,211 @@
+"""``zenav demo``: the whole system on this machine — simulated robot agent, master agent and
+monitor as separate processes over Zenoh — driving the reference tutorial's scenario.
+
+For each world (the room with one wooden obstacle, then the corridor of objects) it starts the
+robot agent on that world and the master agent on the world's map, sends the world's goals one by
+one, and checks each against the simulator's ground truth. Everything runs on a private loopback
+Zenoh network (multicast off), so a demo never talks to robots on the LAN.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from common.bus import Node
+from common.geometry import normalize_angle
+from common.messages import Collision, Costmap, MoveBaseStatus, Odometry
+from common.zenoh_config import BusConfig
+from deploy.world_maps import export_world_map, world_path
+
+ROOT = Path(__file__).resolve().parents[1]
+ROBOT_CONFIG = ROOT / "robot_side" / "config" / "p3at_sim.yaml"
+MASTER_DIR = ROOT / "master_side" / "config"
+PLANNERS = {
+    "dwa": (MASTER_DIR / "p3at" / "move_base.yaml", MASTER_DIR / "p3at" / "dwa_planner_ros.yaml"),
+    "trajectory": (MASTER_DIR / "move_base_trajectory_rollout.yaml",
+                   MASTER_DIR / "p3at" / "base_local_planner_params.yaml"),
+}
+
+
+@dataclass
+class GoalResult:
+    world: str
+    name: str
+    ok: bool
+    reason: str
+    seconds: float
+    xy_error: float = math.nan
+    yaw_error: float = math.nan
+
+
+@dataclass
+class DemoOptions:
+    worlds: tuple[str, ...] = ("room", "corridor")
+    planner: str = "dwa"
+    max_goals: int = 0  # 0 = all goals of each world
+    speed: float = 1.0
+    goal_timeout: float = 180.0
+    monitor_args: tuple[str, ...] = ()  # e.g. ("--save", "demo.rrd"); () = no monitor
+    robot: str = "demo"
+    workdir: str = ""
+    results: list[GoalResult] = field(default_factory=list)
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def master_config(world: str, planner: str, out_dir: Path) -> Path:
+    """A master YAML for ``world`` on its known map, with absolute paths into the package."""
+    mb, lp = PLANNERS[planner]
+    common = str(MASTER_DIR / "p3at" / "costmap_common_params.yaml")
+    local = str(MASTER_DIR / "p3at" / "local_costmap_params.yaml")
+    cfg = {
+        "use_sim_time": True,
+        "nodes": {
+            "localization": {"module": "robot_side.sim.fake_localization", "respawn": True},
+            "map_server": {"module": "master_side.mapping.map_server_node",
+                           "params": {"map": str(export_world_map(world, out_dir))}},
+            "global_costmap": {"module": "master_side.costmap.node", "respawn": True,
+                               "params": {"name": "global_costmap", "common": common,
+                                          "specific": str(MASTER_DIR / "global_costmap_known_map.yaml")}},
+            "local_costmap": {"module": "master_side.costmap.node", "respawn": True,
+                              "params": {"name": "local_costmap", "common": common, "specific": local}},
+            "move_base": {"module": "master_side.move_base.node", "respawn": True,
+                          "params": {"move_base": str(mb), "local_planner": str(lp),
+                                     "costmap_common": common, "local_costmap": local}},
+        },
+    }
+    path = out_dir / f"master_{world}.yaml"
+    path.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return path
+
+
+class Demo:
+    def __init__(self, opts: DemoOptions, echo=print) -> None:
+        self.o, self.echo = opts, echo
+        self.endpoint = f"tcp/127.0.0.1:{free_port()}"
+        self.procs: list[tuple[str, subprocess.Popen]] = []
+        self.work = Path(opts.workdir or tempfile.mkdtemp(prefix="zenav-demo-"))
+        self.work.mkdir(parents=True, exist_ok=True)
+        self.node = Node("demo", config=BusConfig(robot=opts.robot, multicast=False, listen=(self.endpoint,)))
+        self.truth = self.node.subscribe("ground_truth", Odometry)
+        self.collisions = self.node.subscribe("collision", Collision)
+        self.status = self.node.subscribe("move_base/status", MoveBaseStatus)
+        self.costmaps = [self.node.subscribe(f"{n}/costmap", Costmap) for n in ("global_costmap", "local_costmap")]
+
+    # -- processes ---------------------------------------------------------------------------------
+    def _bus_args(self) -> list[str]:
+        return ["--robot", self.o.robot, "--no-multicast", "--connect", self.endpoint]
+
+    def spawn(self, name: str, args: list[str]) -> subprocess.Popen:
+        log = open(self.work / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self._bus_args()], stdout=log,
+                             stderr=subprocess.STDOUT, env=env, start_new_session=True, cwd=self.work)
+        self.procs.append((name, p))
+        return p
+
+    def stop(self, name: str | None = None, grace: float = 10.0) -> None:
+        keep = []
+        for n, p in self.procs:
+            if name is not None and n != name:
+                keep.append((n, p))
+                continue
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGINT)
+                try:
+                    p.wait(grace)
+                except subprocess.TimeoutExpired:
+                    os.killpg(p.pid, signal.SIGKILL)
+                    p.wait(5)
+        self.procs = keep
+
+    def _check_alive(self) -> None:
+        for n, p in self.procs:
+            if p.poll() is not None:
+                raise RuntimeError(f"{n} exited with status {p.returncode} (log: {self.work / (n + '.log')})")
+
+    def _wait(self, what: str, cond, timeout: float) -> None:
+        t0 = time.monotonic()
+        while not cond():
+            self._check_alive()
+            if time.monotonic() - t0 > timeout:
+                raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
+            time.sleep(0.1)
+
+    # -- the scenario --------------------------------------------------------------------------------
+    def run(self) -> bool:
+        from deploy.cmd_goal import send_goal
+
+        if self.o.monitor_args:
+            self.spawn("monitor", ["monitor", *self.o.monitor_args])
+        for world in self.o.worlds:
+            spec = yaml.safe_load(world_path(world).read_text())
+            goals = list(spec.get("goals", {}).items())[: self.o.max_goals or None]
+            self.echo(f"[demo] world '{world}': starting the robot agent (simulated P3-AT) and the master "
+                      f"agent ({self.o.planner} local planner, known map) ...")
+            n_truth, n_status = self.truth.received, self.status.received
+            n_maps = [c.received for c in self.costmaps]
+            self.spawn(f"robot_{world}", ["robot", "--config", str(ROBOT_CONFIG), "--world", world,
+                                          "--speed", str(self.o.speed)])
+            self.spawn(f"master_{world}", ["master", "--config", str(master_config(world, self.o.planner,
+                                                                                      self.work))])
+            self._wait("the simulator", lambda n=n_truth: self.truth.received > n, 60)
+            self._wait("move_base", lambda n=n_status: self.status.received > n, 90)
+            self._wait("the costmaps", lambda n=n_maps: all(c.received > k for c, k in zip(self.costmaps, n)), 60)
+            for i, (name, (x, y, yaw)) in enumerate(goals, 1):
+                self.echo(f"[demo] {world}: goal {i}/{len(goals)} '{name}' ({x:.2f}, {y:.2f}, {yaw:.2f})")
+                res = self._goal(world, name, float(x), float(y), float(yaw), send_goal)
+                self.o.results.append(res)
+                verdict = "reached" if res.ok else "FAILED"
+                self.echo(f"[demo] {world}: '{name}' {verdict} in {res.seconds:.1f} s; error "
+                          f"{res.xy_error:.2f} m / {math.degrees(res.yaw_error):.1f} deg  {res.reason}")
+                if not res.ok:
+                    break
+            self.stop(f"master_{world}")
+            self.stop(f"robot_{world}")
+        return all(r.ok for r in self.o.results) and bool(self.o.results)
+
+    def _goal(self, world: str, name: str, x: float, y: float, yaw: float, send_goal) -> GoalResult:
+        c0 = self.collisions.latest()
+        n0 = c0.count if c0 else 0
+        t0 = time.monotonic()
+        last = [""]
+
+        def progress(line: str) -> None:
+            if line.strip().startswith(("PLANNING", "CLEARING")) and line != last[0]:
+                self.echo(f"[demo]   {line.strip()}")
+            last[0] = line
+
+        code, status = send_goal(self.node, x, y, yaw, "map", self.o.goal_timeout, progress)
+        dt = time.monotonic() - t0
+        truth = self.truth.latest()
+        xy_err = yaw_err = math.nan
+        if truth is not None:
+            p = truth.pose2d
+            xy_err, yaw_err = math.hypot(p.x - x, p.y - y), abs(normalize_angle(p.theta - yaw))
+        c1 = self.collisions.latest()
+        collisions = (c1.count if c1 else 0) - n0
+        reason = status.reason if status is not None else "no answer from move_base"
+        ok = code == 0 and collisions == 0
+        if collisions:
+            reason = f"{collisions} collision(s); {reason}"
+        return GoalResult(world, name, ok, reason, dt, xy_err, yaw_err)
+
+    def close(self) -> None:
+        self.stop()
+        self.node.close()
