@@ -76,9 +76,10 @@ class Monitor:
         if sample.kind != zenoh.SampleKind.PUT:
             return
         parts = str(sample.key_expr).split("/", 4)  # zenavlive/<robot>/pub/<node>/<topic>
-        if len(parts) < 5 or parts[4] in self._queried:
+        key = str(sample.key_expr)  # one query per publisher: several nodes may latch one topic (tf_static)
+        if len(parts) < 5 or key in self._queried:
             return
-        self._queried.add(parts[4])
+        self._queried.add(key)
         try:
             self.session.get(self._prefix + parts[4], self._on_reply, target=zenoh.QueryTarget.ALL,
                              consolidation=zenoh.ConsolidationMode.NONE)
