@@ -1,0 +1,1 @@
+"""gmapping-style Rao-Blackwellised particle filter SLAM (pure algorithm + offline runner + evaluation)."""

@@ -1,0 +1,124 @@
+"""Per-particle log-odds grid as a dict of square tiles shared copy-on-write between particles.
+
+A resampled particle copies only the dict (tile references); a tile is cloned the first time a
+particle writes to it (gmapping shares map patches through a reference-counted tree the same way).
+Cell (ix, iy) covers [ix*res, (ix+1)*res) x [iy*res, (iy+1)*res) in the map frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from common.geometry import Pose2D
+from common.messages import Header, OccupancyGrid
+
+TILE = 64  # cells per tile side
+L_OCC, L_FREE, L_MIN, L_MAX = 0.9, -0.35, -3.0, 4.0  # log-odds increments and clamps
+
+
+class _Tile:
+    __slots__ = ("data", "owner")
+
+    def __init__(self, data: np.ndarray, owner: object):
+        self.data, self.owner = data, owner
+
+
+class Window:
+    """A dense copy of a tile-aligned part of a grid: ``data[row, col]``, row = y."""
+
+    def __init__(self, data: np.ndarray, tx0: int, ty0: int, res: float):
+        self.data, self.tx0, self.ty0, self.res = data, tx0, ty0, res
+        self.ix0, self.iy0 = tx0 * TILE, ty0 * TILE
+
+    def cells(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Integer (col, row) of (N, 2) map-frame points."""
+        return (np.floor(pts[..., 0] / self.res).astype(np.int64) - self.ix0,
+                np.floor(pts[..., 1] / self.res).astype(np.int64) - self.iy0)
+
+
+class TiledGrid:
+    def __init__(self, resolution: float):
+        self.res = resolution
+        self.tiles: dict[tuple[int, int], _Tile] = {}
+        self.token = object()
+
+    def copy(self) -> TiledGrid:
+        """A copy sharing all tiles; both grids clone a tile before their next write to it."""
+        g = TiledGrid.__new__(TiledGrid)
+        g.res, g.tiles, g.token = self.res, dict(self.tiles), object()
+        self.token = object()
+        return g
+
+    def tile_range(self, x0: float, y0: float, x1: float, y1: float) -> tuple[int, int, int, int]:
+        s = self.res * TILE
+        return math.floor(x0 / s), math.floor(y0 / s), math.floor(x1 / s) + 1, math.floor(y1 / s) + 1
+
+    def window(self, x0: float, y0: float, x1: float, y1: float) -> Window:
+        """Dense log-odds copy covering the metric box (tile aligned)."""
+        tx0, ty0, tx1, ty1 = self.tile_range(x0, y0, x1, y1)
+        data = np.zeros(((ty1 - ty0) * TILE, (tx1 - tx0) * TILE), np.float32)
+        get = self.tiles.get
+        for ty in range(ty0, ty1):
+            r = (ty - ty0) * TILE
+            for tx in range(tx0, tx1):
+                t = get((tx, ty))
+                if t is not None:
+                    c = (tx - tx0) * TILE
+                    data[r:r + TILE, c:c + TILE] = t.data
+        return Window(data, tx0, ty0, self.res)
+
+    def store(self, win: Window, touched: np.ndarray) -> None:
+        """Write back the tiles of ``win`` holding any of the ``touched`` flat cell indices."""
+        nx = win.data.shape[1]
+        ntx = nx // TILE
+        ids = (touched // nx // TILE) * ntx + (touched % nx) // TILE
+        tiles = np.flatnonzero(np.bincount(ids, minlength=1))
+        for j, i in zip(*np.divmod(tiles, ntx)):
+            key = (win.tx0 + int(i), win.ty0 + int(j))
+            block = win.data[j * TILE:(j + 1) * TILE, i * TILE:(i + 1) * TILE]
+            t = self.tiles.get(key)
+            if t is not None and t.owner is self.token:
+                t.data[...] = block
+            else:
+                self.tiles[key] = _Tile(block.copy(), self.token)
+
+    def extent(self) -> tuple[int, int, int, int]:
+        """Tile index range (tx0, ty0, tx1, ty1) holding data."""
+        if not self.tiles:
+            return 0, 0, 1, 1
+        k = np.array(list(self.tiles))
+        return int(k[:, 0].min()), int(k[:, 1].min()), int(k[:, 0].max()) + 1, int(k[:, 1].max()) + 1
+
+    def to_occupancy_grid(self, bounds: tuple[float, float, float, float] | None = None, stamp: float = 0.0,
+                          frame_id: str = "map", occ_thresh: float = 0.25) -> OccupancyGrid:
+        """ROS grid: -1 unknown, 0 free, 100 occupied (p > occ_thresh); covers data ∪ ``bounds``."""
+        tx0, ty0, tx1, ty1 = self.extent()
+        if bounds is not None:
+            b = self.tile_range(*bounds)
+            tx0, ty0, tx1, ty1 = min(tx0, b[0]), min(ty0, b[1]), max(tx1, b[2]), max(ty1, b[3])
+        s = self.res * TILE
+        win = self.window(tx0 * s, ty0 * s, (tx1 - 1) * s, (ty1 - 1) * s)
+        known = np.zeros(win.data.shape, bool)
+        for (tx, ty), t in self.tiles.items():
+            if tx0 <= tx < tx1 and ty0 <= ty < ty1:
+                r, c = (ty - ty0) * TILE, (tx - tx0) * TILE
+                known[r:r + TILE, c:c + TILE] = t.data != 0.0
+        thr = math.log(occ_thresh / (1.0 - occ_thresh))
+        data = np.full(win.data.shape, -1, np.int8)
+        data[known] = 0
+        data[known & (win.data > max(thr, 0.0))] = 100
+        return OccupancyGrid(Header(stamp, frame_id), self.res, Pose2D(tx0 * s, ty0 * s, 0.0), data)
+
+    def memory_bytes(self) -> int:
+        return sum(t.data.nbytes for t in self.tiles.values())
+
+
+def unique_tile_bytes(grids: list[TiledGrid]) -> int:
+    """Memory of the tiles of several grids counting shared tiles once."""
+    seen: dict[int, int] = {}
+    for g in grids:
+        for t in g.tiles.values():
+            seen[id(t)] = t.data.nbytes
+    return sum(seen.values())

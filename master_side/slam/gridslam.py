@@ -1,0 +1,256 @@
+"""GridSlam: the Rao-Blackwellised particle filter of gmapping (one grid map per particle).
+
+Per processed scan: sample every particle from the odometry motion model, scan-match it against
+its own map (improved proposal), weight it by the match likelihood, resample when Neff is low,
+then integrate the scan into each surviving map. Maps share unchanged tiles (copy-on-write) and
+trajectories share their ancestry (a tree of ``TNode``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from common.geometry import Pose2D
+from common.messages import LaserScan, OccupancyGrid
+from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TiledGrid, Window, unique_tile_bytes
+from master_side.slam.motion_model import MotionModel
+from master_side.slam.params import GMappingParams
+from master_side.slam.particle_filter import needs_resampling, neff, normalized_weights, systematic_resample
+from master_side.slam.scan_matcher import ScanMatcher, make_field
+
+
+class TNode:
+    """One pose of a particle's trajectory; ``parent`` is the previous processed scan's node."""
+
+    __slots__ = ("pose", "index", "parent")
+
+    def __init__(self, pose: np.ndarray, index: int, parent: TNode | None):
+        self.pose, self.index, self.parent = pose, index, parent
+
+
+@dataclass
+class Particle:
+    pose: np.ndarray
+    grid: TiledGrid
+    weight: float = 0.0  # log weight since the last resampling
+    weight_sum: float = 0.0  # log weight accumulated over the particle's ancestry
+    node: TNode | None = None
+
+
+@dataclass
+class Beams:
+    """One scan prepared in the base frame."""
+
+    match: np.ndarray  # (M, 2) endpoints used for matching / weighting (lskip applied)
+    hits: np.ndarray  # (H, 2) endpoints within the usable range (marked occupied)
+    free: np.ndarray  # (F, 2) points along the beams up to the endpoint / usable range (marked free)
+    ends: np.ndarray  # (E, 2) clipped beam ends, for the window extent
+    origin: np.ndarray  # (2,) sensor position
+
+
+def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D) -> Beams:
+    r = np.asarray(scan.ranges, float)
+    a = scan.angles()
+    valid = np.isfinite(r) & (r > max(scan.range_min, 1e-3)) & (r < p.maxRange)
+    usable = p.usable_range
+    hit = valid & (r < usable)
+    length = np.minimum(r, usable)[valid]
+    ca, sa = np.cos(a[valid]), np.sin(a[valid])
+    ends = np.column_stack((length * ca, length * sa))
+    step = p.delta * 0.9
+    n = np.maximum(np.floor((length - p.delta) / step).astype(np.int64), 0)
+    beam = np.repeat(np.arange(len(n)), n)
+    s = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) * step
+    free = np.column_stack((s * ca[beam], s * sa[beam]))
+    hits = np.column_stack((r[hit] * np.cos(a[hit]), r[hit] * np.sin(a[hit])))
+    match = hits[:: p.lskip + 1]
+    return Beams(laser.apply(match), laser.apply(hits), laser.apply(free), laser.apply(ends),
+                 np.array([laser.x, laser.y]))
+
+
+def integrate(win: Window, pose: np.ndarray, beams: Beams) -> np.ndarray:
+    """Add the scan at ``pose`` to the window's log-odds; returns the touched flat cell indices."""
+    ny, nx = win.data.shape
+    idx, val = [], []
+    for pts, value in ((beams.free, L_FREE), (beams.hits, L_OCC)):
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        x = pose[0] + c * pts[:, 0] - s * pts[:, 1]
+        y = pose[1] + s * pts[:, 0] + c * pts[:, 1]
+        ix, iy = win.cells(np.column_stack((x, y)))
+        ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+        idx.append(iy[ok] * nx + ix[ok])
+        val.append(np.full(int(ok.sum()), value, np.float32))
+    mark = np.zeros(ny * nx, np.float32)
+    for i, v in zip(idx, val):
+        mark[i] = v  # hits overwrite free marks of the same cell
+    cells = np.concatenate(idx)
+    flat = win.data.ravel()
+    # duplicates in ``cells`` all write the same value: each cell changes once per scan
+    flat[cells] = np.clip(flat[cells] + mark[cells], L_MIN, L_MAX)
+    return cells
+
+
+class GridSlam:
+    def __init__(self, params: GMappingParams, laser: Pose2D | None = None,
+                 rng: np.random.Generator | None = None, track_between: bool = False):
+        self.p = params
+        # offline refinement: scan-match every skipped scan against the best map (no map update);
+        # between[i] = (last processed index, pose relative to that scan's pose)
+        self.track_between = track_between
+        self.between: dict[int, tuple[int, np.ndarray]] = {}
+        self.last_index = 0
+        self.laser = laser if laser is not None else Pose2D()  # base_link <- laser
+        self.rng = rng if rng is not None else np.random.default_rng(params.seed)
+        self.motion = MotionModel(params.srr, params.srt, params.str_, params.stt)
+        self.matcher = ScanMatcher(params)
+        self.particles: list[Particle] = []
+        self.last_odom: Pose2D | None = None  # odometry at the last processed scan
+        self.prev_odom: Pose2D | None = None  # odometry at the last scan
+        self.last_stamp = -math.inf
+        self.lin_acc = self.ang_acc = 0.0
+        self.count = 0  # scans seen
+        self.processed = 0
+        self.resamples = 0
+        self.last_neff = float(params.particles)
+
+    # -- main entry ------------------------------------------------------------------------
+    def process(self, stamp: float, odom: Pose2D, scan: LaserScan) -> bool:
+        """Feed one scan with the odometry pose at its stamp; True if it was integrated."""
+        index = self.count
+        self.count += 1
+        if self.prev_odom is not None:
+            d = self.prev_odom.between(odom)
+            self.lin_acc += math.hypot(d.x, d.y)
+            self.ang_acc += abs(d.theta)
+        self.prev_odom = odom
+        if not self.particles:
+            self._initialise(index, odom, scan, stamp)
+            return True
+        p = self.p
+        due = (self.lin_acc >= p.linearUpdate or self.ang_acc >= p.angularUpdate
+               or (p.temporalUpdate > 0 and stamp - self.last_stamp > p.temporalUpdate))
+        if not due:
+            if self.track_between:
+                self._track(index, odom, scan)
+            return False
+        delta = self.last_odom.between(odom).as_array()
+        poses = self.motion.sample(np.array([q.pose for q in self.particles]), delta, self.rng)
+        beams = prepare_beams(scan, p, self.laser)
+        # search at least 3 sigma of the motion noise (a fast turn during a data gap needs it)
+        sig = self.motion.sigmas(delta)
+        window = (min(max(p.search_linear, 3 * float(np.hypot(sig[0], sig[1]))), 2.0),
+                  min(max(p.search_angular, 3 * float(sig[2])), 1.0))
+        windows = []
+        for q, pose in zip(self.particles, poses):
+            win = q.grid.window(*self._extent(pose, beams, window[0]))
+            fld = make_field(win, p)
+            matched, score = self.matcher.match(fld, pose, beams.match, window)
+            q.pose = matched if score >= p.minimumScore else pose
+            ll = self.matcher.log_likelihood(fld, q.pose, beams.match)
+            q.weight += ll
+            q.weight_sum += ll
+            windows.append(win)
+        self._resample_and_integrate(windows, beams, index)
+        self.last_odom, self.last_stamp, self.last_index = odom, stamp, index
+        self.lin_acc = self.ang_acc = 0.0
+        self.processed += 1
+        return True
+
+    # -- internals -------------------------------------------------------------------------
+    def _track(self, index: int, odom: Pose2D, scan: LaserScan) -> None:
+        """Match a skipped scan against the best particle's map, starting from odometry."""
+        q = self.particles[self.best_index()]
+        delta = self.last_odom.between(odom)
+        pred = Pose2D(*map(float, q.pose)).compose(delta).as_array()
+        beams = prepare_beams(scan, self.p, self.laser)
+        if len(beams.match) < 10:
+            return
+        sig = self.motion.sigmas(delta.as_array())
+        window = (min(max(self.p.search_linear, 3 * float(np.hypot(sig[0], sig[1]))), 2.0),
+                  min(max(self.p.search_angular, 3 * float(sig[2])), 1.0))
+        fld = make_field(q.grid.window(*self._extent(pred, beams, window[0])), self.p)
+        pose, score = self.matcher.match(fld, pred, beams.match, window)
+        if score >= max(self.p.minimumScore, 0.3 * len(beams.match)):
+            rel = Pose2D(*map(float, q.pose)).between(Pose2D(*map(float, pose)))
+            self.between[index] = (self.last_index, rel.as_array())
+
+    def _initialise(self, index: int, odom: Pose2D, scan: LaserScan, stamp: float) -> None:
+        pose = odom.as_array()
+        grid = TiledGrid(self.p.delta)
+        beams = prepare_beams(scan, self.p, self.laser)
+        win = grid.window(*self._extent(pose, beams))
+        grid.store(win, integrate(win, pose, beams))
+        node = TNode(pose.copy(), index, None)
+        self.particles = [Particle(pose.copy(), grid.copy(), node=node) for _ in range(self.p.particles)]
+        self.last_odom, self.last_stamp, self.last_index = odom, stamp, index
+        self.lin_acc = self.ang_acc = 0.0
+        self.processed += 1
+
+    def _extent(self, pose: np.ndarray, beams: Beams, search: float | None = None) -> tuple[float, ...]:
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        e = np.vstack((beams.ends, beams.origin[None, :]))
+        x = pose[0] + c * e[:, 0] - s * e[:, 1]
+        y = pose[1] + s * e[:, 0] + c * e[:, 1]
+        m = (search or self.p.search_linear) + (self.p.field_radius + 2) * self.p.delta + 0.5
+        return x.min() - m, y.min() - m, x.max() + m, y.max() + m
+
+    def _resample_and_integrate(self, windows: list[Window], beams: Beams, index: int) -> None:
+        gain = 1.0 / (self.p.ogain * len(self.particles))
+        w = normalized_weights(np.array([q.weight for q in self.particles]), gain)
+        self.last_neff = neff(w)
+        if needs_resampling(w, self.p.resampleThreshold):
+            self.resamples += 1
+            keep = systematic_resample(w, self.rng)
+            done: dict[int, Particle] = {}
+            new: list[Particle] = []
+            for k in keep.tolist():
+                src = done.get(k)
+                if src is None:  # first copy: integrate once, later copies share every tile
+                    q = self.particles[k]
+                    self._integrate_particle(q, windows[k], beams, index)
+                    q.weight = 0.0
+                    done[k] = q
+                    new.append(q)
+                else:
+                    new.append(Particle(src.pose.copy(), src.grid.copy(), 0.0, src.weight_sum, src.node))
+            self.particles = new
+        else:
+            for q, win in zip(self.particles, windows):
+                self._integrate_particle(q, win, beams, index)
+
+    def _integrate_particle(self, q: Particle, win: Window, beams: Beams, index: int) -> None:
+        q.grid.store(win, integrate(win, q.pose, beams))
+        q.node = TNode(q.pose.copy(), index, q.node)
+
+    # -- outputs ---------------------------------------------------------------------------
+    def best_index(self) -> int:
+        return int(np.argmax([q.weight_sum for q in self.particles]))
+
+    def best_pose(self) -> Pose2D:
+        return Pose2D(*map(float, self.particles[self.best_index()].pose))
+
+    def map_to_odom(self) -> Pose2D:
+        """The correction gmapping publishes: map ← odom = best pose ⊕ odom⁻¹ (at the last update)."""
+        if self.last_odom is None:
+            return Pose2D()
+        return self.best_pose().compose(self.last_odom.inverse())
+
+    def trajectory(self) -> list[tuple[int, Pose2D]]:
+        """(scan index, pose) of every processed scan along the best particle's ancestry, oldest first."""
+        out = []
+        node = self.particles[self.best_index()].node if self.particles else None
+        while node is not None:
+            out.append((node.index, Pose2D(*map(float, node.pose))))
+            node = node.parent
+        return out[::-1]
+
+    def occupancy_grid(self, stamp: float = 0.0, frame_id: str = "map") -> OccupancyGrid:
+        p = self.p
+        grid = self.particles[self.best_index()].grid if self.particles else TiledGrid(p.delta)
+        return grid.to_occupancy_grid((p.xmin, p.ymin, p.xmax, p.ymax), stamp, frame_id)
+
+    def memory_bytes(self) -> int:
+        return unique_tile_bytes([q.grid for q in self.particles])
