@@ -34,6 +34,8 @@ COMMANDS = [
     "deploy.cmd_monitor",
     "deploy.cmd_goal",
     "deploy.cmd_demo",
+    "deploy.cmd_slam",
+    "deploy.cmd_map",
 ]
 
 EPILOG = """\

@@ -21,12 +21,14 @@ class SlamNode:
         self.slam: GridSlam | None = None
         self.lock = threading.Lock()
         self.last_map = -float("inf")
+        self._corr = Pose2D()  # map -> odom, replaced (not mutated) after each update
         from common.tf import TFBroadcaster, TFListener
 
         self.tf = TFListener(node)
         self.tf_out = TFBroadcaster(node)
         self.map_pub = node.publisher("map", latched=True)
-        self.sub = node.subscribe("scan", LaserScan, callback=self._on_scan, mode="queue")
+        # keep-latest: while a scan is being processed newer ones replace older ones (no backlog)
+        self.sub = node.subscribe("scan", LaserScan, callback=self._on_scan, mode="latest")
         period = float(cfg.get("transform_publish_period", 0.05))
         self.timer = node.timer(period, self._publish_tf) if period > 0 else None
 
@@ -41,6 +43,7 @@ class SlamNode:
             if self.slam is None:
                 self.slam = GridSlam(self.params, laser=laser.transform.to_pose2d())
             updated = self.slam.process(t, odom, scan)
+            self._corr = self.slam.map_to_odom()
             publish_map = updated and t - self.last_map >= self.params.map_update_interval
             grid = self.slam.occupancy_grid(t, self.map_frame) if publish_map else None
         if grid is not None:
@@ -48,8 +51,7 @@ class SlamNode:
             self.map_pub.publish(grid)
 
     def _publish_tf(self) -> None:
-        with self.lock:
-            corr = self.slam.map_to_odom() if self.slam is not None else Pose2D()
+        corr = self._corr  # no lock: the TF must keep flowing while a scan is being processed
         stamp = self.node.clock.now()
         self.tf_out.send(TransformStamped(Header(stamp, self.map_frame), self.odom, corr.to_transform()))
 
@@ -60,6 +62,14 @@ class SlamNode:
 
 
 def start(node, cfg: dict, source: str) -> SlamNode:
+    """cfg: slam_gmapping parameters, or ``gmapping: FILE`` (the parameters file, e.g. the tutorial's)
+    plus keys that override it."""
+    from common.config import include
+
+    if "gmapping" in cfg:
+        base, src = include(cfg["gmapping"], source, "gmapping")
+        cfg = {**base, **{k: v for k, v in cfg.items() if k != "gmapping"}}
+        source = f"{src} (+ overrides in {source})"
     return SlamNode(node, cfg, source)
 
 

@@ -1,0 +1,33 @@
+"""``zenav slam run|eval``: offline SLAM on a log and its evaluation (master_side.slam.cli)."""
+
+from __future__ import annotations
+
+import argparse
+
+DESCRIPTION = """\
+run LOG --out DIR [--config gmapping.yaml] [--particles N] [--max-scans N] [--set KEY=VALUE]
+    gmapping-style SLAM over a CARMEN log (FLASER/ODOM) or a ROS1 bag (/scan, /odom); writes
+    DIR/map.pgm, DIR/map.yaml and DIR/trajectory.txt (one `timestamp x y theta` line per scan).
+eval --relations REL DIR/trajectory.txt
+    Kümmerle et al. relation metric; the last line is machine-readable
+    (trans_mean_m=... trans_std_m=... rot_mean_deg=... rot_std_deg=... relations=...).
+
+example:
+  zenav slam run ../shared/datasets/slam/aces.recon.clf --config master_side/config/gmapping_datasets.yaml --out out/aces
+  zenav slam eval --relations ../shared/datasets/slam/aces.relations out/aces/trajectory.txt
+"""
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    p = subparsers.add_parser("slam", help="offline SLAM on a log (run) and its evaluation (eval)",
+                              description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("action", choices=("run", "eval"), help="run SLAM on a log, or evaluate a trajectory")
+    p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments of the action (see above)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args) -> int:
+    from master_side.slam.cli import main
+
+    return main([args.action, *args.rest])
