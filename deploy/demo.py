@@ -23,10 +23,13 @@ from pathlib import Path
 import yaml
 
 from common.bus import Node
-from common.geometry import normalize_angle
-from common.messages import Collision, Costmap, MoveBaseStatus, Odometry
+from common.geometry import Pose2D, normalize_angle
+from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, OccupancyGrid
 from common.zenoh_config import BusConfig
+from deploy.map_check import map_accuracy
 from deploy.world_maps import export_world_map, world_path
+from master_side.mapping.map_io import save_map
+from robot_side.sim.world import parse_pose
 
 ROOT = Path(__file__).resolve().parents[1]
 ROBOT_CONFIG = ROOT / "robot_side" / "config" / "p3at_sim.yaml"
@@ -59,6 +62,7 @@ class DemoOptions:
     monitor_args: tuple[str, ...] = ()  # e.g. ("--save", "demo.rrd"); () = no monitor
     robot: str = "demo"
     workdir: str = ""
+    slam: bool = False  # map the world with SLAM while navigating (no known map)
     results: list[GoalResult] = field(default_factory=list)
 
 
@@ -68,20 +72,29 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def master_config(world: str, planner: str, out_dir: Path) -> Path:
-    """A master YAML for ``world`` on its known map, with absolute paths into the package."""
+def master_config(world: str, planner: str, out_dir: Path, slam: bool = False) -> Path:
+    """A master YAML for ``world``: on its known map (map server + fake localisation), or mapping it
+    with SLAM as in the tutorial's section 3.6; absolute paths into the package."""
     mb, lp = PLANNERS[planner]
     common = str(MASTER_DIR / "p3at" / "costmap_common_params.yaml")
     local = str(MASTER_DIR / "p3at" / "local_costmap_params.yaml")
+    if slam:
+        first = {"slam_gmapping": {"module": "master_side.slam.node", "respawn": True,
+                                   "params": {"gmapping": str(MASTER_DIR / "p3at" / "gmapping.yaml"),
+                                              "particles": 30}}}
+        global_specific = str(MASTER_DIR / "p3at" / "global_costmap_params.yaml")
+    else:
+        first = {"localization": {"module": "robot_side.sim.fake_localization", "respawn": True},
+                 "map_server": {"module": "master_side.mapping.map_server_node",
+                                "params": {"map": str(export_world_map(world, out_dir))}}}
+        global_specific = str(MASTER_DIR / "global_costmap_known_map.yaml")
     cfg = {
         "use_sim_time": True,
         "nodes": {
-            "localization": {"module": "robot_side.sim.fake_localization", "respawn": True},
-            "map_server": {"module": "master_side.mapping.map_server_node",
-                           "params": {"map": str(export_world_map(world, out_dir))}},
+            **first,
             "global_costmap": {"module": "master_side.costmap.node", "respawn": True,
                                "params": {"name": "global_costmap", "common": common,
-                                          "specific": str(MASTER_DIR / "global_costmap_known_map.yaml")}},
+                                          "specific": global_specific}},
             "local_costmap": {"module": "master_side.costmap.node", "respawn": True,
                               "params": {"name": "local_costmap", "common": common, "specific": local}},
             "move_base": {"module": "master_side.move_base.node", "respawn": True,
@@ -105,6 +118,7 @@ class Demo:
         self.truth = self.node.subscribe("ground_truth", Odometry)
         self.collisions = self.node.subscribe("collision", Collision)
         self.status = self.node.subscribe("move_base/status", MoveBaseStatus)
+        self.map_accuracy: dict = {}
         self.costmaps = [self.node.subscribe(f"{n}/costmap", Costmap) for n in ("global_costmap", "local_costmap")]
 
     # -- processes ---------------------------------------------------------------------------------
@@ -156,31 +170,54 @@ class Demo:
         for world in self.o.worlds:
             spec = yaml.safe_load(world_path(world).read_text())
             goals = list(spec.get("goals", {}).items())[: self.o.max_goals or None]
+            mode = "SLAM, unknown map" if self.o.slam else "known map"
             self.echo(f"[demo] world '{world}': starting the robot agent (simulated P3-AT) and the master "
-                      f"agent ({self.o.planner} local planner, known map) ...")
+                      f"agent ({self.o.planner} local planner, {mode}) ...")
+            start = parse_pose(spec.get("start", [0.0, 0.0, 0.0]))
             n_truth, n_status = self.truth.received, self.status.received
             n_maps = [c.received for c in self.costmaps]
             self.spawn(f"robot_{world}", ["robot", "--config", str(ROBOT_CONFIG), "--world", world,
                                           "--speed", str(self.o.speed)])
             self.spawn(f"master_{world}", ["master", "--config", str(master_config(world, self.o.planner,
-                                                                                      self.work))])
+                                                                                      self.work, self.o.slam))])
             self._wait("the simulator", lambda n=n_truth: self.truth.received > n, 60)
             self._wait("move_base", lambda n=n_status: self.status.received > n, 90)
             self._wait("the costmaps", lambda n=n_maps: all(c.received > k for c, k in zip(self.costmaps, n)), 60)
             for i, (name, (x, y, yaw)) in enumerate(goals, 1):
                 self.echo(f"[demo] {world}: goal {i}/{len(goals)} '{name}' ({x:.2f}, {y:.2f}, {yaw:.2f})")
-                res = self._goal(world, name, float(x), float(y), float(yaw), send_goal)
+                res = self._goal(world, name, float(x), float(y), float(yaw), send_goal, start)
                 self.o.results.append(res)
                 verdict = "reached" if res.ok else "FAILED"
                 self.echo(f"[demo] {world}: '{name}' {verdict} in {res.seconds:.1f} s; error "
                           f"{res.xy_error:.2f} m / {math.degrees(res.yaw_error):.1f} deg  {res.reason}")
                 if not res.ok:
                     break
+            if self.o.slam:
+                self._check_map(world, start)
             self.stop(f"master_{world}")
             self.stop(f"robot_{world}")
         return all(r.ok for r in self.o.results) and bool(self.o.results)
 
-    def _goal(self, world: str, name: str, x: float, y: float, yaw: float, send_goal) -> GoalResult:
+    def _check_map(self, world: str, start: Pose2D) -> None:
+        """Save the SLAM map and measure it against the world (the map frame starts at the start pose)."""
+        sub = self.node.subscribe("map", OccupancyGrid)
+        try:
+            grid = sub.wait_first(30.0)
+        except TimeoutError:
+            self.echo(f"[demo] {world}: no SLAM map received")
+            return
+        finally:
+            sub.close()
+        save_map(grid, self.work / f"slam_{world}")
+        self.map_accuracy[world] = acc = map_accuracy(grid, world, start)
+        self.echo(f"[demo] {world}: SLAM map saved to {self.work / f'slam_{world}.pgm'}: {acc}")
+
+    def _goal(self, world: str, name: str, x: float, y: float, yaw: float, send_goal,
+              start: Pose2D) -> GoalResult:
+        gx, gy, gyaw = x, y, yaw
+        if self.o.slam:  # SLAM's map frame is where the robot started
+            g = start.inverse().compose(Pose2D(x, y, yaw))
+            gx, gy, gyaw = g.x, g.y, g.theta
         c0 = self.collisions.latest()
         n0 = c0.count if c0 else 0
         t0 = time.monotonic()
@@ -191,7 +228,7 @@ class Demo:
                 self.echo(f"[demo]   {line.strip()}")
             last[0] = line
 
-        code, status = send_goal(self.node, x, y, yaw, "map", self.o.goal_timeout, progress)
+        code, status = send_goal(self.node, gx, gy, gyaw, "map", self.o.goal_timeout, progress)
         dt = time.monotonic() - t0
         truth = self.truth.latest()
         xy_err = yaw_err = math.nan
