@@ -65,10 +65,16 @@ def node_main(default_name: str, start: Callable, argv: list[str] | None = None)
         except ConfigError as e:
             print(f"zenav {args.name}: config error: {e}", file=sys.stderr)
             return EXIT_CONFIG
+        # A node can end its own process (e.g. a driver that lost its serial port, so the agent's
+        # respawn reconnects it) by setting ``handle.finished`` (an Event) and ``handle.exit_code``.
+        finished = getattr(handle, "finished", None)
         while not stop.wait(0.5):
-            pass
+            if finished is not None and finished.is_set():
+                break
         if handle is not None and hasattr(handle, "close"):
             handle.close()
+        if finished is not None and finished.is_set():
+            return int(getattr(handle, "exit_code", 1))
     finally:
         node.close()
     return 0

@@ -50,6 +50,8 @@ class P2OSNode:
         self._motors_sent: bool | None = None
         self._motor_t = self._battery_t = -1e9
         self._error_reported = False
+        self.finished = threading.Event()
+        self.exit_code = 1
         self.driver = P2OSDriver(port if port is not None else open_port(p.port, p.baud), p,
                                  on_state=self._on_state)
         try:
@@ -98,9 +100,10 @@ class P2OSNode:
         d = self.driver
         if d.error is not None and not self._error_reported:
             self._error_reported = True
-            self.node.log.error("p2os: serial I/O on %s failed (%s); the base is no longer driven",
-                                self.p.port, d.error)
+            self.node.log.error("p2os: serial I/O on %s failed (%s); the base is no longer driven; "
+                                "exiting so the agent can restart the driver", self.p.port, d.error)
             self.pub_motor.publish(MotorState(Header(self.node.clock.now(), self.p.base_frame_id), False))
+            self.finished.set()  # common.runner ends the process with exit_code
 
     def close(self) -> None:
         self._health.cancel()
