@@ -42,12 +42,18 @@ from master_side.planning.navfn import NavFn, NavfnParams
 TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)
 
 
-def build_local_planner(kind: str, mapping: dict, source: str):
+def build_local_planner(kind: str, mapping: dict, source: str, controller_frequency: float | None = None):
+    """The local planner of ``kind`` from its ROS section. Like ROS (the planners look
+    ``controller_frequency`` up the parameter tree and find move_base's), a section without its own
+    ``controller_frequency`` gets move_base's: it sets the planner's control period (dynamic window,
+    braking and the stopping profile of the final rotation)."""
     if kind.startswith("dwa"):
         section, cls, planner = "DWAPlannerROS", DWAPlannerParams, DWAPlanner
     else:
         section, cls, planner = "TrajectoryPlannerROS", TrajectoryPlannerParams, TrajectoryPlanner
     data = mapping.get(section, mapping if section not in mapping and mapping else {})
+    if controller_frequency is not None and "controller_frequency" not in (data or {}):
+        data = {**(data or {}), "controller_frequency": controller_frequency}
     return planner(load_params(cls, data, source, section))
 
 
@@ -65,12 +71,15 @@ class MoveBaseNode:
         # The local planner checks the footprint against cells: obstacles are marked at the cell
         # that holds the hit, so the footprint is padded by one and a half cells of safety margin.
         margin = 1.5 * lc.costmap.resolution
-        self.controller = LocalController(build_local_planner(p.base_local_planner.split("/")[0], lp, lp_src),
+        self.controller = LocalController(build_local_planner(p.base_local_planner.split("/")[0], lp, lp_src,
+                                                              p.controller_frequency),
                                           pad_footprint(np.asarray(lc.footprint, float), margin))
         gp, gp_src = include(cfg.get("global_planner"), source, "global_planner")
         self.navfn = NavFn(load_params(NavfnParams, gp.get("NavfnROS", gp), gp_src, "NavfnROS"))
         self.tf = TFListener(node)
         self.lock = threading.RLock()
+        self.cmd_lock = threading.Lock()  # orders cycle commands against cancel's immediate stop
+        self._cancels = 0
         self.machine = MoveBaseMachine(p, self._plan, self.controller,
                                        default_recoveries(p, self._clear_costmaps, self._blocked,
                                                           inscribed_circumscribed(np.asarray(lc.footprint))[1]))
@@ -117,6 +126,12 @@ class MoveBaseNode:
                            goal.theta, self.global_frame, frame)
 
     def cancel(self) -> None:
+        # Stop first: the control cycle may hold self.lock for a while (a recovery's costmap-clear
+        # service calls run inside it), and cancel must zero cmd_vel at once. The cycle checks the
+        # cancel count under cmd_lock before it publishes, so it cannot send a stale command after this.
+        with self.cmd_lock:
+            self._cancels += 1
+            self.cmd.publish(Twist())
         with self.lock:
             self.machine.cancel(self.node.clock.now())
             self.cmd.publish(Twist())
@@ -202,12 +217,15 @@ class MoveBaseNode:
         vel = (odom.twist.linear.x, odom.twist.linear.y, odom.twist.angular.z) if odom else (0.0, 0.0, 0.0)
         cm = self.local_costmap.latest()
         costmap = None if cm is None else (cm.data, cm.resolution, (cm.origin.x, cm.origin.y))
+        cancels = self._cancels
         with self.lock:
             if local_pose is not None:
                 self.controller.update(local_pose, lfg, costmap)
             d = self.machine.tick(now, pose, vel, problem)
             if self.machine.state is not State.IDLE or d.event:
-                self.cmd.publish(Twist.planar(d.cmd[0], d.cmd[2], d.cmd[1]))
+                with self.cmd_lock:
+                    if cancels == self._cancels:  # else a cancel came in during this cycle: stay stopped
+                        self.cmd.publish(Twist.planar(d.cmd[0], d.cmd[2], d.cmd[1]))
             if d.event:
                 self.node.log.info("%s", d.event)
             self._report(pose)

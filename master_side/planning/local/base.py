@@ -68,6 +68,7 @@ class LocalPlanner:
         self._plan = np.zeros((0, 3))
         self._latched = False
         self._rot_dir = 0.0
+        self._rot_cmd = 0.0  # last rotation speed commanded by the goal approach (along _rot_dir)
 
     # --- interface -------------------------------------------------------------------------------------
     def set_plan(self, path: np.ndarray) -> None:
@@ -192,10 +193,16 @@ class LocalPlanner:
             err * self._rot_dir < -lim.yaw_goal_tolerance and abs(v[2]) <= lim.rot_stopped_vel
         ):
             self._rot_dir = 0.0 if inside else math.copysign(1.0, err)
+            self._rot_cmd = 0.0
         if not self._rot_dir:
             w = 0.0
         else:
-            w = self._rotation_speed(err * self._rot_dir, float(v[2]) * self._rot_dir, inside) * self._rot_dir
+            # The measured speed lags the command by about a cycle; the base follows the command, so the
+            # profile continues from the last command (else it brakes too late and turns back).
+            cur = float(v[2]) * self._rot_dir
+            cur = max(cur, self._rot_cmd) if self._rot_cmd > 0.0 else cur
+            w = self._rotation_speed(err * self._rot_dir, cur, inside, self._rot_cmd) * self._rot_dir
+        self._rot_cmd = w * self._rot_dir if self._rot_dir else 0.0
         if w == 0.0:
             return LocalResult((vx, vy, 0.0), True, "", empty, 0, True)
         trajs = simulate(ctx.pose, v, np.array([[0.0, 0.0, w]]), lim.sim_period * 2, 4)
@@ -206,7 +213,8 @@ class LocalPlanner:
             )
         return LocalResult((vx, vy, w), True, "", trajs.poses[0], 1, True)
 
-    def _rotation_speed(self, remaining: float, current: float, inside: bool) -> float:
+    def _rotation_speed(self, remaining: float, current: float, inside: bool, last_cmd: float | None = None
+                        ) -> float:
         """Non-negative rotation speed toward the goal yaw; ``remaining`` and ``current`` are signed
         along the latched direction (negative remaining = already past the goal yaw).
 
@@ -220,10 +228,15 @@ class LocalPlanner:
         if remaining <= 0.0:
             target = 0.0
         else:
-            stop_cap = min(math.sqrt(2.0 * acc * remaining), (remaining + 0.5 * lim.yaw_goal_tolerance) / dt)
+            # The command takes effect about one cycle late (the pose is a cycle old by the time the base
+            # gets it), and the base turns at its current speed meanwhile: budget that angle before the
+            # braking profile, else the robot overshoots the tolerance band and must turn back.
+            budget = max(remaining - max(current, 0.0) * dt, 0.0)
+            stop_cap = min(math.sqrt(2.0 * acc * budget), (budget + 0.5 * lim.yaw_goal_tolerance) / dt)
             target = min(remaining / max(4 * dt, 1e-3), lim.max_in_place_vth, stop_cap)
             target = max(target, min(lim.min_in_place_vth, stop_cap))
             if inside:
                 target = min(target, max(current, 0.0)) if current > lim.rot_stopped_vel else 0.0
-        speed = min(max(target, current - acc * dt), current + acc * dt)
+        ref = current if last_cmd is None or last_cmd <= 0.0 else last_cmd  # acceleration from the command
+        speed = min(max(target, ref - acc * dt), ref + acc * dt)
         return max(speed, 0.0)

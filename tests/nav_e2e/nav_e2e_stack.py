@@ -1,0 +1,269 @@
+"""Helpers for the navigation end-to-end tests: `zenav robot` (simulated P3-AT) + `zenav master` (known map,
+DWA or trajectory rollout) as separate process groups on a private loopback Zenoh bus, and a test peer
+that sends goals and records ground truth, collisions, cmd_vel and move_base/status."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import yaml
+
+REPO = Path(__file__).resolve().parents[2]
+MASTER_DIR = REPO / "master_side" / "config"
+ROBOT_CONFIG = REPO / "robot_side" / "config" / "p3at_sim.yaml"
+WORLDS = REPO / "robot_side" / "worlds"
+PLANNERS = {"dwa": MASTER_DIR / "p3at_known_map.yaml",
+            "trajectory": MASTER_DIR / "p3at_known_map_trajectory.yaml"}
+
+
+def nav_free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def nav_wait(cond, timeout: float, what: str, period: float = 0.02, alive=None):
+    """Poll ``cond()`` until truthy (returned) or ``timeout`` wall seconds; ``alive()`` false aborts."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        v = cond()
+        if v:
+            return v
+        if alive is not None:
+            dead = alive()
+            if dead:
+                raise AssertionError(f"{dead} while waiting for {what}")
+        time.sleep(period)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def world_goals(world: str) -> dict[str, tuple[float, float, float]]:
+    data = yaml.safe_load((WORLDS / f"{world}.yaml").read_text())
+    return {k: tuple(float(x) for x in v) for k, v in data["goals"].items()}
+
+
+def master_config_for(planner: str, world: str, tmp: Path, move_base: dict | None = None,
+                      navfn: dict | None = None) -> Path:
+    """The shipped master YAML for ``planner``. For another world than the room, or with ``move_base`` /
+    ``navfn`` parameter overrides, a copy in ``tmp``: relative paths made absolute, ``map:`` pointing at a
+    map exported from the world (deploy.world_maps), the overrides merged into move_base's files."""
+    src = PLANNERS[planner]
+    if world == "room" and not move_base and not navfn:
+        return src
+    from deploy.world_maps import export_world_map
+
+    cfg = yaml.safe_load(src.read_text())
+    for spec in cfg["nodes"].values():
+        params = spec.get("params") or {}
+        for k, v in list(params.items()):
+            if isinstance(v, str) and (src.parent / v).exists():
+                params[k] = str((src.parent / v).resolve())
+        if "map" in params and world != "room":
+            params["map"] = str(export_world_map(world, tmp / "maps"))
+    mb = cfg["nodes"]["move_base"]["params"]
+    if move_base:
+        mb_file = tmp / "move_base_overrides.yaml"
+        mb_file.write_text(yaml.safe_dump({**yaml.safe_load(Path(mb["move_base"]).read_text()), **move_base}))
+        mb["move_base"] = str(mb_file)
+    if navfn:
+        mb["global_planner"] = {"NavfnROS": dict(navfn)}
+    out = tmp / f"master_{planner}_{world}.yaml"
+    out.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return out
+
+
+class NavProc:
+    """A subprocess in its own session; output to a file; SIGINT then SIGKILL of its process group."""
+
+    def __init__(self, log: Path, argv: list[str], env: dict) -> None:
+        self.log_path = log
+        with open(log, "wb") as o:
+            self.proc = subprocess.Popen(argv, stdout=o, stderr=subprocess.STDOUT, env=env, cwd=REPO,
+                                         start_new_session=True)
+
+    def log(self, tail: int = 6000) -> str:
+        return self.log_path.read_text(errors="replace")[-tail:]
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def children(self) -> list[int]:
+        """Pids of the agent's node processes (each runs in its own session, a child of the agent)."""
+        out = []
+        for d in Path("/proc").iterdir():
+            if d.name.isdigit():
+                with contextlib.suppress(OSError):
+                    stat = (d / "stat").read_text()
+                    if int(stat.rsplit(")", 1)[1].split()[1]) == self.proc.pid:
+                        out.append(int(d.name))
+        return out
+
+    def child_running(self, module: str) -> int | None:
+        """Pid of the agent's node process whose command line runs ``module``."""
+        for pid in self.children():
+            with contextlib.suppress(OSError):
+                if module.encode() in Path(f"/proc/{pid}/cmdline").read_bytes():
+                    return pid
+        return None
+
+    def stop(self, timeout: float = 15.0) -> None:
+        kids = self.children()
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGINT)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.proc.wait(timeout)
+        with contextlib.suppress(ProcessLookupError, PermissionError):
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self.proc.wait(5)
+        # the nodes die with their agent (PDEATHSIG); make sure, by pid, that none is left behind
+        deadline = time.monotonic() + 5.0
+        while kids and time.monotonic() < deadline:
+            kids = [k for k in kids if Path(f"/proc/{k}").exists() and not _zombie(k)]
+            time.sleep(0.05)
+        for k in kids:
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.kill(k, signal.SIGCONT)
+                os.kill(k, signal.SIGKILL)
+
+
+def _zombie(pid: int) -> bool:
+    with contextlib.suppress(OSError):
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    return True
+
+
+class NavTimeline:
+    """Every message of one topic with its arrival time (monotonic), bounded."""
+
+    def __init__(self, node, topic: str, msg_type, keep: int = 200000) -> None:
+        self.items: list[tuple[float, object]] = []
+        self.keep = keep
+        self.lock = threading.Lock()
+        self.sub = node.subscribe(topic, msg_type, callback=self._add, mode="queue", queue_size=100000)
+
+    def _add(self, msg) -> None:
+        with self.lock:
+            self.items.append((time.monotonic(), msg))
+            if len(self.items) > self.keep:
+                del self.items[: len(self.items) - self.keep]
+
+    def since(self, t0: float) -> list[tuple[float, object]]:
+        with self.lock:
+            return [(t, m) for t, m in self.items if t >= t0]
+
+    def last(self):
+        with self.lock:
+            return self.items[-1][1] if self.items else None
+
+
+def _zenav() -> list[str]:
+    exe = shutil.which("zenav")
+    return [exe] if exe else [sys.executable, "-m", "deploy.cli"]
+
+
+class NavStack:
+    """One simulated robot + one master on a private bus, and the test's peer on it."""
+
+    def __init__(self, tmp: Path, world: str, planner: str, speed: float = 1.0, move_base: dict | None = None,
+                 navfn: dict | None = None) -> None:
+        from common.bus import Node
+        from common.messages import Collision, MoveBaseStatus, Odometry, Twist
+        from common.zenoh_config import BusConfig
+
+        self.world, self.planner, self.speed = world, planner, speed
+        self.robot = f"nav{uuid.uuid4().hex[:10]}"
+        tmp.mkdir(parents=True, exist_ok=True)
+        test_port, robot_port, master_port = nav_free_port(), nav_free_port(), nav_free_port()
+        cfg = BusConfig(robot=self.robot, listen=(f"tcp/127.0.0.1:{test_port}",), multicast=False)
+        self.node = Node("nav_e2e_test", config=cfg, use_sim_time=False)
+        base = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
+                "PYTHONPATH": str(REPO)}
+        base.pop("ZENAV_USE_SIM_TIME", None)
+        self.procs: list[NavProc] = []
+        try:
+            self.gt = self.node.subscribe("ground_truth", Odometry)
+            self.collisions = NavTimeline(self.node, "collision", Collision)
+            self.cmd = NavTimeline(self.node, "cmd_vel", Twist)
+            self.status = NavTimeline(self.node, "move_base/status", MoveBaseStatus, keep=20000)
+            self.cancel_pub = self.node.publisher("move_base/cancel")
+            env_r = {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{robot_port}",
+                     "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port}"}
+            self.robot_proc = self._start("robot", [*_zenav(), "robot", "--config", str(ROBOT_CONFIG),
+                                                    "--world", world, "--speed", str(speed)], env_r, tmp)
+            env_m = {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{master_port}",
+                     "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port},tcp/127.0.0.1:{robot_port}"}
+            master_cfg = master_config_for(planner, world, tmp, move_base, navfn)
+            self.master_proc = self._start("master", [*_zenav(), "master", "--config", str(master_cfg)],
+                                           env_m, tmp)
+            nav_wait(lambda: self.gt.latest() is not None and self.status.last() is not None
+                     and self.status.last().reason == "no goal" and self._costmaps_up(), 180.0,
+                     "the simulator's ground truth, move_base/status and both costmaps", alive=self.dead)
+            publisher_ready(self.cancel_pub)
+        except BaseException:
+            self.close()
+            raise
+
+    def _start(self, name: str, argv: list[str], env: dict, tmp: Path) -> NavProc:
+        p = NavProc(tmp / f"{name}.log", argv, env)
+        self.procs.append(p)
+        return p
+
+    def _costmaps_up(self) -> bool:
+        from common.messages import Costmap
+
+        if not hasattr(self, "_cm"):
+            self._cm = [self.node.subscribe(f"{n}/costmap", Costmap)
+                        for n in ("global_costmap", "local_costmap")]
+        return all(s.latest() is not None for s in self._cm)
+
+    def dead(self) -> str:
+        for p in self.procs:
+            if not p.alive():
+                return f"{p.log_path.name} exited ({p.proc.returncode}):\n{p.log()}"
+        return ""
+
+    def logs(self) -> str:
+        return "\n".join(f"--- {p.log_path.name}\n{p.log(4000)}" for p in self.procs)
+
+    # -- measurements ---------------------------------------------------------------------------------
+    def truth(self):
+        return self.gt.latest().pose2d
+
+    def collision_count(self) -> int:
+        last = self.collisions.last()
+        return 0 if last is None else last.count
+
+    def goal(self, x: float, y: float, yaw: float, frame: str = "map", timeout: float = 150.0):
+        """send_goal (zenav goal's function); returns (exit code, final status, wall t0, wall t1)."""
+        from deploy.cmd_goal import send_goal
+
+        t0 = time.monotonic()
+        code, st = send_goal(self.node, x, y, yaw, frame, timeout, echo=lambda *_: None)
+        return code, st, t0, time.monotonic()
+
+    def close(self) -> None:
+        for p in reversed(self.procs):  # master first, then the robot
+            p.stop()
+        self.node.close()
+
+
+def publisher_ready(pub, timeout: float = 60.0) -> None:
+    nav_wait(lambda: pub._pub.matching_status.matching, timeout, "a subscriber of the publisher")
+
+
+def pose_error(truth, goal: tuple[float, float, float]) -> tuple[float, float]:
+    """(xy error m, |yaw error| rad) of a Pose2D against (x, y, yaw)."""
+    return (math.hypot(truth.x - goal[0], truth.y - goal[1]),
+            abs(math.remainder(truth.theta - goal[2], 2 * math.pi)))

@@ -1,0 +1,70 @@
+"""Issue 6 acceptance around recovery and goal tolerance, on the room world with the DWA master config
+plus two test overrides: ``clearing_rotation_allowed: true`` (so a recovery lasts long enough to cancel in
+it: the rotate-in-place recovery) and navfn ``default_tolerance: 0.6`` (so a goal inside the crate is
+planned to the nearest reachable point and the result says which)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from common.messages import GoalStatus
+from tests.nav_e2e.nav_e2e_checks import (
+    CANCEL_LATENCY_S,
+    RESULTS,
+    XY_TOL,
+    cancel_and_measure,
+    run_goal,
+    send_goal_async,
+    status_of,
+)
+from tests.nav_e2e.nav_e2e_stack import NavStack, nav_wait
+
+SPEED = 2.0
+
+
+@pytest.fixture(scope="module")
+def stack(tmp_path_factory):
+    s = NavStack(tmp_path_factory.mktemp("recovery"), "room", "dwa", SPEED,
+                 move_base={"clearing_rotation_allowed": True}, navfn={"default_tolerance": 0.6})
+    yield s
+    s.close()
+
+
+def test_nav_e2e_goal_inside_the_crate_reports_the_goal_used_and_its_offset(stack):
+    before = stack.collision_count()
+    run = run_goal(stack, "goal inside the crate", (0.0, 0.0, 0.0))
+    st = run.status
+    used = st.goal_used.pose.to_pose2d()
+    offset = math.hypot(used.x, used.y)
+    RESULTS[-1] += f"; goal used ({used.x:.2f}, {used.y:.2f}), goal_offset_m {st.goal_offset_m:.3f}"
+    assert run.code == 0, run.line(stack)
+    assert st.status == GoalStatus.SUCCEEDED, run.line(stack)
+    assert 0.3 < st.goal_offset_m <= 0.6 + 0.05, st.goal_offset_m  # outside the crate, within tolerance
+    assert abs(st.goal_offset_m - offset) < 1e-6, (st.goal_offset_m, used)
+    truth = run.truth
+    assert math.hypot(truth.x - used.x, truth.y - used.y) <= XY_TOL, (truth, used)
+    assert stack.collision_count() == before
+
+
+def test_nav_e2e_cancel_during_the_rotate_recovery_zeroes_cmd_vel_at_once(stack):
+    # away from the crate first: the rotate recovery (rightly) does not turn where a corner would hit it
+    assert run_goal(stack, "to open space", (-1.5, -1.2, 0.0)).code == 0
+    gid = send_goal_async(stack, (10.0, 10.0, 0.0))
+    st = status_of(stack, gid, lambda m: m.state == "PLANNING" and m.reason.startswith("no plan: "), 60.0,
+                   "the no-plan reason")
+    assert "off the costmap" in st.reason, st.reason
+    assert "planner_patience" in st.reason, st.reason
+    status_of(stack, gid, lambda m: m.state == "CLEARING" and "rotate in place" in m.reason, 120.0,
+              "the rotate-in-place recovery")
+    assert stack.status.last().reason.startswith("recovery 2/4: rotate in place"), stack.status.last().reason
+    t = nav_wait(lambda: (c := stack.cmd.since(0)) and abs(c[-1][1].angular.z) > 0 and c[-1][0], 30.0,
+                 "the recovery rotation command")
+    nav_wait(lambda: len(stack.cmd.since(t)) >= 5 and abs(stack.gt.latest().twist.angular.z) > 0.1, 30.0,
+             "the robot rotating")
+    assert stack.status.last().state == "CLEARING"
+    delay = cancel_and_measure(stack)
+    RESULTS.append(f"room/dwa cancel while CLEARING (rotate recovery): first zero cmd_vel after "
+                   f"{delay * 1000:.0f} ms")
+    assert delay <= CANCEL_LATENCY_S, delay

@@ -1,0 +1,58 @@
+"""Issue 6 acceptance on the room world with the DWA master config (master_side/config/p3at_known_map.yaml):
+`zenav robot` + `zenav master` as separate processes on a private loopback bus, one pair for the module."""
+
+from __future__ import annotations
+
+import pytest
+
+from common.messages import GoalStatus
+from tests.nav_e2e.nav_e2e_checks import (
+    CANCEL_LATENCY_S,
+    RESULTS,
+    cancel_and_measure,
+    check_base_link_goal,
+    check_stale_tf_reason,
+    check_unreachable_goal_aborts,
+    check_world_goals,
+    send_goal_async,
+    status_of,
+)
+from tests.nav_e2e.nav_e2e_stack import NavStack, nav_wait
+
+SPEED = 2.0  # the master follows the sim clock (use_sim_time), measured stable at 2x on 2 loaded cores
+
+
+@pytest.fixture(scope="module")
+def stack(tmp_path_factory):
+    s = NavStack(tmp_path_factory.mktemp("room_dwa"), "room", "dwa", SPEED)
+    yield s
+    s.close()
+
+
+def test_nav_e2e_room_dwa_reaches_the_world_goals_without_collision(stack):
+    check_world_goals(stack)
+
+
+def test_nav_e2e_room_dwa_base_link_goal_lands_at_the_offset_from_the_robot(stack):
+    # at back_to_start (-2.2, 0, pi): 1 m behind the robot and 0.5 m to its right, turned +90 deg
+    check_base_link_goal(stack, (-1.0, -0.5, 1.5708))
+
+
+def test_nav_e2e_room_dwa_stale_tf_stops_the_robot_and_says_which_edge(stack):
+    check_stale_tf_reason(stack, (1.0, 1.5, 0.0))
+
+
+def test_nav_e2e_room_dwa_unreachable_goal_aborts_naming_the_planner_failure(stack):
+    check_unreachable_goal_aborts(stack)
+
+
+def test_nav_e2e_room_dwa_cancel_while_driving_zeroes_cmd_vel_at_once(stack):
+    gid = send_goal_async(stack, (-2.0, -1.4, 0.0))
+    status_of(stack, gid, lambda m: m.state == "CONTROLLING" and m.reason == "", 60.0, "CONTROLLING")
+    t = nav_wait(lambda: (c := stack.cmd.since(0)) and not c[-1][1].is_zero() and c[-1][0], 30.0,
+                 "a non-zero command")
+    nav_wait(lambda: len(stack.cmd.since(t)) >= 5, 10.0, "the robot under way")
+    delay = cancel_and_measure(stack)
+    RESULTS.append(f"room/dwa cancel while CONTROLLING: first zero cmd_vel after {delay * 1000:.0f} ms")
+    assert delay <= CANCEL_LATENCY_S, delay
+    assert stack.status.last().status == GoalStatus.PREEMPTED
