@@ -146,3 +146,14 @@ def test_scored_sampling_picks_the_cheapest_and_names_the_rejecting_cost():
     res = planner.score(trajs, free_ctx)
     assert res.best == 0
     assert res.reason == ""
+
+
+def test_obstacle_cost_lets_a_robot_touching_an_obstacle_back_away_but_not_push_on():
+    grid = free_map(60, 60)
+    grid[:, 27] = LETHAL  # the nose of a robot at x = 1.05 touches it (see the test above)
+    cost = ObstacleCost()
+    cost.prepare(_ctx(grid))
+    trajs = _straight([[-0.3, 0.0, 0.0], [0.0, 0.0, 0.0], [0.2, 0.0, 0.0]], pose=(1.05, 1.5, 0.0))
+    s = cost.score(trajs)
+    assert s[0] >= 0  # backing away from the contact is allowed
+    assert s[1] < 0 and s[2] < 0  # staying in contact or pushing on is not

@@ -98,7 +98,10 @@ class ObstacleCost(CostFunction):
             oc = flat[orr * w + occ]
             bad[near] |= (~oin | (oc >= LETHAL)).any(axis=1)
             cost[near] = np.maximum(cost[near], oc.max(axis=1))
-        bad_t = bad.reshape(s, t).any(axis=1)
+        bad = bad.reshape(s, t)
+        if t > 1 and bad[:, 0].any():
+            _allow_escape(bad, clear.reshape(s, t))
+        bad_t = bad.any(axis=1)
         out = cost.reshape(s, t).max(axis=1)
         out[bad_t] = REJECT
         return out
@@ -225,3 +228,16 @@ class Oscillation(CostFunction):
             self.allowed[flipped] = sg[flipped]
             self.anchor = np.array(pose, dtype=float)
         self.last_sign = np.where(sg != 0, sg, self.last_sign)
+
+
+def _allow_escape(bad: np.ndarray, clear: np.ndarray) -> None:
+    """The robot already touches an obstacle (the padded footprint at its current pose, shared by every
+    trajectory): rejecting every move would wedge it. Accept a trajectory whose leading in-contact
+    poses never get closer to the nearest obstacle and which leaves contact within half its length;
+    moves that stay in contact or push on are still rejected. ``bad`` (S, T) is edited in place."""
+    lead = np.logical_and.accumulate(bad, axis=1)
+    n_lead = lead.sum(axis=1)
+    steps = np.diff(clear, axis=1)
+    closer = np.concatenate((np.zeros((len(bad), 1), bool), steps < -1e-9), axis=1) & lead
+    ok = (n_lead < bad.shape[1] / 2) & ~closer.any(axis=1)
+    bad[ok[:, None] & lead] = False
