@@ -32,6 +32,10 @@ class BusConfig:
     lease_ms: int = 1000
     shared_memory: bool | None = None  # None = Zenoh's default
     zenoh_config_file: str = ""
+    # Settings given explicitly (environment / options): with a Zenoh config file, only these and the
+    # ones that differ from the defaults are applied on top of the file, so the file's own mode,
+    # scouting and lease win otherwise.
+    explicit: tuple[str, ...] = ()
 
     def __post_init__(self):
         if self.mode not in ("peer", "client", "router"):
@@ -49,6 +53,9 @@ class BusConfig:
             return tuple(x.strip() for x in v.split(",") if x.strip())
 
         shm = e.get("ZENAV_SHM")
+        names = {"ZENAV_MODE": "mode", "ZENAV_CONNECT": "connect", "ZENAV_LISTEN": "listen",
+                 "ZENAV_MULTICAST": "multicast", "ZENAV_LEASE_MS": "lease_ms", "ZENAV_SHM": "shared_memory"}
+        explicit = tuple(f for k, f in names.items() if e.get(k, "") != "")
         cfg = BusConfig(
             robot=e.get("ZENAV_ROBOT", DEFAULT_ROBOT),
             mode=e.get("ZENAV_MODE", "peer"),
@@ -58,32 +65,44 @@ class BusConfig:
             lease_ms=int(e.get("ZENAV_LEASE_MS", "1000")),
             shared_memory=None if shm is None else shm not in ("0", "false", "no"),
             zenoh_config_file=e.get("ZENAV_ZENOH_CONFIG", ""),
+            explicit=explicit,
         )
         return replace(cfg, **overrides) if overrides else cfg
 
     def to_env(self) -> dict[str, str]:
         """Environment variables that reproduce this config in a child process."""
-        env = {
-            "ZENAV_ROBOT": self.robot, "ZENAV_MODE": self.mode, "ZENAV_CONNECT": ",".join(self.connect),
-            "ZENAV_LISTEN": ",".join(self.listen), "ZENAV_MULTICAST": "1" if self.multicast else "0",
-            "ZENAV_LEASE_MS": str(self.lease_ms), "ZENAV_ZENOH_CONFIG": self.zenoh_config_file,
-        }
+        env = {"ZENAV_ROBOT": self.robot, "ZENAV_CONNECT": ",".join(self.connect),
+               "ZENAV_LISTEN": ",".join(self.listen), "ZENAV_ZENOH_CONFIG": self.zenoh_config_file}
+        values = {"ZENAV_MODE": ("mode", self.mode), "ZENAV_MULTICAST": ("multicast", "1" if self.multicast else "0"),
+                  "ZENAV_LEASE_MS": ("lease_ms", str(self.lease_ms))}
+        for var, (name, text) in values.items():
+            if self._applies(name):
+                env[var] = text
         if self.shared_memory is not None:
             env["ZENAV_SHM"] = "1" if self.shared_memory else "0"
         return env
+
+    def _applies(self, name: str) -> bool:
+        """Whether a setting overrides the Zenoh config file (always, when there is no file)."""
+        return (not self.zenoh_config_file or name in self.explicit
+                or getattr(self, name) != getattr(BusConfig(), name))
 
     def to_zenoh(self):
         import zenoh
 
         conf = zenoh.Config.from_file(self.zenoh_config_file) if self.zenoh_config_file else zenoh.Config()
-        conf.insert_json5("mode", json.dumps(self.mode))
+        apply = self._applies
+        if apply("mode"):
+            conf.insert_json5("mode", json.dumps(self.mode))
         if self.connect:
             conf.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         if self.listen:
             conf.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
-        conf.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
-        conf.insert_json5("transport/link/tx/lease", str(self.lease_ms))
-        conf.insert_json5("transport/link/tx/keep_alive", "4")
+        if apply("multicast"):
+            conf.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
+        if apply("lease_ms"):
+            conf.insert_json5("transport/link/tx/lease", str(self.lease_ms))
+            conf.insert_json5("transport/link/tx/keep_alive", "4")
         if self.shared_memory is not None:
             conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
         return conf

@@ -36,6 +36,8 @@ COMMANDS = [
     "deploy.cmd_demo",
     "deploy.cmd_slam",
     "deploy.cmd_map",
+    "deploy.cmd_zenoh",
+    "deploy.cmd_doctor",
 ]
 
 EPILOG = """\

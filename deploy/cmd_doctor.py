@@ -1,0 +1,259 @@
+"""``zenav doctor`` — can this machine talk to the robot? A PASS/FAIL list with the fix for each failure.
+
+Checks, in order: the Zenoh session opens with the effective config (mode, endpoints, multicast,
+lease); configured endpoints / routers are reached; multicast scouting finds other Zenoh processes;
+zenav nodes alive per robot (liveliness); expected topics flow (rates); TF odom→base_link is fresh;
+clock skew between this machine and the robot's header stamps; optionally the serial port (on the
+robot). Exit 0 only if every check passes (SKIP counts as passed).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import threading
+import time
+from collections import defaultdict
+
+from deploy import close_quietly, robot_pattern
+from deploy.hosts.doctor_checks import OK_STATES, Check, describe_config, serial_check, skew_check
+
+SCOUT_S = 1.5
+
+
+def add_parser(subparsers):
+    p = subparsers.add_parser(
+        "doctor", help="check connectivity to the robot: PASS/FAIL with fixes",
+        description=__doc__.split("\n\n")[1].replace("\n", " "))
+    p.add_argument("--expect-topics", default="scan,odom,tf", metavar="T1,T2",
+                   help="topics that must be flowing (default scan,odom,tf; '' = none)")
+    p.add_argument("--timeout", type=float, default=5.0, metavar="S",
+                   help="how long to listen for nodes and topics (default 5 s)")
+    p.add_argument("--serial", default="", metavar="DEV", help="on the robot: check this serial port "
+                   "(e.g. /dev/pioneer) exists and is read/writable")
+    p.add_argument("--max-skew", type=float, default=0.05, metavar="S",
+                   help="clock offset above which to warn (default 0.05 s)")
+    p.add_argument("--tf-max-age", type=float, default=1.0, metavar="S",
+                   help="odom→base_link must have arrived within S s (default 1)")
+    p.set_defaults(func=run)
+    return p
+
+
+class _Listener:
+    """Collects liveliness tokens and stamped samples of the expected topics (+ clock)."""
+
+    def __init__(self, session, robot: str, topics: list[str]) -> None:
+        import zenoh
+
+        self.lock = threading.Lock()
+        self.tokens: set[tuple[str, str, str, str]] = set()  # (robot, kind, node, name)
+        self.samples: dict[tuple[str, str], list[float]] = defaultdict(list)  # monotonic receive times
+        self.offsets: dict[str, list[float]] = defaultdict(list)  # robot -> receive wall - stamp
+        self.tf: dict[str, tuple[float, float]] = {}  # robot -> (monotonic, stamp) of odom->base_link
+        self.tf_edges: dict[str, set[str]] = defaultdict(set)
+        self.kind_put = zenoh.SampleKind.PUT
+        self.ents = [session.liveliness().declare_subscriber(f"zenavlive/{robot}/**", self._on_token,
+                                                             history=True)]
+        for t in [*topics, "clock"]:
+            self.ents.append(session.declare_subscriber(f"zenav/{robot}/{t}", self._on_sample))
+
+    def _on_token(self, s) -> None:
+        parts = str(s.key_expr).split("/")
+        if len(parts) >= 4:
+            item = (parts[1], parts[2], parts[3], "/".join(parts[4:]))
+            with self.lock:
+                (self.tokens.add if s.kind == self.kind_put else self.tokens.discard)(item)
+
+    def _on_sample(self, s) -> None:
+        from common.codec import decode
+
+        now_w, now_m = time.time(), time.monotonic()
+        _, robot, topic = str(s.key_expr).split("/", 2)
+        try:
+            msg = decode(s.payload.to_bytes())
+        except Exception:  # noqa: BLE001 - malformed or unknown type: counted as traffic only
+            msg = None
+        with self.lock:
+            self.samples[(robot, topic)].append(now_m)
+            stamps = []
+            if hasattr(msg, "header"):
+                stamps.append(msg.header.stamp)
+            for tr in getattr(msg, "transforms", ()):
+                parent, child = tr.header.frame_id.strip("/"), tr.child_frame_id.strip("/")
+                self.tf_edges[robot].add(f"{parent}→{child}")
+                stamps.append(tr.header.stamp)
+                if (parent, child) == ("odom", "base_link"):
+                    self.tf[robot] = (now_m, tr.header.stamp)
+            if topic != "clock":
+                self.offsets[robot] += [now_w - st for st in stamps if st > 0]
+
+    def close(self) -> None:
+        close_quietly(*self.ents)
+
+
+def _session_checks(session, conf, desc: dict, report, wait_s: float) -> None:
+    mc = f"on ({desc['multicast_address']})" if desc["multicast"] else "off"
+    extra = f", user {desc['usrpwd_user']}" if desc["usrpwd_user"] else ""
+    extra += ", access control on" if desc["access_control"] else ""
+    report(Check("zenoh session opens", "PASS",
+                 f"zid {session.zid()}, mode {desc['mode']}, listen {desc['listen'] or 'default'}, connect "
+                 f"{desc['connect'] or 'none'}, multicast {mc}, lease {desc['lease_ms']} ms{extra}"))
+    deadline = time.monotonic() + wait_s
+    info = session.info
+    while time.monotonic() < deadline and not (info.routers_zid() or info.peers_zid()):
+        time.sleep(0.05)
+    routers, peers = info.routers_zid(), info.peers_zid()
+    if desc["mode"] == "client":
+        ok = bool(routers)
+        report(Check("router reached", "PASS" if ok else "FAIL",
+                     f"{len(routers)} router(s)" if ok else f"no router at {desc['connect']}",
+                     "start the router (`zenav zenoh router --config router.json5`), check the address and "
+                     "port 7447 in the firewall,\nand the user / password if the router has usrpwd"))
+    elif desc["connect"]:
+        ok = bool(routers or peers)
+        report(Check("configured endpoints reached", "PASS" if ok else "FAIL",
+                     f"{len(peers)} peer(s), {len(routers)} router(s)" if ok else
+                     f"nothing answered at {', '.join(desc['connect'])}",
+                     "is zenav running there, listening on that endpoint (--listen tcp/0.0.0.0:7447)?\n"
+                     "firewall: allow tcp 7447; with usrpwd a wrong password looks exactly like this"))
+
+
+def _scout_check(conf, own_zid: str, desc: dict, report) -> None:
+    import zenoh
+
+    if not desc["multicast"]:
+        report(Check("multicast scouting", "SKIP", "disabled in the config (explicit endpoints)"))
+        return
+    found: dict[str, str] = {}
+    try:
+        scout = zenoh.scout(what="peer|router", config=conf)
+    except Exception as e:  # noqa: BLE001 - no multicast route / socket error
+        report(Check("multicast scouting", "FAIL", f"cannot scout: {e}",
+                     "multicast is unusable here: add a route (`ip route add 224.0.0.0/4 dev <if>`) or use "
+                     "--no-multicast --connect tcp/<robot>:7447"))
+        return
+    end = time.monotonic() + SCOUT_S
+    while time.monotonic() < end:
+        hello = scout.try_recv()
+        if hello is None:
+            time.sleep(0.05)
+            continue
+        if str(hello.zid) != own_zid:
+            found[str(hello.zid)] = f"{hello.whatami} {','.join(str(x) for x in hello.locators)}"
+    scout.stop()
+    if found:
+        report(Check("multicast scouting", "PASS", f"{len(found)} Zenoh process(es) answered: "
+                     + "; ".join(list(found.values())[:4])))
+    else:
+        report(Check("multicast scouting", "FAIL",
+                     f"no answer on {desc['multicast_address']} within {SCOUT_S:.1f} s",
+                     "nothing is running, or multicast seems blocked (Wi-Fi AP isolation, VPN, firewall on "
+                     "udp 7446):\nuse --no-multicast --connect tcp/<robot-ip>:7447 here and --listen "
+                     "tcp/0.0.0.0:7447 on the robot"))
+
+
+def _robot_checks(lis: _Listener, robots: list[str], topics: list[str], window: float, args, report) -> None:
+    with lis.lock:
+        for r in robots:
+            nodes = sorted(n for rr, k, n, _ in lis.tokens if rr == r and k == "node")
+            pubs = defaultdict(set)
+            for rr, k, n, name in lis.tokens:
+                if rr == r and k == "pub":
+                    pubs[name].add(n)
+            report(Check(f"[{r}] nodes alive", "PASS", f"{len(nodes)}: {' '.join(nodes)}"))
+            for t in topics:
+                ts = lis.samples.get((r, t), [])
+                if len(ts) >= 2:
+                    hz = (len(ts) - 1) / max(ts[-1] - ts[0], 1e-6)
+                    report(Check(f"[{r}] topic {t}", "PASS", f"{hz:.1f} Hz ({len(ts)} msgs, publisher "
+                                 f"{','.join(sorted(pubs.get(t, ()))) or '?'})"))
+                    continue
+                who = sorted(pubs.get(t, ()))
+                fix = (f"{','.join(who)} is alive but nothing arrived: is it publishing "
+                       f"(`zenav topic hz {t}` on the robot)?\nacross containers/namespaces set ZENAV_SHM=0; "
+                       "access control on the robot may drop it" if who else
+                       f"nobody publishes zenav/{r}/{t}: start the node that does "
+                       "(`zenav robot --config ...`)\nor check the robot name (--robot / ZENAV_ROBOT)")
+                report(Check(f"[{r}] topic {t}", "FAIL", f"{len(ts)} message(s) in {window:.1f} s", fix))
+            if "tf" in topics:
+                got = lis.tf.get(r)
+                age = time.monotonic() - got[0] if got else float("inf")
+                if age <= args.tf_max_age:
+                    report(Check(f"[{r}] TF odom→base_link fresh", "PASS", f"last {age * 1e3:.0f} ms ago"))
+                else:
+                    edges = ", ".join(sorted(lis.tf_edges.get(r, ()))) or "none"
+                    report(Check(f"[{r}] TF odom→base_link fresh", "FAIL",
+                                 "never received" if got is None else f"last {age:.1f} s ago",
+                                 f"the base driver publishes odom→base_link (edges seen: {edges});\n"
+                                 "check the base node is running and its publish_tf / frame names"))
+            sim = len(lis.samples.get((r, "clock"), [])) > 0
+            check = skew_check(lis.offsets.get(r, []), args.max_skew, sim)
+            check.name = f"[{r}] {check.name}"
+            report(check)
+
+
+def run(args) -> int:
+    import zenoh
+
+    from common.zenoh_config import BusConfig
+
+    results: list[Check] = []
+
+    def report(c: Check) -> None:
+        results.append(c)
+        print("\n".join(c.lines()), flush=True)
+
+    robot = robot_pattern(args, all_by_default=True)
+    topics = [t.strip().strip("/") for t in args.expect_topics.split(",") if t.strip()]
+    env = dict(os.environ)
+    if "*" in env.get("ZENAV_ROBOT", ""):
+        env.pop("ZENAV_ROBOT")
+    print(f"zenav doctor: robot {robot!r}, expecting {','.join(topics) or 'no topics'}", flush=True)
+    session = lis = None
+    try:
+        try:
+            conf = BusConfig.from_env(env).to_zenoh()
+            desc = describe_config(conf)
+            session = zenoh.open(conf)
+        except Exception as e:  # noqa: BLE001 - bad file, bad endpoint, refused credentials
+            report(Check("zenoh session opens", "FAIL", f"{type(e).__name__}: {e}",
+                         f"check ZENAV_ZENOH_CONFIG={env.get('ZENAV_ZENOH_CONFIG') or '(unset)'} "
+                         "(`zenav zenoh config ...` writes a valid one),\n--connect endpoints, and for "
+                         "a client the router address and user / password"))
+            return _summary(results)
+        t0 = time.monotonic()
+        lis = _Listener(session, robot, topics)
+        _session_checks(session, conf, desc, report, min(3.0, args.timeout))
+        _scout_check(conf, str(session.zid()), desc, report)
+        deadline = t0 + args.timeout
+        while time.monotonic() < deadline:
+            time.sleep(0.05)
+        with lis.lock:
+            robots = sorted({r for r, k, _, _ in lis.tokens if k == "node"})
+        if not robots:
+            report(Check("zenav nodes alive", "FAIL", f"no node tokens zenavlive/{robot}/node/* within "
+                         f"{args.timeout:.0f} s", "start the robot (`zenav robot --config ...` or "
+                         "`systemctl start zenav-robot` on the robot PC);\nif it runs: same robot name "
+                         "(ZENAV_ROBOT)? are the machines connected (checks above)?"))
+            for t in topics:
+                report(Check(f"topic {t}", "FAIL", "no robot", "see 'zenav nodes alive'"))
+        else:
+            _robot_checks(lis, robots, topics, time.monotonic() - t0, args, report)
+    finally:
+        close_quietly(lis, session)
+    if args.serial:
+        report(serial_check(args.serial))
+    return _summary(results)
+
+
+def _summary(results: list[Check]) -> int:
+    bad = [c for c in results if c.status not in OK_STATES]
+    print(f"zenav doctor: {len(results) - len(bad)} passed, {len(bad)} failed"
+          + (f" ({', '.join(c.name for c in bad)})" if bad else ""), flush=True)
+    return 0 if not bad else 1
+
+
+if __name__ == "__main__":
+    from deploy.cli import main
+
+    sys.exit(main(["doctor", *sys.argv[1:]]))
