@@ -30,6 +30,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--planner", choices=("dwa", "trajectory"), default="dwa", help="local planner")
     p.add_argument("--slam", action="store_true",
                    help="no known map: map the world with SLAM while navigating (tutorial section 3.6)")
+    p.add_argument("--amcl", action="store_true",
+                   help="known map, localised with AMCL (master_side/config/p3at_amcl.yaml) instead of "
+                        "the simulator's ground truth")
     p.add_argument("--goals", type=int, default=0, help="at most this many goals per world (0 = all)")
     p.add_argument("--speed", type=float, default=1.0, help="simulated time / real time")
     p.add_argument("--goal-timeout", type=float, default=180.0, help="seconds allowed per goal")
@@ -60,7 +63,7 @@ def run(args) -> int:
     worlds = tuple(args.world or ("room", "corridor"))
     opts = DemoOptions(worlds=worlds, planner=args.planner, max_goals=args.goals, speed=args.speed,
                        goal_timeout=args.goal_timeout, monitor_args=monitor_args(args),
-                       workdir=args.workdir or "", slam=args.slam)
+                       workdir=args.workdir or "", slam=args.slam, amcl=args.amcl)
     t0 = time.monotonic()
     demo = Demo(opts, echo=lambda s: print(s, flush=True))
     print(f"[demo] logs and generated configs in {demo.work}", flush=True)

@@ -63,6 +63,7 @@ class DemoOptions:
     robot: str = "demo"
     workdir: str = ""
     slam: bool = False  # map the world with SLAM while navigating (no known map)
+    amcl: bool = False  # known map, localised with AMCL instead of the simulator's ground truth
     results: list[GoalResult] = field(default_factory=list)
 
 
@@ -72,9 +73,17 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def master_config(world: str, planner: str, out_dir: Path, slam: bool = False) -> Path:
-    """A master YAML for ``world``: on its known map (map server + fake localisation), or mapping it
-    with SLAM as in the tutorial's section 3.6; absolute paths into the package."""
+def amcl_node(world: str) -> dict:
+    """The amcl node of p3at_amcl.yaml with its initial pose at ``world``'s start."""
+    node = yaml.safe_load((MASTER_DIR / "p3at_amcl.yaml").read_text())["nodes"]["localization"]
+    start = parse_pose(yaml.safe_load(world_path(world).read_text()).get("start", [0.0, 0.0, 0.0]))
+    node["params"].update(initial_pose_x=start.x, initial_pose_y=start.y, initial_pose_a=start.theta)
+    return node
+
+
+def master_config(world: str, planner: str, out_dir: Path, slam: bool = False, amcl: bool = False) -> Path:
+    """A master YAML for ``world``: on its known map (map server + fake localisation, or AMCL), or
+    mapping it with SLAM as in the tutorial's section 3.6; absolute paths into the package."""
     mb, lp = PLANNERS[planner]
     common = str(MASTER_DIR / "p3at" / "costmap_common_params.yaml")
     local = str(MASTER_DIR / "p3at" / "local_costmap_params.yaml")
@@ -84,7 +93,8 @@ def master_config(world: str, planner: str, out_dir: Path, slam: bool = False) -
                                               "particles": 30}}}
         global_specific = str(MASTER_DIR / "p3at" / "global_costmap_params.yaml")
     else:
-        first = {"localization": {"module": "robot_side.sim.fake_localization", "respawn": True},
+        fake = {"module": "robot_side.sim.fake_localization", "respawn": True}
+        first = {"localization": amcl_node(world) if amcl else fake,
                  "map_server": {"module": "master_side.mapping.map_server_node",
                                 "params": {"map": str(export_world_map(world, out_dir))}}}
         global_specific = str(MASTER_DIR / "global_costmap_known_map.yaml")
@@ -170,7 +180,7 @@ class Demo:
         for world in self.o.worlds:
             spec = yaml.safe_load(world_path(world).read_text())
             goals = list(spec.get("goals", {}).items())[: self.o.max_goals or None]
-            mode = "SLAM, unknown map" if self.o.slam else "known map"
+            mode = "SLAM, unknown map" if self.o.slam else "known map" + (", AMCL" if self.o.amcl else "")
             self.echo(f"[demo] world '{world}': starting the robot agent (simulated P3-AT) and the master "
                       f"agent ({self.o.planner} local planner, {mode}) ...")
             start = parse_pose(spec.get("start", [0.0, 0.0, 0.0]))
@@ -178,8 +188,8 @@ class Demo:
             n_maps = [c.received for c in self.costmaps]
             self.spawn(f"robot_{world}", ["robot", "--config", str(ROBOT_CONFIG), "--world", world,
                                           "--speed", str(self.o.speed)])
-            self.spawn(f"master_{world}", ["master", "--config", str(master_config(world, self.o.planner,
-                                                                                      self.work, self.o.slam))])
+            self.spawn(f"master_{world}", ["master", "--config", str(master_config(
+                world, self.o.planner, self.work, self.o.slam, self.o.amcl))])
             self._wait("the simulator", lambda n=n_truth: self.truth.received > n, 60)
             self._wait("move_base", lambda n=n_status: self.status.received > n, 90)
             self._wait("the costmaps", lambda n=n_maps: all(c.received > k for c, k in zip(self.costmaps, n)), 60)

@@ -1,0 +1,1 @@
+"""Localisation on a known map: AMCL (adaptive Monte Carlo localisation, as ROS's ``amcl``)."""

@@ -1,0 +1,136 @@
+"""amcl over the bus: latched ``map``, ``scan``, TF odom→base_link and base_link→scan frame in;
+``amcl_pose`` (PoseStamped, map) and TF map→odom out; ``initialpose`` (PoseStamped, like rviz's 2D
+Pose Estimate) and the ``global_localization`` service (Empty → Empty) re-seed the particles.
+
+map→odom is republished every ``transform_publish_period`` seconds (default 0.05), stamped
+``now + transform_tolerance`` as ROS amcl future-dates it, from a value swapped in after each
+filter update: the TF keeps flowing while a scan is being processed.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+
+from common.config import ConfigError, include, strip_frame
+from common.geometry import Pose2D
+from common.messages import Empty, Header, LaserScan, OccupancyGrid, PoseStamped, TransformStamped
+from master_side.localization.amcl import Amcl
+from master_side.localization.params import load_amcl_params
+
+log = logging.getLogger("zenav.amcl")
+NODE_ONLY = ("transform_publish_period",)
+
+
+class AmclNode:
+    def __init__(self, node, cfg: dict, source: str) -> None:
+        from common.tf import TFBroadcaster, TFListener
+
+        self.node = node
+        self.p = load_amcl_params(cfg, source, ignore=NODE_ONLY)
+        period = cfg.get("transform_publish_period", 0.05)
+        if isinstance(period, bool) or not isinstance(period, (int, float)) or not 0 <= period <= 10:
+            raise ConfigError(source, "transform_publish_period", f"{period!r}: must be in [0, 10] s")
+        self.map_frame = strip_frame(self.p.global_frame_id)
+        self.odom_frame = strip_frame(self.p.odom_frame_id)
+        self.base_frame = strip_frame(self.p.base_frame_id)
+        self.filter: Amcl | None = None
+        self.lock = threading.Lock()  # guards self.filter (scan updates vs. re-seeding)
+        self._corr: Pose2D | None = None  # map -> odom, replaced (never mutated) after each update
+        self.tf = TFListener(node)
+        self.tf_out = TFBroadcaster(node)
+        self.pose_pub = node.publisher("amcl_pose")
+        self.subs = [
+            node.subscribe("map", OccupancyGrid, callback=self._on_map, mode="latest"),
+            node.subscribe("scan", LaserScan, callback=self._on_scan, mode="latest"),
+            node.subscribe("initialpose", PoseStamped, callback=self._on_initial_pose, mode="queue"),
+        ]
+        node.service("global_localization", self._on_global_localization, request_type=Empty)
+        self.timer = node.timer(float(period), self._publish_tf) if period > 0 else None
+
+    # -- inputs ----------------------------------------------------------------------------------------
+    def _on_map(self, grid: OccupancyGrid) -> None:
+        with self.lock:
+            old = self.filter
+            try:
+                new = Amcl(self.p, grid)
+            except ValueError as e:
+                log.error("map rejected: %s", e)
+                return
+            if old is not None:  # keep the current belief on a new map (as a Gaussian)
+                mean, cov = old.estimate()
+                new.init_pose(mean, (cov[0, 0], cov[1, 1], cov[2, 2]))
+            self.filter = new
+        log.info("map %dx%d at %.3f m: %d particles", grid.width, grid.height, grid.resolution,
+                 len(new.poses))
+
+    def _on_scan(self, scan: LaserScan) -> None:
+        t = scan.header.stamp
+        try:
+            odom = self.tf.buffer.lookup_pose2d(self.odom_frame, self.base_frame, t, timeout=0.2)
+            laser = self.tf.buffer.lookup(self.base_frame, strip_frame(scan.header.frame_id), t, timeout=0.2)
+        except LookupError as e:  # no TF for this scan yet: ROS amcl drops it too
+            log.debug("scan at %.3f dropped: %s", t, e)
+            return
+        with self.lock:
+            f = self.filter
+            if f is None or not f.update(odom, scan, laser.transform.to_pose2d()):
+                return
+            corr, (mean, _) = f.map_to_odom(), f.estimate()
+        self._corr = corr
+        self.pose_pub.publish(PoseStamped(Header(t, self.map_frame), mean.to_transform()))
+
+    def _on_initial_pose(self, msg: PoseStamped) -> None:
+        frame = strip_frame(msg.header.frame_id) or self.map_frame
+        pose = msg.pose.to_pose2d()
+        if frame != self.map_frame:
+            try:
+                pose = self.tf.buffer.lookup_pose2d(self.map_frame, frame, 0.0, timeout=0.5).compose(pose)
+            except LookupError as e:
+                log.warning("initialpose in frame %r ignored: %s", frame, e)
+                return
+        with self.lock:
+            if self.filter is None:
+                log.warning("initialpose before any map: ignored")
+                return
+            self.filter.init_pose(pose, (self.p.initial_cov_xx, self.p.initial_cov_yy, self.p.initial_cov_aa))
+        log.info("initial pose set to (%.2f, %.2f, %.2f)", pose.x, pose.y, pose.theta)
+
+    def _on_global_localization(self, _req: Empty) -> Empty:
+        with self.lock:
+            if self.filter is None:
+                raise RuntimeError("no map yet")
+            self.filter.global_localization()
+        log.info("global localisation: %d particles over the free space", self.p.max_particles)
+        return Empty()
+
+    # -- output ----------------------------------------------------------------------------------------
+    def _publish_tf(self) -> None:
+        corr = self._corr  # no lock: the TF keeps flowing while a scan is being processed
+        if corr is None:
+            return
+        stamp = self.node.clock.now() + self.p.transform_tolerance
+        header = Header(stamp, self.map_frame)
+        self.tf_out.send(TransformStamped(header, self.odom_frame, corr.to_transform()))
+
+    def close(self) -> None:
+        if self.timer is not None:
+            self.timer.cancel()
+        for s in self.subs:
+            s.close()
+        self.tf.close()
+
+
+def start(node, cfg: dict, source: str) -> AmclNode:
+    """cfg: ROS amcl parameters, or ``amcl: FILE`` (an amcl parameter file) plus keys overriding it."""
+    if "amcl" in cfg:
+        base, src = include(cfg["amcl"], source, "amcl")
+        cfg = {**base, **{k: v for k, v in cfg.items() if k != "amcl"}}
+        source = f"{src} (+ overrides in {source})"
+    return AmclNode(node, cfg, source)
+
+
+if __name__ == "__main__":
+    from common.runner import node_main
+
+    node_main("amcl", start)

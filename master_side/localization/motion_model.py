@@ -1,0 +1,57 @@
+"""ROS amcl's ``diff`` odometry motion model (Probabilistic Robotics, sample_motion_model_odometry).
+
+An odometry increment is split into rotate (rot1), translate (trans), rotate (rot2); each particle
+gets its own noisy copy. ``odom_alpha1``: rotation noise from rotation, ``odom_alpha2``: rotation from
+translation, ``odom_alpha3``: translation from translation, ``odom_alpha4``: translation from rotation.
+``diff`` reproduces ROS's original model, which uses the variance expression as the standard
+deviation; ``diff-corrected`` takes its square root (so it wants much smaller alphas, ~0.005-0.05).
+Rotations near ±π count as reversing, not turning (min of the angle to 0 and to π).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from common.geometry import Pose2D, normalize_angle, normalize_angles
+
+
+def _turn_noise(rot: float) -> float:
+    """Rotation magnitude for the noise: a half turn is driving backwards, not turning."""
+    return min(abs(normalize_angle(rot)), abs(normalize_angle(rot - math.pi)))
+
+
+class DiffMotionModel:
+    def __init__(self, alpha1: float, alpha2: float, alpha3: float, alpha4: float,
+                 corrected: bool = False) -> None:
+        self.a1, self.a2, self.a3, self.a4 = alpha1, alpha2, alpha3, alpha4
+        self.corrected = corrected
+
+    def decompose(self, old: Pose2D, new: Pose2D) -> tuple[float, float, float]:
+        """(rot1, trans, rot2) of the odometry increment from ``old`` to ``new`` (odom frame)."""
+        dx, dy = new.x - old.x, new.y - old.y
+        trans = math.hypot(dx, dy)
+        rot1 = 0.0 if trans < 0.01 else normalize_angle(math.atan2(dy, dx) - old.theta)
+        rot2 = normalize_angle(new.theta - old.theta - rot1)
+        return rot1, trans, rot2
+
+    def sigmas(self, rot1: float, trans: float, rot2: float) -> tuple[float, float, float]:
+        """Noise standard deviations of (rot1, trans, rot2)."""
+        n1, n2 = _turn_noise(rot1), _turn_noise(rot2)
+        v = (self.a1 * n1 * n1 + self.a2 * trans * trans,
+             self.a3 * trans * trans + self.a4 * (n1 * n1 + n2 * n2),
+             self.a1 * n2 * n2 + self.a2 * trans * trans)
+        return tuple(math.sqrt(x) for x in v) if self.corrected else v  # type: ignore[return-value]
+
+    def sample(self, poses: np.ndarray, old: Pose2D, new: Pose2D, rng: np.random.Generator) -> np.ndarray:
+        """Move every particle (N, 3) by the odometry increment old -> new with its own noise."""
+        rot1, trans, rot2 = self.decompose(old, new)
+        s1, st, s2 = self.sigmas(rot1, trans, rot2)
+        n = len(poses)
+        r1 = rot1 - rng.normal(0.0, 1.0, n) * s1
+        tr = trans - rng.normal(0.0, 1.0, n) * st
+        r2 = rot2 - rng.normal(0.0, 1.0, n) * s2
+        heading = poses[:, 2] + r1
+        return np.column_stack((poses[:, 0] + tr * np.cos(heading), poses[:, 1] + tr * np.sin(heading),
+                                normalize_angles(heading + r2)))

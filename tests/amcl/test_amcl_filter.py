@@ -1,0 +1,147 @@
+"""AMCL on small synthetic maps: likelihood field, tracking, global localisation, resampling, params."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from common.config import ConfigError
+from common.geometry import Pose2D
+from master_side.localization.amcl import Amcl
+from master_side.localization.likelihood_field import LikelihoodField, beam_likelihoods, select_beams
+from master_side.localization.params import AmclParams, load_amcl_params
+from master_side.localization.sampling import kld_limit, kld_resample
+from tests.amcl.test_amcl_support import KINECT, LASER, box_map, cast_scan, noisy_step, pose_error
+
+LASER_IN_BASE = Pose2D(0.1, 0.0, 0.0)
+
+
+def route(waypoints, step: float = 0.1, turn: float = 0.1) -> list[Pose2D]:
+    """Poses along straight legs between waypoints, turning on the spot at each."""
+    poses = [Pose2D(*waypoints[0])]
+    for x, y in waypoints[1:]:
+        p = poses[-1]
+        head = math.atan2(y - p.y, x - p.x)
+        while (d := math.remainder(head - p.theta, 2 * math.pi)) != 0.0:
+            p = Pose2D(p.x, p.y, p.theta + max(-turn, min(turn, d)))
+            poses.append(p)
+        n = math.ceil(math.hypot(x - p.x, y - p.y) / step)
+        poses += [Pose2D(p.x + (x - p.x) * k / n, p.y + (y - p.y) * k / n, head) for k in range(1, n + 1)]
+    return poses
+
+
+ROUTE = route([(-3.0, 2.0, 0.0), (3.0, 2.0), (3.0, -1.0), (-1.0, -1.0), (-1.0, 2.2)])
+
+
+def drive(amcl: Amcl, sensor: dict, seed: int) -> list[tuple[int, float, float]]:
+    """Drive ROUTE with noisy odometry and noisy scans; (update, xy error, yaw error) per update."""
+    rng = np.random.default_rng(seed)
+    grid, odom, out = box_map(), Pose2D(), []
+    for prev, cur in zip(ROUTE, ROUTE[1:]):
+        odom = odom.compose(noisy_step(prev.between(cur), rng))
+        scan = cast_scan(grid, cur.compose(LASER_IN_BASE), **sensor, noise=0.01, rng=rng)
+        if amcl.update(odom, scan, LASER_IN_BASE):
+            out.append((amcl.updates, *pose_error(amcl.map_to_odom().compose(odom), cur)))
+    return out
+
+
+def test_amcl_likelihood_field_scores_peak_at_the_true_pose():
+    grid = box_map()
+    field = LikelihoodField(grid, 2.0)
+    truth = Pose2D(-2.0, 1.5, -0.4)
+    scan = cast_scan(grid, truth.compose(LASER_IN_BASE), **LASER)
+    r, a = select_beams(scan.ranges, scan.angles(), 60, scan.range_min, scan.range_max)
+    offsets = np.array([(dx, dy, da) for dx in np.linspace(-0.5, 0.5, 11) for dy in np.linspace(-0.5, 0.5, 11)
+                        for da in np.linspace(-0.3, 0.3, 7)])
+    poses = truth.as_array() + offsets
+    w = beam_likelihoods(field, poses, LASER_IN_BASE, r, a, 0.95, 0.05, 0.2, scan.range_max)
+    best = offsets[int(np.argmax(w))]
+    assert np.allclose(best, 0.0, atol=1e-9), best
+    far = np.hypot(offsets[:, 0], offsets[:, 1]) >= 0.3
+    assert w[far].max() < 0.8 * w.max()
+
+
+def test_amcl_select_beams_subsamples_and_drops_unusable_ranges():
+    ranges = np.array([0.2, 1.0, np.inf, 5.0, np.nan, 10.0, 2.0, 3.0])
+    r, _ = select_beams(ranges, np.arange(8.0), 100, 0.45, 10.0)
+    assert list(r) == [1.0, 5.0, 2.0, 3.0]  # < min, inf, nan and == max dropped
+    r, a = select_beams(np.ones(320), np.arange(320.0), 30, 0.45, 10.0)
+    assert len(r) == 30
+    assert (a[0], a[-1]) == (0, 319)
+
+
+@pytest.mark.parametrize("sensor", [KINECT, LASER], ids=["kinect57", "laser240"])
+def test_amcl_tracking_converges_from_half_metre_and_0_3_rad_initial_error(sensor):
+    truth0 = ROUTE[0]
+    p = AmclParams(initial_pose_x=truth0.x + 0.5, initial_pose_y=truth0.y, initial_pose_a=truth0.theta + 0.3,
+                   seed=3)
+    hist = drive(Amcl(p, box_map()), sensor, seed=1)
+    assert hist[0][1] > 0.25  # it did start wrong
+    settled = [h for h in hist if h[0] >= 15]
+    assert len(settled) > 30
+    assert max(h[1] for h in settled) < 0.1, settled
+    assert max(h[2] for h in settled) < 0.05, settled
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_amcl_global_localization_converges_in_an_asymmetric_map(seed):
+    amcl = Amcl(AmclParams(seed=seed + 10), box_map())
+    amcl.global_localization()
+    assert len(amcl.poses) == amcl.p.max_particles
+    spread = np.ptp(amcl.poses[:, :2], axis=0)
+    assert spread.min() > 4.0  # uniform over the room
+    hist = drive(amcl, LASER, seed=seed)
+    last = hist[-15:]
+    assert max(h[1] for h in last) < 0.15, hist
+    assert max(h[2] for h in last) < 0.1, hist
+
+
+def test_amcl_weights_stay_normalised_and_kld_adapts_the_particle_count():
+    p = AmclParams(seed=5, resample_interval=1, initial_pose_x=-3.0)
+    amcl = Amcl(p, box_map())
+    rng = np.random.default_rng(2)
+    grid, odom, truth = box_map(), Pose2D(), Pose2D(-3.0, 0.0, 0.0)
+    for _ in range(24):
+        step = Pose2D(0.25, 0.0, 0.0)
+        truth, odom = truth.compose(step), odom.compose(noisy_step(step, rng))
+        assert amcl.update(odom, cast_scan(grid, truth.compose(LASER_IN_BASE), **LASER), LASER_IN_BASE)
+        assert math.isclose(amcl.weights.sum(), 1.0, rel_tol=1e-9)
+        assert np.all(amcl.weights > 0)
+        assert p.min_particles <= len(amcl.poses) <= p.max_particles
+    assert len(amcl.poses) < p.max_particles / 2  # converged: KLD shrank the set
+
+    rng = np.random.default_rng(0)
+    wide = np.column_stack((rng.uniform(-3, 3, 5000), rng.uniform(-2, 2, 5000), rng.uniform(-3, 3, 5000)))
+    tight = np.column_stack((rng.normal(0.1, 0.02, (5000, 2)), rng.normal(0, 0.02, 5000)))
+    w = np.full(5000, 1 / 5000)
+    n_wide = len(kld_resample(wide, w, 100, 5000, 0.01, 0.99, rng))
+    n_tight = len(kld_resample(tight, w, 100, 5000, 0.01, 0.99, rng))
+    assert n_tight == 100
+    assert n_wide == 5000
+    assert kld_limit(2, 0.01, 0.99) < kld_limit(20, 0.01, 0.99) < kld_limit(200, 0.01, 0.99)
+
+
+def test_amcl_recovery_injects_random_particles_when_the_fit_drops():
+    p = AmclParams(seed=4, recovery_alpha_slow=0.001, recovery_alpha_fast=0.1)
+    amcl = Amcl(p, box_map())
+    amcl.w_slow, amcl.w_fast = 10.0, 2.0  # the recent fit is much worse than the long-term one
+    assert math.isclose(amcl.random_fraction(), 0.8)
+    amcl.init_pose(Pose2D(0.0, 0.0, 0.0), (0.0001, 0.0001, 0.0001))
+    amcl.w_slow, amcl.w_fast = 10.0, 2.0
+    amcl._resample()
+    far = np.hypot(amcl.poses[:, 0], amcl.poses[:, 1]) > 1.0
+    assert far.mean() > 0.5
+    assert amcl.w_slow == amcl.w_fast == 0.0
+
+
+def test_amcl_params_load_ros_names_and_reject_bad_values():
+    p = load_amcl_params({"min_particles": 500, "max_particles": 2000, "odom_model_type": "diff-corrected",
+                          "laser_z_short": 0.1, "use_map_topic": True}, "amcl.yaml")
+    assert (p.min_particles, p.max_particles, p.odom_model_type) == (500, 2000, "diff-corrected")
+    bad = [{"kld_err": 0.0}, {"laser_max_beams": 1}, {"odom_model_type": "omni"}, {"min_particles": 10,
+           "max_particles": 5}, {"laser_sigma_hit": "wide"}, {"no_such_key": 1}, {"resample_interval": 0}]
+    for cfg in bad:
+        with pytest.raises(ConfigError, match="amcl.yaml"):
+            load_amcl_params(cfg, "amcl.yaml")
