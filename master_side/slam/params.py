@@ -57,6 +57,13 @@ class GMappingParams:
     search_angular: float = param(0.15, lo=0.0, hi=1.5, unit="rad", doc="half-width of the angle window")
     match_sigma: float = param(0.05, lo=1e-3, hi=1.0, unit="m",
                                doc="std dev of the matching kernel exp(-d^2 / (2 match_sigma^2))")
+    prior_weight: float = param(0.001, lo=0.0, doc="motion prior of the matcher: score per beam "
+                                "lost per squared odometry standard deviation of deviation from the "
+                                "odometry prediction (0 = off)")
+    prior_sigma_xy: float = param(0.003, lo=1e-4, unit="m",
+                                  doc="floor added to the motion model's translation std dev")
+    prior_sigma_theta: float = param(0.02, lo=1e-4, unit="rad",
+                                     doc="floor added to the motion model's rotation std dev")
     field_radius: int = param(4, lo=1, hi=20, unit="cells", doc="likelihood field support")
     seed: int = param(0, lo=0, doc="random seed")
 

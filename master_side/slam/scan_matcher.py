@@ -30,6 +30,15 @@ class Field:
     table: np.ndarray  # (256,) float32 kernel value of a squared cell distance
 
 
+@dataclass(frozen=True)
+class MotionPrior:
+    """The odometry prediction a match is pulled towards; weights in score per beam per m^2 / rad^2."""
+
+    mean: np.ndarray  # (3,) x, y, theta
+    translation_weight: float
+    rotation_weight: float
+
+
 FAR = 200  # "no occupied cell within the radius" in squared cells (uint8, no overflow when adding)
 
 
@@ -115,6 +124,7 @@ class ScanMatcher:
     def __init__(self, p: GMappingParams):
         self.p = p
         self.window = (p.search_linear, p.search_angular)
+        self.prior: MotionPrior | None = None
         self.floor = -((p.field_radius * p.delta) ** 2) / p.lsigma
 
     def score(self, fld: Field, poses: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -128,6 +138,14 @@ class ScanMatcher:
         return float(np.maximum(ll, self.floor).sum())
 
     def _penalty(self, cand: np.ndarray, pose0: np.ndarray, n: int) -> np.ndarray:
+        """Score units subtracted from a candidate pose: the motion prior (per beam, so that it
+        competes with the fraction of beams a shift gains) or, without a prior, a weak pull to the
+        search centre scaled by the window."""
+        if self.prior is not None:
+            m = self.prior.mean
+            d2 = (cand[..., 0] - m[0]) ** 2 + (cand[..., 1] - m[1]) ** 2
+            a = (cand[..., 2] - m[2] + np.pi) % (2 * np.pi) - np.pi
+            return n * (self.prior.translation_weight * d2 + self.prior.rotation_weight * a * a)
         lin, ang = self.window
         d2 = (cand[..., 0] - pose0[0]) ** 2 + (cand[..., 1] - pose0[1]) ** 2
         d2 = d2 / max(lin, 1e-3) ** 2
@@ -135,13 +153,20 @@ class ScanMatcher:
         return 0.05 * n * (d2 + (a / max(ang, 1e-3)) ** 2)
 
     def match(self, fld: Field, pose0: np.ndarray, pts: np.ndarray,
-              window: tuple[float, float] | None = None) -> tuple[np.ndarray, float]:
+              window: tuple[float, float] | None = None,
+              prior: MotionPrior | None = None) -> tuple[np.ndarray, float]:
         """Best pose near ``pose0`` for sensor-frame endpoints ``pts`` (B, 2); returns (pose, score).
 
         ``window`` = (linear m, angular rad) half-widths of the search (default: the params').
+        ``prior``: candidates pay translation_weight * d^2 + rotation_weight * dtheta^2 per beam for
+        leaving the odometry prediction (as Cartographer's scan matchers do), so a direction the
+        scan does not constrain (a plain wall seen by a narrow sensor) follows odometry instead of
+        sliding towards the part of the wall already in the map.
+        The returned score is the plain match score (no penalty).
         """
         p, res = self.p, fld.res
         self.window = window or (p.search_linear, p.search_angular)
+        self.prior = prior
         lin, ang = self.window
         n = len(pts)
         if n == 0:
