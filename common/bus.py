@@ -10,6 +10,7 @@ See docs/CONVENTIONS.md for the API in one page.
 from __future__ import annotations
 
 import collections
+import contextlib
 import logging
 import os
 import threading
@@ -89,10 +90,8 @@ class Publisher:
     def close(self) -> None:
         for obj in (self._pub, self._queryable, self._token):
             if obj is not None:
-                try:
+                with contextlib.suppress(zenoh.ZError):
                     obj.undeclare()
-                except zenoh.ZError:
-                    pass
 
 
 class Subscription:
@@ -211,10 +210,8 @@ class Subscription:
             self._closed = True
             self._cv.notify_all()
         for ent in (self._sub, self._pub_watch):
-            try:
+            with contextlib.suppress(zenoh.ZError):
                 ent.undeclare()
-            except zenoh.ZError:
-                pass
 
 
 class Node:
@@ -326,10 +323,8 @@ class Node:
         for t in self._timers:
             t.join(1.0)
         for e in reversed(self._entities):
-            try:
+            with contextlib.suppress(Exception):  # best effort on shutdown
                 e.close() if hasattr(e, "close") else e.undeclare()
-            except Exception:  # noqa: BLE001 - best effort on shutdown
-                pass
         self._pool.shutdown(wait=False, cancel_futures=True)
         if self._owns_session:
             self.session.close()

@@ -13,7 +13,8 @@ eval --relations REL DIR/trajectory.txt
     (trans_mean_m=... trans_std_m=... rot_mean_deg=... rot_std_deg=... relations=...).
 
 example:
-  zenav slam run ../shared/datasets/slam/aces.recon.clf --config master_side/config/gmapping_datasets.yaml --out out/aces
+  zenav slam run ../shared/datasets/slam/aces.recon.clf \
+      --config master_side/config/gmapping_datasets.yaml --out out/aces
   zenav slam eval --relations ../shared/datasets/slam/aces.relations out/aces/trajectory.txt
 """
 

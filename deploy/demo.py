@@ -24,7 +24,7 @@ import yaml
 
 from common.bus import Node
 from common.geometry import Pose2D, normalize_angle
-from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, OccupancyGrid
+from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, Odometry
 from common.zenoh_config import BusConfig
 from deploy.map_check import map_accuracy
 from deploy.world_maps import export_world_map, world_path

@@ -20,7 +20,7 @@ def shared_dir() -> Path:
     return SHARED
 
 
-@pytest.fixture()
+@pytest.fixture
 def robot_name() -> str:
     """A robot name unique to this test, so key expressions never cross-talk between runs."""
     return "t" + uuid.uuid4().hex[:10]

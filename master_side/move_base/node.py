@@ -26,8 +26,20 @@ import numpy as np
 from common.bus import Node
 from common.config import ConfigError, include, load_params, strip_frame
 from common.geometry import Pose2D
-from common.messages import (Costmap, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, Odometry, Path,
-                             PlanRequest, PlanResult, PoseStamped, Scalar, Twist)
+from common.messages import (
+    Costmap,
+    GoalStatus,
+    Header,
+    MoveBaseGoal,
+    MoveBaseStatus,
+    Odometry,
+    Path,
+    PlanRequest,
+    PlanResult,
+    PoseStamped,
+    Scalar,
+    Twist,
+)
 from common.tf import TFListener
 from master_side.costmap.footprint import inscribed_circumscribed, pad_footprint
 from master_side.costmap.params import load_costmap_config

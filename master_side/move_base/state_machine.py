@@ -181,7 +181,9 @@ class MoveBaseMachine:
         return self._decide(ZERO, new_plan)
 
     def _start_recovery(self, now: float, why: str) -> None:
-        enabled = [r for r in self.recoveries if r.enabled(self.params)] if self.params.recovery_behavior_enabled else []
+        enabled = [r for r in self.recoveries if r.enabled(self.params)]
+        if not self.params.recovery_behavior_enabled:
+            enabled = []
         if self.recovery_index >= len(enabled):
             self.status = GoalStatus.ABORTED
             tried = f"after {self.recovery_index} recoveries" if enabled else "recovery disabled"
