@@ -7,9 +7,8 @@ from dataclasses import dataclass
 
 from common.bus import Node
 from common.config import param
-from common.messages import CameraInfo, DepthImage
 from robot_side.depth.depth_to_scan import DepthToScan, DepthToScanParams
-from robot_side.depth.node_util import Handles, split_params
+from robot_side.depth.node_util import Handles, convert_depth_stream, split_params
 
 log = logging.getLogger("zenav.depth_to_scan")
 
@@ -23,21 +22,8 @@ class DepthToScanTopics:
 
 def start(node: Node, cfg: dict, source: str) -> Handles:
     topics, params = split_params(cfg, source, DepthToScanTopics, DepthToScanParams)
-    conv = DepthToScan(params)
-    h = Handles()
-    pub = h.add(node.publisher(topics.scan_topic))
-    info_sub = h.add(node.subscribe(topics.camera_info_topic, CameraInfo))
-
-    def on_image(img: DepthImage) -> None:
-        info = info_sub.latest()
-        if info is None:
-            log.debug("depth image before any camera_info: dropped")
-            return
-        pub.publish(conv.convert(img, info))
-
-    # keep-latest mode: a slow conversion drops stale frames instead of queueing them
-    h.add(node.subscribe(topics.image_topic, DepthImage, callback=on_image))
-    return h
+    return convert_depth_stream(node, topics.image_topic, topics.camera_info_topic, topics.scan_topic,
+                                DepthToScan(params).convert, log)
 
 
 if __name__ == "__main__":

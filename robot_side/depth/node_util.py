@@ -45,3 +45,25 @@ class Handles:
             with contextlib.suppress(Exception):  # best effort on shutdown
                 item.close()
         self.items = []
+
+
+def convert_depth_stream(node, image_topic: str, info_topic: str, out_topic: str, convert, log) -> Handles:
+    """Wire ``convert(DepthImage, CameraInfo) -> message`` between a depth stream and ``out_topic``.
+
+    The image subscription is keep-latest: a slow conversion drops stale frames instead of queueing.
+    """
+    from common.messages import CameraInfo, DepthImage
+
+    h = Handles()
+    pub = h.add(node.publisher(out_topic))
+    info_sub = h.add(node.subscribe(info_topic, CameraInfo))
+
+    def on_image(img: DepthImage) -> None:
+        info = info_sub.latest()
+        if info is None:
+            log.debug("depth image before any camera_info: dropped")
+            return
+        pub.publish(convert(img, info))
+
+    h.add(node.subscribe(image_topic, DepthImage, callback=on_image))
+    return h
