@@ -16,6 +16,8 @@ import yaml
 
 from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
+from common.pgm import PgmError, write_pgm
+from common.pgm import read_pgm as _read_pgm
 
 FREE_PIXEL, OCCUPIED_PIXEL, UNKNOWN_PIXEL = 254, 0, 205
 
@@ -24,48 +26,13 @@ class MapFormatError(ValueError):
     """A map YAML or PGM that cannot be read."""
 
 
-def _tokens(data: bytes, start: int, count: int) -> tuple[list[int], int]:
-    """Read ``count`` whitespace-separated integers (skipping # comments) from byte offset ``start``."""
-    out, i, n = [], start, len(data)
-    while len(out) < count:
-        while i < n and (data[i:i + 1].isspace() or data[i:i + 1] == b"#"):
-            if data[i:i + 1] == b"#":
-                while i < n and data[i:i + 1] not in (b"\n", b"\r"):
-                    i += 1
-            else:
-                i += 1
-        j = i
-        while j < n and data[j:j + 1].isdigit():
-            j += 1
-        if j == i:
-            raise MapFormatError("bad PGM header")
-        out.append(int(data[i:j]))
-        i = j
-    return out, i
-
-
 def read_pgm(path: str | Path) -> np.ndarray:
-    """P5 (binary, 8 or 16 bit) or P2 (ascii) PGM -> (rows, cols) array, row 0 = top."""
-    data = Path(path).read_bytes()
-    magic = data[:2]
-    if magic not in (b"P5", b"P2"):
-        raise MapFormatError(f"{path}: not a PGM (magic {magic!r})")
-    (w, h, maxval), i = _tokens(data, 2, 3)
-    if magic == b"P2":
-        vals, _ = _tokens(data, i, w * h)
-        return np.array(vals, np.int64).reshape(h, w)
-    i += 1  # single whitespace after maxval
-    dtype = np.uint8 if maxval < 256 else np.dtype(">u2")
-    size = w * h * np.dtype(dtype).itemsize
-    if len(data) - i < size:
-        raise MapFormatError(f"{path}: truncated PGM")
-    return np.frombuffer(data, dtype, w * h, i).reshape(h, w).astype(np.int64)
+    """P5 (binary, 8 or 16 bit) or P2 (ascii) PGM -> (rows, cols) int64 array, row 0 = top."""
+    try:
+        return _read_pgm(path).astype(np.int64)
+    except PgmError as e:
+        raise MapFormatError(str(e)) from None
 
-
-def write_pgm(path: str | Path, img: np.ndarray, comment: str = "") -> None:
-    h, w = img.shape
-    head = b"P5\n" + (f"# {comment}\n".encode() if comment else b"") + f"{w} {h}\n255\n".encode()
-    Path(path).write_bytes(head + np.ascontiguousarray(img, np.uint8).tobytes())
 
 
 def load_map(yaml_path: str | Path) -> OccupancyGrid:

@@ -26,7 +26,7 @@ import numpy as np
 from common.config import ConfigError, load_params, param, read_yaml
 from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
-from robot_side.sim.pgm import read_pgm
+from common.pgm import read_pgm
 
 __all__ = ["WorldParams", "World", "load_world", "parse_pose"]
 

@@ -5,8 +5,8 @@ import pytest
 
 from common.config import ConfigError
 from common.geometry import Pose2D
+from common.pgm import read_pgm, write_pgm
 from robot_side.sim.base import DiffDriveBase
-from robot_side.sim.pgm import read_pgm, write_pgm
 from robot_side.sim.simulator import WORLDS_DIR
 from robot_side.sim.world import World, WorldParams, load_world
 
