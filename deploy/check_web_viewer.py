@@ -43,34 +43,49 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def _gray(png: bytes) -> np.ndarray:
+def _rgb(png: bytes) -> np.ndarray:
     from PIL import Image  # pillow comes with rerun-sdk
 
-    return np.asarray(Image.open(io.BytesIO(png)).convert("L"), dtype=np.float32)
+    return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.float32)
+
+
+def scene_fraction(rgb: np.ndarray) -> float:
+    """Fraction of pixels in the colours only the monitor's scene draws: the costmap's yellow
+    inflation band and the map's grey-green unknown area (the loading screen has neither)."""
+    r, g, b = rgb[..., 0], rgb[..., 1], rgb[..., 2]
+    yellow = (r > 200) & (g > 200) & (b < 120)
+    unknown = (np.abs(r - 110) < 15) & (np.abs(g - 126) < 15) & (np.abs(b - 124) < 15)
+    return float((yellow | unknown).mean())
 
 
 @dataclass
 class Verdict:
     ok: bool
     std: float  # grey-level standard deviation of the final screenshot
-    diff: float  # mean absolute grey difference to the early (loading) screenshot
+    diff: float  # mean absolute grey difference to the early screenshot (information only)
     text: str  # visible page text (the loading screen says "Loading")
     why: str = ""
+    scene: float = 0.0  # fraction of scene-coloured pixels
 
 
 def judge(early: bytes, final: bytes, page_text: str, min_std: float = 12.0,
-          min_diff: float = 8.0) -> Verdict:
-    a, b = _gray(early), _gray(final)
-    std = float(b.std())
-    diff = float(np.abs(a - b).mean()) if a.shape == b.shape else 255.0
+          min_scene: float = 0.005) -> Verdict:
+    """Loaded = not uniform, the scene's colours are on screen, and no loading text.
+
+    (The early screenshot is only reported: on a fast machine it is already the loaded app.)"""
+    a, b = _rgb(early).mean(axis=2), _rgb(final)
+    grey = b.mean(axis=2)
+    std = float(grey.std())
+    diff = float(np.abs(a - grey).mean()) if a.shape == grey.shape else 255.0
+    scene = scene_fraction(b)
     why = []
     if std < min_std:
         why.append(f"screenshot is nearly uniform (grey std {std:.1f} < {min_std})")
-    if diff < min_diff:
-        why.append(f"screenshot still looks like the loading screen (mean diff {diff:.1f} < {min_diff})")
+    if scene < min_scene:
+        why.append(f"no map / costmap on screen ({100 * scene:.2f} % scene pixels < {100 * min_scene:.1f} %)")
     if "loading" in page_text.lower():
         why.append(f"page still says {page_text.strip()[:80]!r}")
-    return Verdict(not why, std, diff, page_text, "; ".join(why))
+    return Verdict(not why, std, diff, page_text, "; ".join(why), scene)
 
 
 class Procs:
@@ -153,7 +168,7 @@ def check(out: Path, timeout: float = 150.0, settle: float = 10.0, chromium: str
             text = cdp.call("Runtime.evaluate", expression="document.body ? document.body.innerText : ''",
                             returnByValue=True).get("result", {}).get("value", "") or ""
             verdict = judge(early, cdp.screenshot(), text)
-            log(f"  {time.monotonic() - t0:5.1f} s: std {verdict.std:.1f} diff {verdict.diff:.1f} "
+            log(f"  {time.monotonic() - t0:5.1f} s: std {verdict.std:.1f} scene {100 * verdict.scene:.2f} % "
                 f"{'loaded' if verdict.ok else verdict.why}")
             if verdict.ok:
                 break
@@ -181,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--chromium", help="browser executable (default: chromium on PATH)")
     args = ap.parse_args(argv)
     v = check(args.out, args.timeout, args.settle, args.chromium)
-    print(f"web_viewer_ok={int(v.ok)} grey_std={v.std:.1f} diff_from_loading={v.diff:.1f}"
+    print(f"web_viewer_ok={int(v.ok)} grey_std={v.std:.1f} scene_pct={100 * v.scene:.2f}"
           + ("" if v.ok else f"  ({v.why})"))
     return 0 if v.ok else 1
 
