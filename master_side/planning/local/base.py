@@ -230,8 +230,9 @@ class LocalPlanner:
         else:
             # The command takes effect about one cycle late (the pose is a cycle old by the time the base
             # gets it), and the base turns at its current speed meanwhile: budget that angle before the
-            # braking profile, else the robot overshoots the tolerance band and must turn back.
-            budget = max(remaining - max(current, 0.0) * dt, 0.0)
+            # braking profile, else the robot overshoots the tolerance band and must turn back. Two
+            # cycles are budgeted: on a loaded machine the lag was seen to exceed one.
+            budget = max(remaining - 2.0 * max(current, 0.0) * dt, 0.0)
             stop_cap = min(math.sqrt(2.0 * acc * budget), (budget + 0.5 * lim.yaw_goal_tolerance) / dt)
             target = min(remaining / max(4 * dt, 1e-3), lim.max_in_place_vth, stop_cap)
             target = max(target, min(lim.min_in_place_vth, stop_cap))
