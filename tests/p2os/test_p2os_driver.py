@@ -53,6 +53,8 @@ def test_handshake_identifies_the_robot_and_enables_the_motors(rig):
     assert (drv.info.name, drv.info.robot_class, drv.info.subclass) == ("dexter", "Pioneer", "p3at-sh")
     assert drv.info.model.dist_conv_factor == 1.0  # chosen from the SYNC2 subclass
     assert robot.opened
+    # the fake records commands on its own thread: wait for it rather than racing it
+    wait_until(lambda: robot.commands(P.Command.ENABLE), 5, "the ENABLE command at the robot")
     assert [a for _, a in robot.commands(P.Command.ENABLE)] == [1]
     wait_until(lambda: drv.state and drv.state.reading.motors_enabled, 5, "the SIP's motors-enabled flag")
     assert drv.state.reading.battery_voltage == pytest.approx(12.6)
