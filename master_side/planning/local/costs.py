@@ -143,39 +143,32 @@ def _forward_point(trajs: Trajectories, distance: float) -> np.ndarray:
     return end[:, :2] + distance * np.stack((np.cos(end[:, 2]), np.sin(end[:, 2])), axis=1)
 
 
-class PathAlign(PathDistance):
-    """DWA: path distance of a point ``forward_point_distance`` ahead of the trajectory end pose.
-    Switched off near the goal (where the robot may have to turn away from the path)."""
+class _ForwardPoint:
+    """Mixin for DWA's alignment costs: score a point ``forward_point_distance`` ahead of the trajectory
+    end pose instead of the end pose; switched off near the goal (where the robot may have to turn)."""
+
+    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
+        super().__init__(scale)
+        self.forward = forward_point_distance
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        near_goal = math.hypot(*(ctx.goal[:2] - ctx.pose[:2])) < self.forward
+        return super().prepare(ctx) and self.forward > 0 and not near_goal
+
+    def point(self, trajs: Trajectories) -> np.ndarray:
+        return _forward_point(trajs, self.forward)
+
+
+class PathAlign(_ForwardPoint, PathDistance):
+    """DWA: path distance of the forward point."""
 
     name = "PathAlign"
 
-    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
-        super().__init__(scale)
-        self.forward = forward_point_distance
 
-    def prepare(self, ctx: ScoringContext) -> bool:
-        near_goal = math.hypot(*(ctx.goal[:2] - ctx.pose[:2])) < self.forward
-        return super().prepare(ctx) and self.forward > 0 and not near_goal
-
-    def point(self, trajs: Trajectories) -> np.ndarray:
-        return _forward_point(trajs, self.forward)
-
-
-class GoalAlign(GoalDistance):
-    """DWA: goal distance of a point ``forward_point_distance`` ahead of the trajectory end pose."""
+class GoalAlign(_ForwardPoint, GoalDistance):
+    """DWA: goal distance of the forward point."""
 
     name = "GoalAlign"
-
-    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
-        super().__init__(scale)
-        self.forward = forward_point_distance
-
-    def prepare(self, ctx: ScoringContext) -> bool:
-        near_goal = math.hypot(*(ctx.goal[:2] - ctx.pose[:2])) < self.forward
-        return super().prepare(ctx) and self.forward > 0 and not near_goal
-
-    def point(self, trajs: Trajectories) -> np.ndarray:
-        return _forward_point(trajs, self.forward)
 
 
 class Twirling(CostFunction):
