@@ -51,3 +51,12 @@ def close_quietly(*objs) -> None:
             continue
         with contextlib.suppress(Exception):  # best effort on the way out
             o.undeclare() if hasattr(o, "undeclare") else o.close()
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that is free right now (for private loopback Zenoh networks)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]

@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -26,6 +25,7 @@ from common.bus import Node
 from common.geometry import Pose2D, normalize_angle
 from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, Odometry
 from common.zenoh_config import BusConfig
+from deploy import free_port
 from deploy.map_check import map_accuracy
 from deploy.world_maps import export_world_map, world_path
 from master_side.mapping.map_io import save_map
@@ -66,11 +66,6 @@ class DemoOptions:
     amcl: bool = False  # known map, localised with AMCL instead of the simulator's ground truth
     results: list[GoalResult] = field(default_factory=list)
 
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def amcl_node(world: str) -> dict:
