@@ -56,10 +56,10 @@ def _restamp(msg: Any, offset: float) -> Any:
 
 
 class _Tick:
-    """True once per period of sim time (first at t = 0)."""
+    """True once per period of sim time: at one period, two periods, ... (t = 0 precedes every step)."""
 
     def __init__(self, rate: float) -> None:
-        self.rate, self.last = rate, -1
+        self.rate, self.last = rate, 0
 
     def __call__(self, t: float) -> bool:
         k = math.floor(t * self.rate + 1e-6)

@@ -88,7 +88,8 @@ class Simulator:
             self._periods["laser"] = 1.0 / laser.rate
         if self.camera:
             self._periods["depth_camera"] = 1.0 / depth_camera.publish_rate
-        self._last_tick = {k: -1 for k in self._periods}
+        # tick 0 is t = 0, before the first step: the first reading is at one period, then every period
+        self._last_tick = {k: 0 for k in self._periods}
 
     @classmethod
     def from_config(cls, cfg: dict, source: str = "<config>") -> Simulator:

@@ -14,13 +14,17 @@ def _sim(**over):
 
 def test_sensors_are_due_at_their_rates():
     sim = _sim()
-    counts = {"laser": 0, "depth_camera": 0}
+    stamps = {"laser": [], "depth_camera": []}
     while sim.time < 2.0 - 1e-9:
         for name in sim.step():
-            counts[name] += 1
+            stamps[name].append(sim.time)
     assert sim.time == pytest.approx(2.0)
-    assert counts["laser"] == pytest.approx(20, abs=1)  # URG-04LX: 10 Hz
-    assert counts["depth_camera"] == pytest.approx(30, abs=1)  # 30 Hz with data_skip 1
+    assert len(stamps["laser"]) == 20  # URG-04LX: 10 Hz
+    assert len(stamps["depth_camera"]) == pytest.approx(30, abs=1)  # 30 Hz, data_skip 1: every 2nd
+    # on the rate's grid from the first reading on (t = 0 precedes the first step: no reading at dt)
+    assert np.allclose(stamps["laser"], 0.1 * np.arange(1, 21))
+    assert np.allclose(np.diff(stamps["depth_camera"]), 1 / 15, atol=0.011)
+    assert stamps["depth_camera"][0] >= 1 / 15 - 1e-9
 
 
 def test_same_seed_same_run_other_seed_differs():
