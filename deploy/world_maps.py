@@ -21,9 +21,11 @@ def world_path(name: str) -> Path:
 
 
 def export_world_map(name: str, out_dir: str | Path, resolution: float = 0.05, min_height: float = 0.05) -> Path:
-    """Rasterise world ``name`` and save ``out_dir/<name>.pgm|.yaml``; returns the YAML path."""
+    """Rasterise world ``name`` and save ``out_dir/<name>.pgm|.yaml``; returns the YAML path.
+
+    Space the robot cannot reach from the world's start is unknown, as in a map a robot built."""
     world = load_world(world_path(name), WorldParams(resolution=resolution))
-    grid = world.to_occupancy_grid(min_height)
+    grid = world.to_occupancy_grid(min_height, unknown_unreachable=True)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     return save_map(grid, out / Path(name).stem)

@@ -115,7 +115,8 @@ class Amcl:
         lo, hi = self._scan_limits(scan)
         ranges, angles = select_beams(scan.ranges, scan.angles(), p.laser_max_beams, lo, hi)
         like = beam_likelihoods(self.field, self.poses, self.laser, ranges, angles, p.laser_z_hit,
-                                p.laser_z_rand, p.laser_sigma_hit, hi)
+                                p.laser_z_rand, p.laser_sigma_hit, hi,
+                                product=p.laser_model_type == "likelihood_field_prob")
         w = self.weights * like
         total = float(w.sum())
         if not math.isfinite(total) or total <= 0.0:

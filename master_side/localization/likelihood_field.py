@@ -10,8 +10,13 @@ range, below the minimum range, or not finite are skipped. All particles are sco
 ``penalize_interior`` (zenav, default on): ROS gives every cell *inside* an obstacle distance 0, so a
 pose pushed towards a thick obstacle (a crate, a 2-cell wall) scores as well as the true one; with a
 narrow sensor that sees one face this biases the estimate forwards (measured 0.05-0.1 m with the
-Kinect scan). With the option, inside cells score their depth and the surface sits on the cell
-boundary: distance = (cells to the nearest cell of the other kind - 0.5) × resolution on both sides.
+Kinect scan). With the option, the surface sits on the cell boundary and a cell that is not known
+free scores its depth behind the free space (cells to the nearest free cell - 0.5) × resolution:
+an obstacle cell that depth, an unknown cell the larger of that and its distance to an obstacle.
+So an end point that went through a thin wall into the unknown space behind it (a SLAM map's outer
+walls; ROS scores it by the wall's back face) is penalised by how far it went, while an end point in
+unexplored open space scores at least as badly as in ROS. Free cells: (cells to the nearest
+obstacle - 0.5) × resolution.
 """
 
 from __future__ import annotations
@@ -34,9 +39,12 @@ class LikelihoodField:
         self.max_dist = float(max_dist)
         occupied = grid.data > OCCUPIED_THRESHOLD
         self.free = (grid.data >= 0) & ~occupied
-        if occupied.any() and penalize_interior and not occupied.all():
-            outside, inside = distance_transform_edt(~occupied), distance_transform_edt(occupied)
-            dist = (np.where(occupied, inside, outside) - 0.5) * self.resolution
+        if occupied.any() and self.free.any() and penalize_interior:
+            to_obstacle = distance_transform_edt(~occupied) - 0.5  # free: to the nearest obstacle face
+            behind_free = distance_transform_edt(~self.free) - 0.5  # not free: depth behind the free space
+            cells = np.where(self.free, to_obstacle,
+                             np.where(occupied, behind_free, np.maximum(to_obstacle, behind_free)))
+            dist = cells * self.resolution
         elif occupied.any():
             dist = distance_transform_edt(~occupied) * self.resolution
         else:
@@ -71,10 +79,13 @@ def select_beams(ranges: np.ndarray, angles: np.ndarray, max_beams: int, range_m
 
 def beam_likelihoods(field: LikelihoodField, poses: np.ndarray, laser: Pose2D, ranges: np.ndarray,
                      angles: np.ndarray, z_hit: float, z_rand: float, sigma_hit: float,
-                     range_max: float) -> np.ndarray:
-    """ROS amcl's likelihood-field weight ``1 + Σ pz³`` for every pose (N, 3) of the robot base.
+                     range_max: float, product: bool = False) -> np.ndarray:
+    """The likelihood-field weight of every pose (N, 3) of the robot base.
 
-    ``laser`` is the scan frame in the base frame; ``ranges`` / ``angles`` the usable beams."""
+    ROS amcl's ``likelihood_field``: ``1 + Σ pz³``; with ``product`` its ``likelihood_field_prob``:
+    ``Π pz`` (the proper joint likelihood of independent beams: much sharper, so a narrow sensor
+    still pins the heading). ``laser`` is the scan frame in the base frame; ``ranges`` / ``angles``
+    the usable beams."""
     poses = np.asarray(poses, float)
     if poses.ndim != 2 or poses.shape[1] != 3:
         raise ValueError(f"poses must be (N, 3), got {poses.shape}")
@@ -87,4 +98,6 @@ def beam_likelihoods(field: LikelihoodField, poses: np.ndarray, laser: Pose2D, r
     wy = poses[:, 1:2] + s * ends[None, :, 0] + c * ends[None, :, 1]
     d = field.distance_at(np.stack((wx, wy), axis=-1))
     pz = z_hit * np.exp(-(d.astype(float) ** 2) / (2.0 * sigma_hit**2)) + z_rand / range_max
+    if product:
+        return np.exp(np.sum(np.log(pz), axis=1))
     return 1.0 + np.sum(pz**3, axis=1)

@@ -39,7 +39,8 @@ class AmclParams:
                                   doc="initial yaw variance")
     seed: int = param(0, lo=0, doc="random seed (zenav; 0 = from the OS)")
     # -- laser (likelihood field)
-    laser_model_type: str = param("likelihood_field", choices=("likelihood_field",), doc="sensor model")
+    laser_model_type: str = param("likelihood_field", choices=("likelihood_field", "likelihood_field_prob"),
+                                  doc="sensor model: likelihood_field (1 + Σ pz³) or likelihood_field_prob (Π pz)")
     laser_min_range: float = param(-1.0, lo=-1.0, hi=1000.0, unit="m", doc="-1 = the scan's range_min")
     laser_max_range: float = param(-1.0, lo=-1.0, hi=1000.0, unit="m", doc="-1 = the scan's range_max")
     laser_max_beams: int = param(30, lo=2, hi=100_000, doc="evenly spaced beams used per scan")

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy import ndimage
 
 from common.config import ConfigError, load_params, param, read_yaml
 from common.geometry import Pose2D
@@ -109,11 +110,25 @@ class World:
         """Cells whose obstacle is taller than ``min_height``."""
         return self.heights > min_height
 
-    def to_occupancy_grid(self, min_height: float = 0.0, stamp: float = 0.0,
-                          frame_id: str = "map") -> OccupancyGrid:
-        """Ground-truth map as a ROS OccupancyGrid (100 = obstacle taller than ``min_height``, 0 free)."""
-        data = np.where(self.occupied(min_height), 100, 0).astype(np.int8)
+    def to_occupancy_grid(self, min_height: float = 0.0, stamp: float = 0.0, frame_id: str = "map",
+                          unknown_unreachable: bool = False) -> OccupancyGrid:
+        """Ground-truth map as a ROS OccupancyGrid (100 = obstacle taller than ``min_height``, 0 free).
+
+        ``unknown_unreachable``: free cells the robot cannot reach from its start (outside the outer
+        walls, inside closed obstacles) are -1, as in a map a robot built (SLAM never sees them)."""
+        occupied = self.occupied(min_height)
+        data = np.where(occupied, 100, 0).astype(np.int8)
+        if unknown_unreachable:
+            labels, _ = ndimage.label(~occupied)  # 4-connected free regions
+            ix, iy = self.cell_of(self.start.x, self.start.y)
+            if 0 <= iy < labels.shape[0] and 0 <= ix < labels.shape[1] and labels[iy, ix] > 0:
+                data[~occupied & (labels != labels[iy, ix])] = -1
         return OccupancyGrid(Header(stamp, frame_id), self.resolution, Pose2D(*self.origin, 0.0), data)
+
+    def cell_of(self, x: float, y: float) -> tuple[int, int]:
+        """(column, row) of the cell holding the point (x, y) (may lie off the grid)."""
+        return (math.floor((x - self.origin[0]) / self.resolution),
+                math.floor((y - self.origin[1]) / self.resolution))
 
     # ------------------------------------------------------------------ loaders
     @classmethod

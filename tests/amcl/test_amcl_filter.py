@@ -9,11 +9,12 @@ import pytest
 
 from common.config import ConfigError
 from common.geometry import Pose2D
+from common.messages import Header, OccupancyGrid
 from master_side.localization.amcl import Amcl
 from master_side.localization.likelihood_field import LikelihoodField, beam_likelihoods, select_beams
 from master_side.localization.params import AmclParams, load_amcl_params
 from master_side.localization.sampling import kld_limit, kld_resample
-from tests.amcl.test_amcl_support import KINECT, LASER, box_map, cast_scan, noisy_step, pose_error
+from tests.amcl.test_amcl_support import KINECT, LASER, RES, box_map, cast_scan, noisy_step, pose_error
 
 LASER_IN_BASE = Pose2D(0.1, 0.0, 0.0)
 
@@ -61,6 +62,49 @@ def test_amcl_likelihood_field_scores_peak_at_the_true_pose():
     assert np.allclose(best, 0.0, atol=1e-9), best
     far = np.hypot(offsets[:, 0], offsets[:, 1]) >= 0.3
     assert w[far].max() < 0.8 * w.max()
+
+
+def test_amcl_field_penalises_end_points_that_went_through_a_thin_wall_into_unknown_space():
+    # a corridor: free between two 2-cell walls at y = +-1 (inner faces at +-0.9), unknown beyond
+    data = np.full((60, 80), -1, np.int8)  # 4 m x 3 m at 0.05 m, origin (-2, -1.5)
+    data[12:48, :] = 0
+    data[10:12, :] = data[48:50, :] = 100  # walls y in [-1.0, -0.9] and [0.9, 1.0]
+    grid = OccupancyGrid(Header(0.0, "map"), RES, Pose2D(-2.0, -1.5, 0.0), data)
+
+    def d(y: float) -> float:
+        return float(LikelihoodField(grid, 2.0).distance_at(np.array([[0.0, y]]))[0])
+
+    assert d(0.875) == pytest.approx(0.025) and d(0.925) == pytest.approx(0.025)  # either side of the face
+    assert d(0.5) == pytest.approx(0.375)  # free: to the face
+    assert d(1.025) > d(0.975) > d(0.925)  # beyond the wall's back face it keeps growing (ROS: back to 0)
+    assert d(1.225) == pytest.approx(0.325)  # depth behind the free space
+    assert LikelihoodField(grid, 2.0, penalize_interior=False).distance_at(np.array([[0.0, 1.025]]))[0] \
+        == pytest.approx(0.05)  # ROS: distance to the wall's back face
+    # unknown far from every obstacle scores at least its distance to an obstacle (as ROS)
+    open_map = np.zeros((60, 80), np.int8)
+    open_map[:, :2] = 100
+    open_map[:, 40:] = -1
+    far = OccupancyGrid(Header(0.0, "map"), RES, Pose2D(-2.0, -1.5, 0.0), open_map)
+    assert LikelihoodField(far, 5.0).distance_at(np.array([[0.1, 0.0]]))[0] >= 2.0 - 0.05
+
+
+def test_amcl_likelihood_field_prob_is_the_product_and_sharper_than_the_sum_of_cubes():
+    grid = box_map()
+    field = LikelihoodField(grid, 2.0)
+    truth = Pose2D(-2.0, 1.5, -0.4)
+    scan = cast_scan(grid, truth.compose(LASER_IN_BASE), **KINECT)
+    r, a = select_beams(scan.ranges, scan.angles(), 40, scan.range_min, scan.range_max)
+    yaws = np.linspace(-0.1, 0.1, 21)
+    poses = truth.as_array() + np.column_stack((0 * yaws, 0 * yaws, yaws))
+    args = (field, poses, LASER_IN_BASE, r, a, 0.95, 0.05, 0.1, scan.range_max)
+    cubes, prod = beam_likelihoods(*args), beam_likelihoods(*args, product=True)
+    end = truth.compose(LASER_IN_BASE).apply(np.array([[r[0] * np.cos(a[0]), r[0] * np.sin(a[0])]]))
+    pz = 0.95 * np.exp(-float(field.distance_at(end)[0]) ** 2 / (2 * 0.1**2)) + 0.05 / 10.0
+    one = beam_likelihoods(field, poses[10:11], LASER_IN_BASE, r[:1], a[:1], 0.95, 0.05, 0.1, 10.0, product=True)
+    assert one[0] == pytest.approx(pz, rel=1e-5)
+    assert int(np.argmax(prod)) == int(np.argmax(cubes)) == 10
+    # off by 0.05 rad: the product falls by orders of magnitude more than the sum of cubes
+    assert prod[5] / prod[10] < 1e-3 * (cubes[5] / cubes[10])
 
 
 def test_amcl_select_beams_subsamples_and_drops_unusable_ranges():

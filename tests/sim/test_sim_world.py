@@ -77,6 +77,28 @@ def test_shapes_rasterise_with_heights():
     assert (grid.data == 100).sum() == (w.heights > 1.0).sum()
 
 
+def test_occupancy_grid_marks_space_unreachable_from_the_start_unknown():
+    spec = {"bounds": [-2, -2, 2, 2], "start": [0, 0, 0], "resolution": 0.1,
+            "walls": [{"from": [-1.5, -1.5], "to": [1.5, -1.5], "thickness": 0.2, "height": 1},
+                      {"from": [1.5, -1.5], "to": [1.5, 1.5], "thickness": 0.2, "height": 1},
+                      {"from": [1.5, 1.5], "to": [-1.5, 1.5], "thickness": 0.2, "height": 1},
+                      {"from": [-1.5, 1.5], "to": [-1.5, -1.5], "thickness": 0.2, "height": 1}]}
+    w = World.from_shapes(spec)
+    plain, known = w.to_occupancy_grid(0.05), w.to_occupancy_grid(0.05, unknown_unreachable=True)
+    assert (plain.data >= 0).all()
+    assert ((known.data == 100) == (plain.data == 100)).all()  # walls unchanged
+
+    def value(grid, x, y):
+        ix, iy = w.cell_of(x, y)
+        return int(grid.data[iy, ix])
+
+    assert value(known, 0.0, 0.0) == 0 and value(known, 1.2, -1.2) == 0  # inside the walls: free
+    assert value(known, 1.85, 0.0) == -1 and value(known, -1.9, 1.9) == -1  # outside: never seen
+    assert value(plain, 1.85, 0.0) == 0
+    outside = w.with_start([1.85, 1.85, 0]).to_occupancy_grid(0.05, unknown_unreachable=True)
+    assert value(outside, 0.0, 0.0) == -1 and value(outside, 1.85, 0.0) == 0  # follows the start
+
+
 def test_bad_shapes_are_reported_with_the_key():
     with pytest.raises(ConfigError, match=r"boxes\[0\].colour"):
         World.from_shapes({"boxes": [{"center": [0, 0], "size": [1, 1], "height": 1, "colour": "red"}]})
