@@ -9,11 +9,12 @@ See docs/CONVENTIONS.md for the API in one page.
 
 from __future__ import annotations
 
-import collections
+__all__ = ["Node", "Publisher", "Subscription", "ServiceError", "ServiceTimeout", "ServiceUnavailable",
+           "list_live", "topic_key"]
+
 import contextlib
 import logging
 import os
-import threading
 import time
 import traceback
 from concurrent.futures import ThreadPoolExecutor
@@ -21,6 +22,7 @@ from typing import Any, Callable
 
 import zenoh
 
+from common.bus_topics import Publisher, Subscription, topic_key
 from common.clock import SimClock, Timer, WallClock
 from common.codec import DecodeError, decode, encode
 from common.messages import Clock
@@ -39,179 +41,6 @@ class ServiceTimeout(ServiceError):
 
 class ServiceUnavailable(ServiceError):
     """No node serves that name."""
-
-
-def topic_key(robot: str, topic: str) -> str:
-    topic = topic.strip("/")
-    if not topic or "*" in topic or "$" in topic:
-        raise ValueError(f"bad topic name {topic!r}")
-    return f"zenav/{robot}/{topic}"
-
-
-class _RateLimitedLog:
-    def __init__(self, period: float = 5.0) -> None:
-        self.period, self.last, self.suppressed = period, 0.0, 0
-
-    def __call__(self, logger: logging.Logger, msg: str) -> None:
-        now = time.monotonic()
-        if now - self.last >= self.period:
-            extra = f" (+{self.suppressed} similar)" if self.suppressed else ""
-            logger.warning(msg + extra)
-            self.last, self.suppressed = now, 0
-        else:
-            self.suppressed += 1
-
-
-class Publisher:
-    def __init__(self, node: Node, topic: str, latched: bool, reliable: bool) -> None:
-        self.topic, self.key, self._node, self.latched = topic, topic_key(node.robot, topic), node, latched
-        cc = zenoh.CongestionControl.BLOCK if reliable else zenoh.CongestionControl.DROP
-        self._pub = node.session.declare_publisher(self.key, congestion_control=cc, express=True)
-        self._attachment = node.name.encode()
-        self._last: bytes | None = None
-        self._queryable = None
-        self.count = 0
-        if latched:
-            self._queryable = node.session.declare_queryable(self.key, self._on_query, complete=False)
-        self._token = node._declare_token(f"pub/{node.name}/{topic.strip('/')}")
-
-    def _on_query(self, query: zenoh.Query) -> None:
-        last = self._last
-        if last is not None:
-            query.reply(self.key, last, attachment=self._attachment)
-
-    def publish(self, msg: Any) -> None:
-        data = encode(msg)
-        if self.latched:
-            self._last = data
-        self._pub.put(data, attachment=self._attachment)
-        self.count += 1
-
-    def close(self) -> None:
-        for obj in (self._pub, self._queryable, self._token):
-            if obj is not None:
-                with contextlib.suppress(zenoh.ZError):
-                    obj.undeclare()
-
-
-class Subscription:
-    """Receives one topic. mode='latest' keeps only the newest message, 'queue' keeps up to
-    ``queue_size`` (oldest dropped, counted). With a callback, messages are delivered on a
-    worker thread of this subscription, so a slow callback never stalls the network."""
-
-    def __init__(self, node: Node, topic: str, msg_type: type | None, callback: Callable | None,
-                 mode: str, queue_size: int) -> None:
-        if mode not in ("latest", "queue"):
-            raise ValueError("mode must be 'latest' or 'queue'")
-        self.topic, self.key, self.msg_type = topic, topic_key(node.robot, topic), msg_type
-        self._node, self._callback, self.mode = node, callback, mode
-        self._cv = threading.Condition()
-        self._latest: Any = None
-        self._queue: collections.deque = collections.deque(maxlen=queue_size if mode == "queue" else 1)
-        self.received = 0  # valid messages
-        self.malformed = 0  # payloads that failed to decode (dropped)
-        self.dropped = 0  # valid messages overwritten before being consumed
-        self.last_receive_time = 0.0  # time.monotonic() of the last valid message
-        self.last_publisher = ""
-        self._warn = _RateLimitedLog()
-        self._closed = False
-        self._sub = node.session.declare_subscriber(self.key, self._on_sample)
-        self._worker = None
-        if callback is not None:
-            self._worker = threading.Thread(target=self._deliver, daemon=True, name=f"sub:{topic}")
-            self._worker.start()
-        # Latched topics: ask every publisher for its last message now, and again whenever a new
-        # publisher of this topic appears (its liveliness token), so neither start order matters.
-        self._fetch_latched()
-        self._pub_watch = node.session.liveliness().declare_subscriber(
-            f"zenavlive/{node.robot}/pub/*/{topic.strip('/')}", self._on_publisher)
-
-    def _fetch_latched(self) -> None:
-        if not self._closed:
-            self._node.session.get(self.key, self._on_reply, target=zenoh.QueryTarget.ALL,
-                                   consolidation=zenoh.ConsolidationMode.NONE)
-
-    def _on_publisher(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT:
-            self._fetch_latched()
-
-    def _on_reply(self, reply: zenoh.Reply) -> None:
-        if reply.ok is not None:
-            self._ingest(reply.ok.payload.to_bytes(), reply.ok.attachment)
-
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        self._ingest(sample.payload.to_bytes(), sample.attachment)
-
-    def _ingest(self, data: bytes, attachment) -> None:
-        try:
-            msg = decode(data, self.msg_type)
-        except DecodeError as e:
-            self.malformed += 1
-            self._warn(log, f"[{self._node.name}] dropped malformed payload on '{self.topic}' "
-                            f"(#{self.malformed}): {e}")
-            return
-        with self._cv:
-            self._latest = msg
-            if len(self._queue) == self._queue.maxlen:
-                self.dropped += 1
-            self._queue.append(msg)
-            self.received += 1
-            self.last_receive_time = time.monotonic()
-            if attachment is not None:
-                self.last_publisher = attachment.to_bytes().decode(errors="replace")
-            self._cv.notify_all()
-
-    def _deliver(self) -> None:
-        while True:
-            with self._cv:
-                while not self._queue and not self._closed:
-                    self._cv.wait(0.5)
-                if self._closed:
-                    return
-                msg = self._queue.popleft()
-            try:
-                self._callback(msg)
-            except Exception:
-                self._warn(log, f"[{self._node.name}] callback for '{self.topic}' raised:\n"
-                                f"{traceback.format_exc()}")
-
-    def latest(self) -> Any:
-        """The newest message received, or None."""
-        return self._latest
-
-    def age(self) -> float:
-        """Wall seconds since the last valid message (inf if none)."""
-        return time.monotonic() - self.last_receive_time if self.received else float("inf")
-
-    def wait(self, timeout: float = 5.0) -> Any:
-        """Wait for the next message received after this call. Raises TimeoutError."""
-        with self._cv:
-            n = self.received
-            if not self._cv.wait_for(lambda: self.received > n or self._closed, timeout):
-                raise TimeoutError(f"no message on '{self.topic}' within {timeout:.1f} s")
-            return self._latest
-
-    def wait_first(self, timeout: float = 5.0) -> Any:
-        """The latest message, waiting for one if none arrived yet. Raises TimeoutError."""
-        with self._cv:
-            if not self._cv.wait_for(lambda: self.received > 0, timeout):
-                raise TimeoutError(f"no message on '{self.topic}' within {timeout:.1f} s")
-            return self._latest
-
-    def get(self, timeout: float | None = 5.0) -> Any:
-        """Pop the oldest queued message (queue mode, no callback). Raises TimeoutError."""
-        with self._cv:
-            if not self._cv.wait_for(lambda: bool(self._queue), timeout):
-                raise TimeoutError(f"no message on '{self.topic}' within {timeout} s")
-            return self._queue.popleft()
-
-    def close(self) -> None:
-        with self._cv:
-            self._closed = True
-            self._cv.notify_all()
-        for ent in (self._sub, self._pub_watch):
-            with contextlib.suppress(zenoh.ZError):
-                ent.undeclare()
 
 
 class Node:

@@ -1,4 +1,4 @@
-"""Launch files for the zenav agents: one YAML -> an ordered list of ``common.supervisor.NodeSpec``.
+"""Launch files for the zenav agents: one YAML -> an ordered list of ``common.node_spec.NodeSpec``.
 
 Layout (sections depend on the agent: robot = platform / transforms / sensors, master = nodes)::
 
@@ -32,7 +32,7 @@ from typing import Any
 import yaml
 
 from common.config import ConfigError, load_params, param, read_yaml
-from common.supervisor import NodeSpec, validate_launch
+from common.node_spec import NodeSpec, validate_launch
 
 NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
 TOP_KEYS = ("robot", "use_sim_time", "env", "supervisor")

@@ -12,146 +12,37 @@ Children get ``PR_SET_PDEATHSIG`` (SIGKILL) so they die with the supervising thr
 itself is SIGKILLed. All spawning happens on the supervisor's own thread for that reason.
 
 Child output lines are prefixed ``[name] ``; a status table goes to stderr on every change; with a
-bus ``Node`` the states are published as ``NodeState`` on ``agent/<agent>/state``.
+bus ``Node`` the states are published as ``NodeState`` on ``agent/<agent>/state``. The launch data
+(``NodeSpec``, states) is in ``common.node_spec``; child process plumbing in ``common.child_process``.
 """
 
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import os
 import signal
 import subprocess
 import sys
 import threading
 import time
-from collections import deque
-from dataclasses import dataclass, field
 from typing import Any, TextIO
 
+from common.child_process import child_bus_env, killpg, make_preexec
 from common.messages import Header, NodeState
+from common.node_spec import (
+    EXITED,
+    FAILED,
+    RESTARTING,
+    RUNNING,
+    STOPPED,
+    STOPPING,
+    TERMINAL,
+    WAITING,
+    NodeSpec,
+    NodeStatus,
+    validate_launch,
+)
 from common.zenoh_config import BusConfig
-
-WAITING, STARTING, RUNNING, RESTARTING = "WAITING", "STARTING", "RUNNING", "RESTARTING"
-EXITED, FAILED, STOPPING, STOPPED = "EXITED", "FAILED", "STOPPING", "STOPPED"
-TERMINAL = (EXITED, FAILED, STOPPED)
-
-
-@dataclass(frozen=True)
-class NodeSpec:
-    name: str
-    module: str = ""                    # python -m target
-    cmd: tuple[str, ...] = ()           # or an explicit argv
-    args: tuple[str, ...] = ()          # extra arguments appended to the command line
-    config: str = ""                    # --config FILE (module nodes)
-    section: str = ""                   # --section KEY
-    env: dict[str, str] = field(default_factory=dict)
-    respawn: bool = False
-    respawn_delay: float = 0.2
-    required: bool = False
-    wait_for: tuple[str, ...] = ()      # topics that must carry a message before the first start
-    wait_timeout: float = 30.0
-    after: tuple[str, ...] = ()         # node names that must be RUNNING first
-    stop_first: bool = False
-
-    def __post_init__(self):
-        if not self.name or any(c in self.name for c in "/*. "):
-            raise ValueError(f"bad node name {self.name!r}")
-        if bool(self.module) == bool(self.cmd):
-            raise ValueError(f"node {self.name!r}: give exactly one of module / cmd")
-
-    def argv(self) -> list[str]:
-        if self.cmd:
-            return [*self.cmd, *self.args]
-        out = [sys.executable, "-m", self.module, "--name", self.name]
-        if self.config:
-            out += ["--config", self.config]
-        if self.section:
-            out += ["--section", self.section]
-        return out + list(self.args)
-
-
-@dataclass
-class NodeStatus:
-    spec: NodeSpec
-    state: str = WAITING
-    pid: int = 0
-    restarts: int = 0
-    detail: str = ""
-    exit_code: int | None = None
-    pids: list[int] = field(default_factory=list)          # every pid ever started
-    deaths: deque = field(default_factory=lambda: deque(maxlen=64))
-    proc: subprocess.Popen | None = None
-    start_at: float = 0.0                                   # RESTARTING: when to spawn
-    seen: set = field(default_factory=set)                  # wait_for topics seen
-    wait_since: float = 0.0
-    tail: deque = field(default_factory=lambda: deque(maxlen=5))
-
-
-def validate_launch(specs: list[NodeSpec]) -> None:
-    """Unique names, known ``after`` targets, no cycles. Raises ValueError."""
-    names = [s.name for s in specs]
-    dup = {n for n in names if names.count(n) > 1}
-    if dup:
-        raise ValueError(f"duplicate node names: {sorted(dup)}")
-    for s in specs:
-        for a in s.after:
-            if a not in names:
-                raise ValueError(f"node {s.name!r}: after: unknown node {a!r}")
-    by_name, done, visiting = {s.name: s for s in specs}, set(), set()
-
-    def visit(n: str, path: list[str]) -> None:
-        if n in done:
-            return
-        if n in visiting:
-            raise ValueError(f"dependency cycle: {' -> '.join(path + [n])}")
-        visiting.add(n)
-        for a in by_name[n].after:
-            visit(a, path + [n])
-        visiting.discard(n)
-        done.add(n)
-
-    for s in specs:
-        visit(s.name, [])
-
-
-def child_bus_env(cfg: BusConfig) -> dict[str, str]:
-    """Bus env for children: same network, but listening on ephemeral ports (the agent's own listen
-    ports would clash) and connecting to the agent's listen endpoints as well."""
-    def host_port(ep: str) -> tuple[str, str]:
-        proto_addr = ep.split("#", 1)[0]
-        head, _, port = proto_addr.rpartition(":")
-        return head, port
-
-    connect, listen = list(cfg.connect), []
-    for ep in cfg.listen:
-        head, port = host_port(ep)
-        listen.append(f"{head}:0")
-        if port not in ("", "0"):
-            connect.append(ep.split("#", 1)[0].replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]"))
-    return BusConfig(**{**cfg.__dict__, "connect": tuple(dict.fromkeys(connect)),
-                        "listen": tuple(dict.fromkeys(listen))}).to_env()
-
-
-try:
-    _LIBC = ctypes.CDLL(None, use_errno=True) if sys.platform.startswith("linux") else None
-except OSError:  # pragma: no cover
-    _LIBC = None
-_PR_SET_PDEATHSIG = 1
-
-
-def _make_preexec(parent: int):
-    def preexec() -> None:   # runs in the child between fork and exec: no locks, no imports
-        if _LIBC is not None:
-            _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-            if os.getppid() != parent:   # parent already gone before prctl took effect
-                os._exit(1)
-    return preexec
-
-
-def _killpg(pid: int, sig: int) -> None:
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.killpg(pid, sig)
 
 
 class Supervisor:
@@ -262,7 +153,7 @@ class Supervisor:
         try:
             proc = subprocess.Popen(spec.argv(), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                                     stderr=subprocess.STDOUT, env=env, start_new_session=True,
-                                    preexec_fn=_make_preexec(os.getpid()))
+                                    preexec_fn=make_preexec(os.getpid()))
         except OSError as e:
             self._died(st, None, f"cannot start: {e}")
             return
@@ -412,15 +303,15 @@ class Supervisor:
         for st in sts:
             self._set(st, STOPPING, "SIGTERM")
             self._report()
-            _killpg(st.pid, signal.SIGTERM)
+            killpg(st.pid, signal.SIGTERM)
             try:
                 st.proc.wait(self.grace)
             except subprocess.TimeoutExpired:
-                _killpg(st.pid, signal.SIGKILL)
+                killpg(st.pid, signal.SIGKILL)
                 self._set(st, STOPPING, f"no exit {self.grace:g} s after SIGTERM: SIGKILL")
                 with contextlib.suppress(subprocess.TimeoutExpired):
                     st.proc.wait(5.0)
-            _killpg(st.pid, signal.SIGKILL)    # leftovers of the group (grandchildren)
+            killpg(st.pid, signal.SIGKILL)    # leftovers of the group (grandchildren)
             st.exit_code = st.proc.returncode
             self._set(st, STOPPED, st.detail if "SIGKILL" in st.detail else f"exit code {st.exit_code}")
             st.proc = None

@@ -6,7 +6,8 @@ import signal
 
 import yaml
 
-from common.supervisor import FAILED, NodeSpec, Supervisor
+from common.node_spec import FAILED, NodeSpec
+from common.supervisor import Supervisor
 from common.zenoh_config import BusConfig
 from tests.agent.conftest import first, read_events, wait_until
 from tests.agent.test_robot_agent import States, alive

@@ -10,7 +10,9 @@ import psutil
 import pytest
 import yaml
 
-from common.supervisor import EXITED, FAILED, RUNNING, STOPPED, NodeSpec, Supervisor, child_bus_env
+from common.child_process import child_bus_env
+from common.node_spec import EXITED, FAILED, RUNNING, STOPPED, NodeSpec
+from common.supervisor import Supervisor
 from common.zenoh_config import BusConfig
 from tests.agent.conftest import first, read_events, wait_until
 
