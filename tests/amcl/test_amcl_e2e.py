@@ -12,7 +12,8 @@ import time
 import numpy as np
 import yaml
 
-from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav, nav_free_port, nav_wait
+from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
+from tests.support import free_port, wait_until
 
 WAYPOINTS = [(-1.0, 0.0), (-1.0, 1.3), (1.5, 1.3), (1.5, -1.2)]  # room: start (-2.2, 0, 0), crate at 0, 0
 SETTLE_WAYPOINTS = 1  # the first leg lets the filter converge from the initial spread
@@ -49,7 +50,7 @@ def test_amcl_e2e_tracks_ground_truth_while_driving_the_room(tmp_path):
     from common.zenoh_config import BusConfig
 
     robot = f"amcl{os.getpid()}{int(time.time()) % 100000}"
-    test_port, robot_port, master_port = nav_free_port(), nav_free_port(), nav_free_port()
+    test_port, robot_port, master_port = free_port(), free_port(), free_port()
     node = Node("amcl_e2e_test", config=BusConfig(robot=robot, listen=(f"tcp/127.0.0.1:{test_port}",),
                                                   multicast=False), use_sim_time=False)
     base = {**os.environ, "ZENAV_ROBOT": robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer"}
@@ -72,7 +73,7 @@ def test_amcl_e2e_tracks_ground_truth_while_driving_the_room(tmp_path):
         procs.append(NavProc(tmp_path / "master.log", master,
                              {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{master_port}",
                               "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port},tcp/127.0.0.1:{robot_port}"}))
-        nav_wait(lambda: gt.latest() is not None and amcl_pose.latest() is not None
+        wait_until(lambda: gt.latest() is not None and amcl_pose.latest() is not None
                  and tf.buffer.can_transform("map", "base_link"), 90.0,
                  "ground truth, amcl_pose and TF map -> base_link", period=0.1, alive=dead)
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -19,15 +18,10 @@ from pathlib import Path
 import pytest
 
 from common.zenoh_config import BusConfig
+from tests.support import free_port  # noqa: F401
 
 REPO = Path(__file__).resolve().parents[2]
 PROCS = str(Path(__file__).with_name("procs.py"))
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def wait_for(cond, timeout: float = 20.0, what: str = "condition", step: float = 0.02):

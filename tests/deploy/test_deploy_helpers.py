@@ -9,20 +9,15 @@ from __future__ import annotations
 
 import contextlib
 import os
-import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
 
+from tests.support import free_port  # noqa: F401
+
 REPO = Path(__file__).resolve().parents[2]
 HELPER = str(Path(__file__).resolve())
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def env_for(robot: str | None = None, **zenav: str) -> dict[str, str]:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import os
-import socket
 import time
 from pathlib import Path
 
@@ -11,14 +10,10 @@ import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
+from tests.support import free_port  # noqa: F401
+
 REPO = Path(__file__).resolve().parents[2]
 FOOTER_MAGIC = b"RRF2FOOT"
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def wait_for(cond, timeout: float = 30.0, what: str = "condition", step: float = 0.05):

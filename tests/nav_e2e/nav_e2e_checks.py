@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 from common.geometry import Pose2D
 from common.messages import Empty, GoalStatus
-from tests.nav_e2e.nav_e2e_stack import NavStack, nav_wait, pose_error, world_goals
+from tests.nav_e2e.nav_e2e_stack import NavStack, pose_error, world_goals
+from tests.support import wait_until
 
 XY_TOL, YAW_TOL = 0.3, 0.1  # the acceptance's bounds, against the simulator's ground truth
 CANCEL_LATENCY_S = 0.1
@@ -40,7 +41,7 @@ def wait_still(stack: NavStack, timeout: float = 20.0) -> Pose2D:
     def still():
         m = stack.gt.latest()
         return m is not None and m.twist.linear.x == 0.0 and m.twist.angular.z == 0.0 and m
-    return nav_wait(still, timeout, "the robot to stand still", alive=stack.dead).pose2d
+    return wait_until(still, timeout, "the robot to stand still", alive=stack.dead).pose2d
 
 
 def run_goal(stack: NavStack, name: str, goal: tuple[float, float, float], frame: str = "map",
@@ -120,12 +121,12 @@ def cancel_and_measure(stack: NavStack) -> float:
     no non-zero command follows it."""
     t_pub = time.monotonic()
     stack.cancel_pub.publish(Empty())
-    first = nav_wait(lambda: next((t for t, m in stack.cmd.since(t_pub) if m.is_zero()), None), 10.0,
+    first = wait_until(lambda: next((t for t, m in stack.cmd.since(t_pub) if m.is_zero()), None), 10.0,
                      "a zero cmd_vel after cancel")
-    nav_wait(lambda: (m := stack.status.last()).status == GoalStatus.PREEMPTED and m.state == "IDLE",
+    wait_until(lambda: (m := stack.status.last()).status == GoalStatus.PREEMPTED and m.state == "IDLE",
              10.0, "status PREEMPTED")
     n = len(stack.status.since(first))  # move_base keeps publishing status every cycle: watch a few more
-    nav_wait(lambda: len(stack.status.since(first)) >= n + 5, 10.0, "more move_base/status")
+    wait_until(lambda: len(stack.status.since(first)) >= n + 5, 10.0, "more move_base/status")
     later = [m for t, m in stack.cmd.since(first) if not m.is_zero()]
     assert not later, f"non-zero cmd_vel after the cancel: {later[:3]}"
     return first - t_pub
@@ -151,7 +152,7 @@ def status_of(stack: NavStack, gid: str, pred, timeout: float, what: str):
     def find():
         m = stack.status.last()
         return m if m is not None and m.goal_id == gid and pred(m) else None
-    return nav_wait(find, timeout, what, alive=stack.dead)
+    return wait_until(find, timeout, what, alive=stack.dead)
 
 
 def check_stale_tf_reason(stack: NavStack, goal: tuple[float, float, float]) -> GoalRun:
@@ -163,7 +164,7 @@ def check_stale_tf_reason(stack: NavStack, goal: tuple[float, float, float]) -> 
     gid = send_goal_async(stack, goal)
     t0 = time.monotonic()
     status_of(stack, gid, lambda m: m.state == "CONTROLLING", 60.0, "CONTROLLING")
-    nav_wait(lambda: math.hypot(stack.truth().x - start.x, stack.truth().y - start.y) > 0.3, 60.0,
+    wait_until(lambda: math.hypot(stack.truth().x - start.x, stack.truth().y - start.y) > 0.3, 60.0,
              "the robot to move", alive=stack.dead)
     os.kill(pid, signal.SIGSTOP)
     try:
@@ -172,10 +173,10 @@ def check_stale_tf_reason(stack: NavStack, goal: tuple[float, float, float]) -> 
         assert re.search(r"stale TF: map <- base_link is \d+\.\d+ s old", st.reason), st.reason
         assert "map -> odom" in st.reason, st.reason  # the edge that stopped
         assert st.status == GoalStatus.ACTIVE, st
-        nav_wait(lambda: (c := stack.cmd.since(t_stale)) and c[-1][1].is_zero(), 5.0, "zero cmd_vel")
+        wait_until(lambda: (c := stack.cmd.since(t_stale)) and c[-1][1].is_zero(), 5.0, "zero cmd_vel")
         stopped = wait_still(stack)
         t_check = time.monotonic()
-        nav_wait(lambda: len(stack.cmd.since(t_check)) >= 5, 10.0, "more cmd_vel")
+        wait_until(lambda: len(stack.cmd.since(t_check)) >= 5, 10.0, "more cmd_vel")
         assert all(m.is_zero() for _, m in stack.cmd.since(t_check)), "moving on a stale pose"
         assert stack.status.last().reason.startswith("stale TF"), stack.status.last().reason
     finally:

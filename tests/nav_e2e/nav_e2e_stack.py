@@ -9,7 +9,6 @@ import math
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -19,33 +18,14 @@ from pathlib import Path
 
 import yaml
 
+from tests.support import free_port, wait_until
+
 REPO = Path(__file__).resolve().parents[2]
 MASTER_DIR = REPO / "master_side" / "config"
 ROBOT_CONFIG = REPO / "robot_side" / "config" / "p3at_sim.yaml"
 WORLDS = REPO / "robot_side" / "worlds"
 PLANNERS = {"dwa": MASTER_DIR / "p3at_known_map.yaml",
             "trajectory": MASTER_DIR / "p3at_known_map_trajectory.yaml"}
-
-
-def nav_free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def nav_wait(cond, timeout: float, what: str, period: float = 0.02, alive=None):
-    """Poll ``cond()`` until truthy (returned) or ``timeout`` wall seconds; ``alive()`` false aborts."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        v = cond()
-        if v:
-            return v
-        if alive is not None:
-            dead = alive()
-            if dead:
-                raise AssertionError(f"{dead} while waiting for {what}")
-        time.sleep(period)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
 def world_goals(world: str) -> dict[str, tuple[float, float, float]]:
@@ -185,7 +165,7 @@ class NavStack:
         self.world, self.planner, self.speed = world, planner, speed
         self.robot = f"nav{uuid.uuid4().hex[:10]}"
         tmp.mkdir(parents=True, exist_ok=True)
-        test_port, robot_port, master_port = nav_free_port(), nav_free_port(), nav_free_port()
+        test_port, robot_port, master_port = free_port(), free_port(), free_port()
         cfg = BusConfig(robot=self.robot, listen=(f"tcp/127.0.0.1:{test_port}",), multicast=False)
         self.node = Node("nav_e2e_test", config=cfg, use_sim_time=False)
         base = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
@@ -207,7 +187,7 @@ class NavStack:
             master_cfg = master_config_for(planner, world, tmp, move_base, navfn)
             self.master_proc = self._start("master", [*_zenav(), "master", "--config", str(master_cfg)],
                                            env_m, tmp)
-            nav_wait(lambda: self.gt.latest() is not None and self.status.last() is not None
+            wait_until(lambda: self.gt.latest() is not None and self.status.last() is not None
                      and self.status.last().reason == "no goal" and self._costmaps_up(), 180.0,
                      "the simulator's ground truth, move_base/status and both costmaps", alive=self.dead)
             publisher_ready(self.cancel_pub)
@@ -260,7 +240,7 @@ class NavStack:
 
 
 def publisher_ready(pub, timeout: float = 60.0) -> None:
-    nav_wait(lambda: pub._pub.matching_status.matching, timeout, "a subscriber of the publisher")
+    wait_until(lambda: pub._pub.matching_status.matching, timeout, "a subscriber of the publisher")
 
 
 def pose_error(truth, goal: tuple[float, float, float]) -> tuple[float, float]:

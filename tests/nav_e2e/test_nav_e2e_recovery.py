@@ -19,7 +19,8 @@ from tests.nav_e2e.nav_e2e_checks import (
     send_goal_async,
     status_of,
 )
-from tests.nav_e2e.nav_e2e_stack import NavStack, nav_wait
+from tests.nav_e2e.nav_e2e_stack import NavStack
+from tests.support import wait_until
 
 SPEED = 2.0
 
@@ -59,9 +60,9 @@ def test_nav_e2e_cancel_during_the_rotate_recovery_zeroes_cmd_vel_at_once(stack)
     status_of(stack, gid, lambda m: m.state == "CLEARING" and "rotate in place" in m.reason, 120.0,
               "the rotate-in-place recovery")
     assert stack.status.last().reason.startswith("recovery 2/4: rotate in place"), stack.status.last().reason
-    t = nav_wait(lambda: (c := stack.cmd.since(0)) and abs(c[-1][1].angular.z) > 0 and c[-1][0], 30.0,
+    t = wait_until(lambda: (c := stack.cmd.since(0)) and abs(c[-1][1].angular.z) > 0 and c[-1][0], 30.0,
                  "the recovery rotation command")
-    nav_wait(lambda: len(stack.cmd.since(t)) >= 5 and abs(stack.gt.latest().twist.angular.z) > 0.1, 30.0,
+    wait_until(lambda: len(stack.cmd.since(t)) >= 5 and abs(stack.gt.latest().twist.angular.z) > 0.1, 30.0,
              "the robot rotating")
     assert stack.status.last().state == "CLEARING"
     delay = cancel_and_measure(stack)

@@ -17,7 +17,8 @@ from tests.nav_e2e.nav_e2e_checks import (
     send_goal_async,
     status_of,
 )
-from tests.nav_e2e.nav_e2e_stack import NavStack, nav_wait
+from tests.nav_e2e.nav_e2e_stack import NavStack
+from tests.support import wait_until
 
 SPEED = 2.0  # the master follows the sim clock (use_sim_time), measured stable at 2x on 2 loaded cores
 
@@ -49,9 +50,9 @@ def test_nav_e2e_room_dwa_unreachable_goal_aborts_naming_the_planner_failure(sta
 def test_nav_e2e_room_dwa_cancel_while_driving_zeroes_cmd_vel_at_once(stack):
     gid = send_goal_async(stack, (-2.0, -1.4, 0.0))
     status_of(stack, gid, lambda m: m.state == "CONTROLLING" and m.reason == "", 60.0, "CONTROLLING")
-    t = nav_wait(lambda: (c := stack.cmd.since(0)) and not c[-1][1].is_zero() and c[-1][0], 30.0,
+    t = wait_until(lambda: (c := stack.cmd.since(0)) and not c[-1][1].is_zero() and c[-1][0], 30.0,
                  "a non-zero command")
-    nav_wait(lambda: len(stack.cmd.since(t)) >= 5, 10.0, "the robot under way")
+    wait_until(lambda: len(stack.cmd.since(t)) >= 5, 10.0, "the robot under way")
     delay = cancel_and_measure(stack)
     RESULTS.append(f"room/dwa cancel while CONTROLLING: first zero cmd_vel after {delay * 1000:.0f} ms")
     assert delay <= CANCEL_LATENCY_S, delay

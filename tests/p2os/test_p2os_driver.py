@@ -12,16 +12,7 @@ from common.geometry import Pose2D
 from robot_side.p2os import protocol as P
 from robot_side.p2os.driver import P2OSConnectionError, P2OSDriver, P2OSParams, open_port
 from robot_side.p2os.fake_robot import FakeP2OSRobot
-
-
-def wait_until(cond, timeout: float, what: str):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        v = cond()
-        if v:
-            return v
-        time.sleep(0.005)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+from tests.support import wait_until  # noqa: F401
 
 
 @pytest.fixture

@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -16,23 +15,9 @@ from pathlib import Path
 import pytest
 import yaml
 
+from tests.support import free_port, wait_until  # noqa: F401
+
 REPO = Path(__file__).resolve().parents[2]
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def wait_until(cond, timeout: float, what: str, period: float = 0.01):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        v = cond()
-        if v:
-            return v
-        time.sleep(period)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
 def write_world(tmp: Path, spec: dict, name: str = "world") -> Path:
