@@ -85,8 +85,10 @@ def run(seed: int, amcl_cfg: dict, grid) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=8, help="number of noise seeds (default 8)")
-    ap.add_argument("--config", default=str(ROOT / "master_side" / "config" / "p3at_amcl.yaml"))
-    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="override an amcl param")
+    ap.add_argument("--config", default=str(ROOT / "master_side" / "config" / "p3at_amcl.yaml"),
+                    help="master config whose nodes.localization.params are used (default p3at_amcl.yaml)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override an amcl param, e.g. --set laser_model_type=likelihood_field (repeatable)")
     a = ap.parse_args(argv)
     amcl_cfg = dict(yaml.safe_load(Path(a.config).read_text())["nodes"]["localization"]["params"])
     for kv in a.set:
