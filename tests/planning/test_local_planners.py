@@ -148,6 +148,36 @@ def test_goal_rotation_slows_down_and_never_reverses(dwa_params):
     assert np.all(np.abs(np.diff(w)) <= dwa_params.acc_lim_th / 10.0 + 1e-9)  # acceleration limit
 
 
+def _rotate_with_lag(params, target: float, late_cycle: int, lag: int = 2) -> tuple[Pose2D, list[float]]:
+    """Final rotation to ``target`` on a base that applies each command ``lag`` cycles late, with
+    control cycle ``late_cycle`` coming one cycle late (the base keeps the old command meanwhile)."""
+    planner = TrajectoryPlanner(params)
+    dt, acc = planner.limits.sim_period, planner.limits.acc[2]
+    planner.set_plan(np.array([[1.5, 1.5, 0.0], [1.5, 1.5, target]]))
+    pose, w, queue, cmds = Pose2D(1.5, 1.5, 0.0), 0.0, [0.0] * lag, []
+    for cycle in range(300):
+        if planner.is_goal_reached(pose, (0.0, 0.0, w)):
+            return pose, cmds
+        cmds.append(planner.compute_velocity(pose, (0.0, 0.0, w), free_map(60, 60), RES, (0.0, 0.0),
+                                             P3AT_FOOTPRINT).cmd[2])
+        queue.append(cmds[-1])
+        for _ in range(2 if cycle == late_cycle else 1):
+            w += float(np.clip(queue[0] - w, -acc * dt, acc * dt))
+            pose = Pose2D(pose.x, pose.y, pose.theta + w * dt)
+        queue.pop(0)
+    pytest.fail(f"goal yaw {target} not reached; commands {np.round(cmds, 3)}")
+
+
+def test_goal_rotation_absorbs_command_lag_and_a_late_cycle_without_turning_back(tp_params):
+    # the tutorial's section 3.6 move_base runs the controller at 6 Hz: a late cycle is 1/6 s more at speed
+    p = dataclasses.replace(tp_params, yaw_goal_tolerance=0.05, controller_frequency=6.0)
+    for target in (0.6, 1.2, 2.0):
+        for late in range(20):
+            pose, cmds = _rotate_with_lag(p, target, late)
+            assert all(c >= 0.0 for c in cmds), f"to {target}, late cycle {late}: turned back {np.round(cmds, 3)}"
+            assert abs(angle_diff(target, pose.theta)) <= p.yaw_goal_tolerance
+
+
 def test_all_rejected_reports_why_not_moving(dwa_params):
     grid = free_map(60, 60)
     grid[:, 26:] = LETHAL  # wall just in front of the nose, nothing else reachable

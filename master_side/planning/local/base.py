@@ -19,6 +19,9 @@ from master_side.planning.local.map_grid import ScoringContext, angle_diff
 from master_side.planning.local.scoring import ScoredSamplingPlanner
 from master_side.planning.local.trajectories import Trajectories, simulate
 
+# Control cycles of command lag budgeted before the final in-place rotation brakes (see _rotation_speed).
+LAG_CYCLES = 3.0
+
 
 @dataclass(frozen=True)
 class LocalResult:
@@ -230,9 +233,10 @@ class LocalPlanner:
         else:
             # The command takes effect about one cycle late (the pose is a cycle old by the time the base
             # gets it), and the base turns at its current speed meanwhile: budget that angle before the
-            # braking profile, else the robot overshoots the tolerance band and must turn back. Two
-            # cycles are budgeted: on a loaded machine the lag was seen to exceed one.
-            budget = max(remaining - 2.0 * max(current, 0.0) * dt, 0.0)
+            # braking profile, else the robot overshoots the tolerance band and must turn back. Three
+            # cycles are budgeted: on a loaded machine a late cycle keeps the last command for longer
+            # (seen: one, then two cycles were not enough with the simulator at 2x real time).
+            budget = max(remaining - LAG_CYCLES * max(current, 0.0) * dt, 0.0)
             stop_cap = min(math.sqrt(2.0 * acc * budget), (budget + 0.5 * lim.yaw_goal_tolerance) / dt)
             target = min(remaining / max(4 * dt, 1e-3), lim.max_in_place_vth, stop_cap)
             target = max(target, min(lim.min_in_place_vth, stop_cap))
