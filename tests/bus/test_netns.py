@@ -4,50 +4,21 @@
 from __future__ import annotations
 
 import os
-import shutil
-import subprocess
 import sys
 import time
-import uuid
 
 import pytest
 from bushelp import PROCS, REPO, wait_for
 
+from tests.support import ip, two_netns
+
 pytestmark = pytest.mark.netns
-
-
-def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
-    return subprocess.run(["ip", *args], capture_output=True, text=True, check=check, timeout=30)
 
 
 @pytest.fixture
 def two_hosts():
-    if os.geteuid() != 0:
-        pytest.skip("netns test needs root (ip netns add)")
-    if shutil.which("ip") is None:
-        pytest.skip("netns test needs the `ip` tool (iproute2)")
-    sfx = uuid.uuid4().hex[:6]
-    a, b, va, vb = f"zna{sfx}", f"znb{sfx}", f"zva{sfx}", f"zvb{sfx}"
-    try:
-        _ip("netns", "add", a)
-        _ip("netns", "add", b)
-        _ip("link", "add", va, "type", "veth", "peer", "name", vb)
-        _ip("link", "set", va, "netns", a)
-        _ip("link", "set", vb, "netns", b)
-        for ns, dev, addr in ((a, va, "10.77.0.1/24"), (b, vb, "10.77.0.2/24")):
-            _ip("-n", ns, "addr", "add", addr, "dev", dev)
-            _ip("-n", ns, "link", "set", dev, "up")
-            _ip("-n", ns, "link", "set", "lo", "up")
-            _ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", dev)
-    except subprocess.CalledProcessError as e:
-        for ns in (a, b):
-            _ip("netns", "del", ns, check=False)
-        pytest.skip(f"cannot create network namespaces here: {e.stderr.strip()}")
-    try:
-        yield {"a": a, "b": b, "va": va, "vb": vb}
-    finally:
-        for ns in (a, b):  # deleting a namespace also deletes its veth end
-            _ip("netns", "del", ns, check=False)
+    with two_netns("n", "10.77.0") as hosts:
+        yield hosts
 
 
 def _env(robot: str) -> dict[str, str]:
@@ -78,7 +49,7 @@ def test_two_hosts_discover_each_other_with_default_config_and_notice_link_loss(
 
     # Cut the link: the talker's liveliness must be lost in about a second (lease 1000 ms).
     t_down = time.time()
-    _ip("-n", two_hosts["a"], "link", "set", two_hosts["va"], "down")
+    ip("-n", two_hosts["a"], "link", "set", two_hosts["va"], "down")
     n_before = len(listener.lines)
     line = listener.expect(
         lambda s: s.split()[:3] == ["LIVE", "-", token],
@@ -90,8 +61,8 @@ def test_two_hosts_discover_each_other_with_default_config_and_notice_link_loss(
     assert 0.3 < lost_after < 2.5, f"link loss noticed after {lost_after:.2f} s"
 
     # Link back: the hosts find each other again by themselves, and data flows.
-    _ip("-n", two_hosts["a"], "link", "set", two_hosts["va"], "up")
-    _ip("-n", two_hosts["a"], "route", "replace", "224.0.0.0/4", "dev", two_hosts["va"])
+    ip("-n", two_hosts["a"], "link", "set", two_hosts["va"], "up")
+    ip("-n", two_hosts["a"], "route", "replace", "224.0.0.0/4", "dev", two_hosts["va"])
     listener.expect(
         lambda s: s.split()[:3] == ["LIVE", "+", token],
         timeout=60,

@@ -5,15 +5,13 @@ the default config (peer + multicast)."""
 from __future__ import annotations
 
 import os
-import shutil
-import subprocess
 import sys
-import uuid
 
 import pytest
 from test_deploy_helpers import HELPER, env_for, free_port, start, stop, wait_line, zenav
 
 from deploy.hosts.doctor_checks import serial_check, skew_check
+from tests.support import two_netns
 
 
 @pytest.fixture
@@ -95,35 +93,10 @@ def test_serial_check_accepts_a_tty_and_refuses_files_and_missing_paths(tmp_path
 
 
 # -- two hosts ------------------------------------------------------------------------------------------
-def _ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:
-    return subprocess.run(["ip", *args], capture_output=True, text=True, check=check, timeout=30)
-
-
 @pytest.fixture
 def two_hosts():
-    if os.geteuid() != 0:
-        pytest.skip("needs root to create network namespaces (ip netns add)")
-    if shutil.which("ip") is None:
-        pytest.skip("needs the `ip` tool (iproute2)")
-    sfx = uuid.uuid4().hex[:6]
-    a, b, va, vb = f"zda{sfx}", f"zdb{sfx}", f"zdva{sfx}", f"zdvb{sfx}"
-    try:
-        _ip("netns", "add", a)
-        _ip("netns", "add", b)
-        _ip("link", "add", va, "type", "veth", "peer", "name", vb)
-        _ip("link", "set", va, "netns", a)
-        _ip("link", "set", vb, "netns", b)
-        for ns, dev, addr in ((a, va, "10.78.0.1/24"), (b, vb, "10.78.0.2/24")):
-            _ip("-n", ns, "addr", "add", addr, "dev", dev)
-            _ip("-n", ns, "link", "set", dev, "up")
-            _ip("-n", ns, "link", "set", "lo", "up")
-            _ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", dev)
-        yield a, b
-    except subprocess.CalledProcessError as e:
-        pytest.skip(f"cannot create network namespaces here: {e.stderr.strip()}")
-    finally:
-        for ns in (a, b):  # deleting a namespace deletes its veth end too
-            _ip("netns", "del", ns, check=False)
+    with two_netns("d", "10.78.0") as hosts:
+        yield hosts["a"], hosts["b"]
 
 
 @pytest.mark.netns
