@@ -197,3 +197,12 @@ def include(value: Any, source: str, key: str) -> tuple[dict, str]:
             raise ConfigError(source, key, f"file not found: {p}")
         return read_yaml(p), str(p)
     raise ConfigError(source, key, f"expected a mapping or a file path, got {value!r}")
+
+
+def merge_included(cfg: dict, key: str, source: str) -> tuple[dict, str]:
+    """``cfg`` with ``key: FILE`` (or an inline mapping) as its base and the other keys overriding it,
+    plus the source to name in errors. Without ``key``, ``cfg`` and ``source`` unchanged."""
+    if key not in cfg:
+        return cfg, source
+    base, src = include(cfg[key], source, key)
+    return {**base, **{k: v for k, v in cfg.items() if k != key}}, f"{src} (+ overrides in {source})"

@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import threading
 
-from common.config import ConfigError, include, strip_frame
+from common.config import ConfigError, merge_included, strip_frame
 from common.geometry import Pose2D
 from common.messages import Empty, Header, LaserScan, OccupancyGrid, PoseStamped, TransformStamped
 from master_side.localization.amcl import Amcl
@@ -123,11 +123,7 @@ class AmclNode:
 
 def start(node, cfg: dict, source: str) -> AmclNode:
     """cfg: ROS amcl parameters, or ``amcl: FILE`` (an amcl parameter file) plus keys overriding it."""
-    if "amcl" in cfg:
-        base, src = include(cfg["amcl"], source, "amcl")
-        cfg = {**base, **{k: v for k, v in cfg.items() if k != "amcl"}}
-        source = f"{src} (+ overrides in {source})"
-    return AmclNode(node, cfg, source)
+    return AmclNode(node, *merge_included(cfg, "amcl", source))
 
 
 if __name__ == "__main__":

@@ -64,13 +64,9 @@ class SlamNode:
 def start(node, cfg: dict, source: str) -> SlamNode:
     """cfg: slam_gmapping parameters, or ``gmapping: FILE`` (the parameters file, e.g. the tutorial's)
     plus keys that override it."""
-    from common.config import include
+    from common.config import merge_included
 
-    if "gmapping" in cfg:
-        base, src = include(cfg["gmapping"], source, "gmapping")
-        cfg = {**base, **{k: v for k, v in cfg.items() if k != "gmapping"}}
-        source = f"{src} (+ overrides in {source})"
-    return SlamNode(node, cfg, source)
+    return SlamNode(node, *merge_included(cfg, "gmapping", source))
 
 
 if __name__ == "__main__":

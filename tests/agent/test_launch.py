@@ -140,3 +140,16 @@ def test_master_loader_rejects_robot_sections(tmp_path):
     with pytest.raises(ConfigError) as e:
         load_master(path)
     assert e.value.key == "platform"
+
+
+def test_merge_included_takes_the_file_as_base_and_the_other_keys_as_overrides(tmp_path):
+    from common.config import merge_included
+
+    (tmp_path / "amcl.yaml").write_text("min_particles: 100\nmax_particles: 500\n")
+    source = str(tmp_path / "master.yaml")
+    cfg, src = merge_included({"amcl": "amcl.yaml", "max_particles": 900}, "amcl", source)
+    assert cfg == {"min_particles": 100, "max_particles": 900}
+    assert src == f"{tmp_path / 'amcl.yaml'} (+ overrides in {source})"
+    assert merge_included({"max_particles": 900}, "amcl", source) == ({"max_particles": 900}, source)
+    with pytest.raises(ConfigError, match="file not found"):
+        merge_included({"amcl": "missing.yaml"}, "amcl", source)
