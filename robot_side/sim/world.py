@@ -99,8 +99,7 @@ class World:
 
     def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Obstacle height under world points (0 outside the grid)."""
-        ix = np.floor((np.asarray(x) - self.origin[0]) / self.resolution).astype(np.int64)
-        iy = np.floor((np.asarray(y) - self.origin[1]) / self.resolution).astype(np.int64)
+        ix, iy = self.cell_of(x, y)
         inside = (ix >= 0) & (iy >= 0) & (ix < self.shape[1]) & (iy < self.shape[0])
         out = np.zeros(np.shape(ix), np.float32)
         out[inside] = self.heights[iy[inside], ix[inside]]
@@ -125,10 +124,10 @@ class World:
                 data[~occupied & (labels != labels[iy, ix])] = -1
         return OccupancyGrid(Header(stamp, frame_id), self.resolution, Pose2D(*self.origin, 0.0), data)
 
-    def cell_of(self, x: float, y: float) -> tuple[int, int]:
-        """(column, row) of the cell holding the point (x, y) (may lie off the grid)."""
-        return (math.floor((x - self.origin[0]) / self.resolution),
-                math.floor((y - self.origin[1]) / self.resolution))
+    def cell_of(self, x, y) -> tuple[np.ndarray, np.ndarray]:
+        """(column, row) int64 indices of the cells holding the points (x, y) (may lie off the grid)."""
+        return (np.floor((np.asarray(x) - self.origin[0]) / self.resolution).astype(np.int64),
+                np.floor((np.asarray(y) - self.origin[1]) / self.resolution).astype(np.int64))
 
     # ------------------------------------------------------------------ loaders
     @classmethod
