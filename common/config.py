@@ -8,7 +8,11 @@ Declare fields with ``param``::
         cost_scaling_factor: float = param(10.0, lo=0.0, doc="exponential decay rate")
 
 ``load_params(InflationParams, mapping, source="costmap.yaml", section="inflater")`` returns an
-instance or raises ``ConfigError`` naming the file, the key and what is allowed.
+instance or raises ONE ``ConfigError`` listing every problem of the mapping (unknown keys with a
+did-you-mean, wrong types, out-of-range values), one ``file: key: why`` per line. Keys that ROS knows
+but that have no effect in zenav are passed as ``no_effect={key: why}`` and reported as notes
+(``Note``) instead of failing (``master_side.ros_params`` builds that mapping from the ROS catalogue).
+``Problems`` collects the errors of several loads so that a loader reports them all at once.
 """
 
 from __future__ import annotations
@@ -17,24 +21,24 @@ import dataclasses
 import math
 import typing
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable, Mapping
 
 import yaml
 
+from common.config_errors import ConfigError, Note, Problem, Problems, suggest, unknown_key_message
 
-class ConfigError(ValueError):
-    """A configuration value that is unknown, of the wrong type or out of range."""
-
-    def __init__(self, source: str, key: str, message: str):
-        self.source, self.key = source, key
-        super().__init__(f"{source}: {key}: {message}")
+__all__ = ["ConfigError", "Note", "Problem", "Problems", "suggest", "unknown_key_message", "param",
+           "load_params", "read_yaml", "strip_frame", "describe", "include", "merge_included"]
 
 
 def param(default: Any = dataclasses.MISSING, *, lo: float | None = None, hi: float | None = None,
           choices: tuple | None = None, unit: str = "", doc: str = "", aliases: tuple[str, ...] = (),
-          default_factory: Any = dataclasses.MISSING) -> Any:
-    """A dataclass field with a declared range / choices, unit, description and accepted aliases."""
-    meta = {"lo": lo, "hi": hi, "choices": choices, "unit": unit, "doc": doc, "aliases": tuple(aliases)}
+          no_effect: bool = False, default_factory: Any = dataclasses.MISSING) -> Any:
+    """A dataclass field with a declared range / choices, unit, description and accepted aliases.
+    ``no_effect=True``: a ROS parameter accepted (and checked) but not used by zenav; load_params
+    reports it in ``notes`` when a file sets it (the ``doc`` says why)."""
+    meta = {"lo": lo, "hi": hi, "choices": choices, "unit": unit, "doc": doc, "aliases": tuple(aliases),
+            "no_effect": no_effect}
     if default_factory is not dataclasses.MISSING:
         return dataclasses.field(default_factory=default_factory, metadata=meta)
     return dataclasses.field(default=default, metadata=meta)
@@ -107,8 +111,14 @@ def _coerce(ann: Any, value: Any, source: str, key: str) -> Any:
 
 
 def load_params(cls: type, data: dict | None, source: str = "<config>", section: str = "",
-                ignore: tuple[str, ...] = ()) -> Any:
-    """Build ``cls`` from ``data``; unknown keys (not in ``ignore``) and bad values raise ConfigError."""
+                ignore: Iterable[str] = (), *, no_effect: Mapping[str, str] | None = None,
+                notes: list[str] | None = None) -> Any:
+    """Build ``cls`` from ``data``, or raise ONE ConfigError listing every problem of the mapping.
+
+    ``ignore``: keys accepted silently (read by someone else). ``no_effect``: key -> why (text after
+    the key, e.g. "no effect (not implemented in zenav)") for keys accepted without effect; they, and
+    fields declared ``param(..., no_effect=True)``, are appended to ``notes`` (a list of ``Note``) when
+    the mapping sets them. Unknown keys get a did-you-mean over every accepted name."""
     data = dict(data or {})
     hints = typing.get_type_hints(cls)
     by_name: dict[str, dataclasses.Field] = {}
@@ -116,38 +126,58 @@ def load_params(cls: type, data: dict | None, source: str = "<config>", section:
         by_name[f.name] = f
         for a in f.metadata.get("aliases", ()):
             by_name[a] = f
+    ignore, no_effect = set(ignore), dict(no_effect or {})
     kwargs: dict[str, Any] = {}
     prefix = f"{section}." if section else ""
+    problems: list[Problem] = []
+    found: list[Note] = []
     for key, value in data.items():
         k = str(key)
         if k in ignore:
             continue
         f = by_name.get(k)
         if f is None:
-            known = sorted(x for x in by_name if not x.startswith("_"))
-            raise ConfigError(source, prefix + k, f"unknown key (known keys: {', '.join(known)})")
-        v = _coerce(hints[f.name], value, source, prefix + k)
-        m = f.metadata
-        if m.get("choices") and v not in m["choices"]:
-            raise ConfigError(source, prefix + k, f"{v!r} is not allowed; must be {_allowed(f)}")
-        if isinstance(v, (int, float)) and not isinstance(v, bool):
-            if isinstance(v, float) and math.isnan(v):
-                raise ConfigError(source, prefix + k, "NaN is not allowed")
-            lo, hi = m.get("lo"), m.get("hi")
-            if (lo is not None and v < lo) or (hi is not None and v > hi):
-                raise ConfigError(source, prefix + k, f"{v} is out of range; must be {_allowed(f)}")
-        kwargs[f.name] = v
+            if k in no_effect:
+                found.append(Note(source, prefix + k, no_effect[k]))
+            else:
+                problems.append((source, prefix + k, unknown_key_message(k, by_name, [*ignore, *no_effect])))
+            continue
+        try:
+            kwargs[f.name] = _checked(f, hints[f.name], value, source, prefix + k)
+        except ConfigError as e:
+            problems.extend(e.problems)
+            continue
+        if f.metadata.get("no_effect"):
+            why = f.metadata.get("doc", "").strip("() ")
+            why = why[len("accepted"):].lstrip(";,: ") if why.startswith("accepted") else why
+            found.append(Note(source, prefix + k, f"no effect ({why or 'not used by zenav'})"))
+    if problems:
+        raise ConfigError.of(problems)
     try:
         obj = cls(**kwargs)
+        check = getattr(obj, "validate", None)
+        if check is not None:
+            check()
     except (TypeError, ValueError) as e:
         raise ConfigError(source, section or cls.__name__, str(e)) from e
-    check = getattr(obj, "validate", None)
-    if check is not None:
-        try:
-            check()
-        except ValueError as e:
-            raise ConfigError(source, section or cls.__name__, str(e)) from e
+    if notes is not None:
+        notes.extend(found)
     return obj
+
+
+def _checked(f: dataclasses.Field, ann: Any, value: Any, source: str, key: str) -> Any:
+    """``value`` coerced to the field's type and checked against its choices / range."""
+    v = _coerce(ann, value, source, key)
+    m = f.metadata
+    if m.get("choices") and v not in m["choices"]:
+        raise ConfigError(source, key, f"{v!r} is not allowed; must be {_allowed(f)}")
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        if isinstance(v, float) and math.isnan(v):
+            raise ConfigError(source, key, "NaN is not allowed")
+        lo, hi = m.get("lo"), m.get("hi")
+        if (lo is not None and v < lo) or (hi is not None and v > hi):
+            raise ConfigError(source, key, f"{v} is out of range; must be {_allowed(f)}")
+    return v
 
 
 def read_yaml(path: str | Path) -> dict:

@@ -230,15 +230,26 @@ def _dry_specs(launch: Launch) -> list[NodeSpec]:
 
 def run_agent(agent: str, launch: Launch, robot: str | None = None) -> int:
     """Run a launch under a Supervisor until Ctrl-C / SIGTERM or a required node ends.
-    Robot name: ``robot`` argument, else $ZENAV_ROBOT, else the file's ``robot:``, else 'robot'."""
+    Robot name: ``robot`` argument, else $ZENAV_ROBOT, else the file's ``robot:``, else 'robot'.
+    First every node's parameters are checked (``common.node_check``): any problem -> all of them on
+    stderr and exit status 2 with nothing started; parameters without effect -> one warning block."""
     import shutil
     import sys
 
     from common.bus import Node
+    from common.node_check import check_nodes, format_config_error, format_notes
+    from common.runner import EXIT_CONFIG
     from common.supervisor import Supervisor
     from common.zenoh_config import DEFAULT_ROBOT, BusConfig
 
     robot = robot or os.environ.get("ZENAV_ROBOT") or launch.robot or DEFAULT_ROBOT
+    try:  # every node's parameters, before anything starts (common.node_check)
+        notes = check_nodes(launch)
+    except ConfigError as e:
+        print(format_config_error(agent, e), file=sys.stderr, flush=True)
+        return EXIT_CONFIG
+    if warning := format_notes(agent, notes):
+        print(warning, file=sys.stderr, flush=True)
     cfg = BusConfig.from_env(robot=robot)
     node = None
     try:

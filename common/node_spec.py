@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import threading
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -62,7 +63,8 @@ class NodeStatus:
     start_at: float = 0.0                                   # RESTARTING: when to spawn
     seen: set = field(default_factory=set)                  # wait_for topics seen
     wait_since: float = 0.0
-    tail: deque = field(default_factory=lambda: deque(maxlen=5))
+    tail: deque = field(default_factory=lambda: deque(maxlen=20))      # last output lines
+    pump: threading.Thread | None = None                    # reads the output of the current process
 
 
 def validate_launch(specs: list[NodeSpec]) -> None:

@@ -2,7 +2,9 @@
 
 A node module provides ``start(node, cfg, source) -> obj with close()``; ``node_main`` parses the
 command line, reads the node's YAML mapping, opens the bus, starts the node and waits for
-SIGINT / SIGTERM, then closes it. A bad config exits with status 2 and the reason on stderr.
+SIGINT / SIGTERM, then closes it. A bad config exits with status 2 (``EXIT_CONFIG``) and every problem on
+stderr; the agents' supervisor does not respawn such a node. A module MAY also define
+``check(cfg, source) -> list[str]`` (see ``common.node_check``) for the agents' check before any start.
 """
 
 from __future__ import annotations
@@ -36,7 +38,16 @@ def node_config(path: str | None, section: str | None) -> tuple[dict, str]:
     return data, path
 
 
+def _config_exit(name: str, e: ConfigError) -> None:
+    """Report every problem on stderr and end the process with EXIT_CONFIG (SystemExit, so a module
+    whose ``__main__`` ignores node_main's return value still exits 2 and is not respawned)."""
+    print(f"zenav {name}: config error: {e}", file=sys.stderr, flush=True)
+    raise SystemExit(EXIT_CONFIG)
+
+
 def node_main(default_name: str, start: Callable, argv: list[str] | None = None) -> int:
+    """Run a node until SIGINT / SIGTERM; returns 0 or the node's own ``exit_code``. A configuration
+    error raises SystemExit(EXIT_CONFIG) (the supervisor then marks the node FAILED, no respawn)."""
     ap = argparse.ArgumentParser(prog=f"zenav node {default_name}",
                                  description=f"Run the zenav '{default_name}' node on the bus.")
     ap.add_argument("--config", help="YAML file with this node's parameters")
@@ -50,8 +61,7 @@ def node_main(default_name: str, start: Callable, argv: list[str] | None = None)
     try:
         cfg, source = node_config(args.config, args.section)
     except ConfigError as e:
-        print(f"zenav {args.name}: config error: {e}", file=sys.stderr)
-        return EXIT_CONFIG
+        _config_exit(args.name, e)
 
     from common.bus import Node  # imported late: config errors are reported without opening zenoh
 
@@ -63,8 +73,7 @@ def node_main(default_name: str, start: Callable, argv: list[str] | None = None)
         try:
             handle = start(node, cfg, source)
         except ConfigError as e:
-            print(f"zenav {args.name}: config error: {e}", file=sys.stderr)
-            return EXIT_CONFIG
+            _config_exit(args.name, e)
         # A node can end its own process (e.g. a driver that lost its serial port, so the agent's
         # respawn reconnects it) by setting ``handle.finished`` (an Event) and ``handle.exit_code``.
         finished = getattr(handle, "finished", None)

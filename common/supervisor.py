@@ -4,10 +4,11 @@ A launch is an ordered list of ``NodeSpec``. Each node runs as its own process i
 (process group), started in order once its ``after`` nodes are RUNNING and a message was seen on each
 of its ``wait_for`` topics (the tutorial's "merger launched before virtualizer" problem). Respawn-marked
 nodes are restarted after ``respawn_delay`` (doubling while deaths pile up; more than
-``crash_loop[0]`` deaths in ``crash_loop[1]`` s -> FAILED). A ``required`` node that ends or fails
-stops the whole launch. Shutdown: ``stop_first`` nodes (the base) are stopped and waited for first,
-then the others in reverse start order, one at a time: SIGTERM to its process group, SIGKILL after
-``grace`` s.
+``crash_loop[0]`` deaths in ``crash_loop[1]`` s -> FAILED), except after exit status 2 (a configuration
+error, ``common.runner.EXIT_CONFIG``): FAILED at once, the error as the reason. A ``required`` node that
+ends or fails stops the whole launch. Shutdown: ``stop_first`` nodes (the base) are stopped and waited
+for first, then the others in reverse start order, one at a time: SIGTERM to its process group, SIGKILL
+after ``grace`` s.
 Children get ``PR_SET_PDEATHSIG`` (SIGKILL) so they die with the supervising thread even if the agent
 itself is SIGKILLed. All spawning happens on the supervisor's own thread for that reason.
 
@@ -42,6 +43,7 @@ from common.node_spec import (
     NodeStatus,
     validate_launch,
 )
+from common.runner import EXIT_CONFIG
 from common.zenoh_config import BusConfig
 
 
@@ -162,7 +164,8 @@ class Supervisor:
         if spec.name not in self.start_order:
             self.start_order.append(spec.name)
         self._set(st, RUNNING, "")
-        threading.Thread(target=self._pump, args=(st, proc), daemon=True, name=f"out:{spec.name}").start()
+        st.pump = threading.Thread(target=self._pump, args=(st, proc), daemon=True, name=f"out:{spec.name}")
+        st.pump.start()
         threading.Thread(target=self._reap, args=(proc,), daemon=True, name=f"wait:{spec.name}").start()
 
     def _pump(self, st: NodeStatus, proc: subprocess.Popen) -> None:
@@ -182,6 +185,9 @@ class Supervisor:
         """Handle the end of a node's process (not during shutdown)."""
         spec, now = st.spec, time.monotonic()
         st.proc, st.exit_code = None, code
+        if code == EXIT_CONFIG:   # a configuration error: respawning cannot fix it
+            self._config_error(st)
+            return
         last = next((ln for ln in reversed(st.tail) if ln.strip()), "")
         why = why or (f"exit code {code}" if code is not None and code >= 0 else f"killed by signal {-code}")
         if last:
@@ -201,6 +207,20 @@ class Supervisor:
             self._set(st, EXITED if code == 0 else FAILED, why)
         if spec.required:
             self.stop(f"required node '{spec.name}' ended ({why})", failed=True)
+
+    def _config_error(self, st: NodeStatus) -> None:
+        if st.pump is not None:
+            st.pump.join(1.0)     # the error is on the last output lines
+        lines = [ln.strip() for ln in st.tail if ln.strip()]
+        start = next((i for i, ln in enumerate(lines) if "config error" in ln), max(len(lines) - 1, 0))
+        reason = "; ".join(ln.split("config error:", 1)[-1].strip() for ln in lines[start:start + 5])
+        detail = f"configuration error (exit code {EXIT_CONFIG}, not respawned)" + (f": {reason}" if reason else "")
+        self._set(st, FAILED, detail[:400])
+        with self._out_lock, contextlib.suppress(ValueError, OSError):
+            print(f"zenav {self.agent}: node '{st.spec.name}' FAILED: {detail}",
+                  file=self.status_out or sys.stderr, flush=True)
+        if st.spec.required:
+            self.stop(f"required node '{st.spec.name}' failed: configuration error", failed=True)
 
     # -- wait_for ---------------------------------------------------------------------------------
     def _watch(self, topic: str) -> None:

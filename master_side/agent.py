@@ -6,13 +6,16 @@ Same mechanism as the robot agent (``common.supervisor`` + ``common.launch``) fo
     robot: pioneer1
     use_sim_time: true
     nodes:
-      map_server: {module: master_side.mapping.map_server_node, params: {yaml: maps/room.yaml}}
+      map_server: {module: master_side.mapping.map_server_node, params: {map: maps/room.yaml}}
       move_base:
         module: master_side.planning.move_base_node
         config: move_base.yaml          # or params: {...}
         respawn: true
         wait_for: [map, odom]
 
+Before starting anything every node's parameters are checked (a node module's ``check``, see
+``common.node_check``): all problems of all nodes in one message and exit status 2; parameters that
+ROS knows but that have no effect in zenav are listed once, per node, as a warning.
 Exit status: 0 after Ctrl-C / SIGTERM, 1 when a required node ended or failed, 2 for a bad config.
 """
 
@@ -23,6 +26,7 @@ import sys
 
 from common.config import ConfigError
 from common.launch import Launch, Section, load_launch, run_agent
+from common.node_check import format_config_error
 
 SECTIONS = [Section("nodes")]
 EXIT_CONFIG = 2
@@ -43,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         launch = load(args.config)
     except ConfigError as e:
-        print(f"zenav master: config error: {e}", file=sys.stderr)
+        print(format_config_error("master", e), file=sys.stderr)
         return EXIT_CONFIG
     return run_agent("master", launch, robot=getattr(args, "robot", None))
 

@@ -10,8 +10,9 @@ process under ``common.supervisor.Supervisor``:
     sensors:      SENSORS CONFIGURATION - laser / depth camera / depth conversion nodes
 
 ``--world``, ``--start`` and ``--speed`` override the ``world``, ``start`` and ``speed`` parameters of
-the simulator node(s) (module ``robot_side.sim.node``). Exit status: 0 after Ctrl-C / SIGTERM,
-1 when a required node ended or failed, 2 for a bad config file.
+the simulator node(s) (module ``robot_side.sim.node``). Every node's parameters are checked before
+anything starts (``common.node_check``). Exit status: 0 after Ctrl-C / SIGTERM, 1 when a required node
+ended or failed, 2 for a bad config file.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import sys
 
 from common.config import ConfigError
 from common.launch import Launch, Section, load_launch, run_agent
+from common.node_check import format_config_error
 
 SIM_MODULE = "robot_side.sim.node"
 SECTIONS = [
@@ -71,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         launch = load(args.config, args.world, args.start, args.speed)
     except ConfigError as e:
-        print(f"zenav robot: config error: {e}", file=sys.stderr)
+        print(format_config_error("robot", e), file=sys.stderr)
         return EXIT_CONFIG
     return run_agent("robot", launch, robot=getattr(args, "robot", None))
 

@@ -6,9 +6,14 @@ Two styles, as costmap_2d accepts them:
   (if static_map), ``obstacle_layer`` (VoxelLayer if map_type is voxel) and ``inflation_layer``, and the
   flat keys move into them.
 - layered: a ``plugins`` list ([{name, type}] as ROS 1, or names with ``<name>.plugin`` as nav2), each
-  layer's parameters under its name.
+  layer's parameters under its name; as Costmap2DROS does, a costmap-level ``inflation_radius``,
+  ``z_voxels``, ``obstacle_range``, ... is copied into every layer of the type that reads it (and wins).
 A source's obstacle_range / raytrace_range / min_ and max_obstacle_height fall back to its layer, then
 the costmap level (ROS finds the ranges with searchParam; zenav does the same for the heights).
+
+Every problem of both files is reported in one ConfigError. ROS parameters that have no effect here
+(not implemented by zenav, another component's, pre-Hydro keys beside ``plugins``) are accepted and
+listed in ``CostmapConfig.notes`` (catalogue: ``master_side.ros_params``).
 """
 
 from __future__ import annotations
@@ -18,68 +23,44 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from common.config import ConfigError, load_params, param, read_yaml, strip_frame
+from common.config import ConfigError, Note, Problems, load_params, param, read_yaml, strip_frame
 from master_side.costmap.footprint import footprint_from_params
 from master_side.costmap.layer_params import (
-    LAYER_IGNORED_KEYS,
+    FLAT_LAYER_KEYS,
+    INFLATION_KEYS,
+    OBSTACLE_KEYS,
+    PARENT_KEYS,
     SOURCE_INHERITED_KEYS,
+    STATIC_KEYS,
+    VOXEL_KEYS,
+    CostmapParams,
     InflationLayerParams,
     ObservationSourceParams,
     ObstacleLayerParams,
+    Origins,
     StaticLayerParams,
     VoxelLayerParams,
+    merge_files,
 )
 from master_side.costmap.layered import layer_class
 from master_side.costmap.obstacle_layer import ObstacleLayer
+from master_side.ros_params import (
+    ALL_KEYS,
+    COSTMAP,
+    NAV2_COSTMAP,
+    OBSERVATION_SOURCE,
+    accepted_names,
+    no_effect_keys,
+)
 
 __all__ = ["CostmapParams", "CostmapConfig", "LayerSpec", "load_costmap_config", "load_costmap_files",
-           "StaticLayerParams", "ObstacleLayerParams", "VoxelLayerParams", "InflationLayerParams",
-           "ObservationSourceParams", "KNOWN_IGNORED_KEYS"]
+           "check_costmap_node", "StaticLayerParams", "ObstacleLayerParams", "VoxelLayerParams",
+           "InflationLayerParams", "ObservationSourceParams"]
 
 
-@dataclass(frozen=True)
-class CostmapParams:
-    global_frame: str = param("map", doc="frame the costmap lives in")
-    robot_base_frame: str = param("base_link")
-    update_frequency: float = param(5.0, lo=0.0, hi=1000.0, unit="Hz", doc="map update rate")
-    publish_frequency: float = param(0.0, lo=0.0, hi=1000.0, unit="Hz", doc="display rate (0: never)")
-    transform_tolerance: float = param(0.3, lo=0.0, unit="s", doc="max TF age")
-    static_map: bool = param(False, doc="pre-Hydro: add a static layer")
-    rolling_window: bool = param(False, doc="window centred on the robot")
-    width: float = param(10.0, lo=0.0, hi=1e4, unit="m")
-    height: float = param(10.0, lo=0.0, hi=1e4, unit="m")
-    resolution: float = param(0.05, lo=1e-4, hi=100.0, unit="m")
-    origin_x: float = param(0.0, unit="m")
-    origin_y: float = param(0.0, unit="m")
-    map_type: str = param("costmap", choices=("costmap", "voxel"), doc="pre-Hydro: voxel -> VoxelLayer")
-    track_unknown_space: bool = param(False, doc="master starts NO_INFORMATION (else FREE)")
-    footprint: Any = param("[]", doc="[[x, y], ...] (list or string); wins over robot_radius")
-    robot_radius: float = param(0.46, lo=0.0, unit="m")
-    footprint_padding: float = param(0.01, lo=-1.0, hi=10.0, unit="m")
-    plugins: Any = param(None, doc="layered style: [{name, type}, ...]")
-
-    def __post_init__(self):
-        object.__setattr__(self, "global_frame", strip_frame(self.global_frame))
-        object.__setattr__(self, "robot_base_frame", strip_frame(self.robot_base_frame))
-
-    def validate(self) -> None:
-        if self.width < self.resolution or self.height < self.resolution:
-            raise ValueError(f"width x height {self.width} x {self.height} m is smaller than one cell "
-                             f"({self.resolution} m)")
-
-
-# real costmap_2d / nav2 costmap-level keys that zenav accepts and does not use
-KNOWN_IGNORED_KEYS = ("always_send_full_costmap", "footprint_topic", "use_sim_time", "clearable_layers",
-                      "filters", "initial_transform_timeout", "introspection_mode", "map_vis_z",
-                      "robot_radius_topic", "subscribe_to_stamped_footprint")
-_STATIC_KEYS = ("map_topic", "unknown_cost_value", "lethal_cost_threshold", "trinary_costmap", "use_maximum",
-                "first_map_only", "subscribe_to_updates")
-_OBSTACLE_KEYS = ("max_obstacle_height", "min_obstacle_height", "obstacle_range", "raytrace_range",
-                  "observation_sources", "footprint_clearing_enabled", "combination_method")
-_VOXEL_KEYS = ("origin_z", "z_resolution", "z_voxels", "mark_threshold", "unknown_threshold",
-               "publish_voxel_map")
-_INFLATION_KEYS = ("inflation_radius", "cost_scaling_factor", "inflate_unknown", "inflate_around_unknown")
-_FLAT_LAYER_KEYS = _STATIC_KEYS + _OBSTACLE_KEYS + _VOXEL_KEYS + _INFLATION_KEYS
+_PRE_HYDRO_ONLY = ("static_map", "map_type", "observation_sources")
+_STRUCTURAL = ("plugin", "type")  # nav2 / zenav layer keys naming the plugin, not parameters
+_COSTMAP_COMPONENTS = (COSTMAP, NAV2_COSTMAP)
 
 
 @dataclass(frozen=True)
@@ -97,7 +78,8 @@ class CostmapConfig:
     layers: tuple[LayerSpec, ...]
     footprint: tuple[tuple[float, float], ...]  # padded polygon, robot frame
     style: str  # "flat" (pre-Hydro) or "layered"
-    ignored: tuple[str, ...] = ()  # accepted keys that have no effect here
+    ignored: tuple[str, ...] = ()  # keys (as written in the costmap namespace) accepted without effect
+    notes: tuple[str, ...] = ()    # the same as "file: key: no effect (why)" lines
 
     @property
     def size_in_cells(self) -> tuple[int, int]:
@@ -105,181 +87,243 @@ class CostmapConfig:
         return int(c.width / c.resolution + 1e-6), int(c.height / c.resolution + 1e-6)
 
 
-class _Origins:
-    """Which file each key path came from, so errors name the right file."""
-
-    def __init__(self, default: str):
-        self.default = default
-        self.by_path: dict[tuple[str, ...], str] = {}
-        self.moved: dict[tuple[str, str], tuple[str, ...]] = {}  # (layer, key) -> path in the file
-        self.wrapper: dict[str, str] = {}  # file -> its top-level key (global_costmap / local_costmap)
-
-    def as_written(self, key: str) -> tuple[str, ...]:
-        """A key path as the user wrote it (pre-Hydro keys were moved into implied layers)."""
-        parts = tuple(key.split("."))
-        return self.moved.get(parts[:2], parts[:2]) + parts[2:] if len(parts) >= 2 else parts
-
-    def file_of(self, key: str) -> str:
-        parts = tuple(p.split("[")[0] for p in self.as_written(key))
-        for n in range(len(parts), 0, -1):
-            if parts[:n] in self.by_path:
-                return self.by_path[parts[:n]]
-        return self.default
-
-    def load(self, cls: type, mapping: dict, section: str, ignore: tuple[str, ...] = ()) -> Any:
-        try:
-            return load_params(cls, mapping, source=self.file_of(section), section=section, ignore=ignore)
-        except ConfigError as e:
-            raise self.error(e.key, str(e).split(": ", 2)[-1]) from None
-
-    def error(self, key: str, message: str) -> ConfigError:
-        file = self.file_of(key)
-        path = (self.wrapper[file],) if file in self.wrapper else ()
-        return ConfigError(file, ".".join(path + self.as_written(key)), message)
-
-
-def _merge(base: dict, top: dict, src: str, origins: _Origins, path: tuple[str, ...] = ()) -> dict:
-    out = dict(base)
-    for k, v in top.items():
-        key = (*path, str(k))
-        origins.by_path[key] = src
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = _merge(out[k], v, src, origins, key)
-        else:
-            out[k] = v
-            if isinstance(v, dict):
-                _record(v, src, origins, key)
-    return out
-
-
-def _record(d: dict, src: str, origins: _Origins, path: tuple[str, ...]) -> None:
-    for k, v in d.items():
-        origins.by_path[(*path, str(k))] = src
-        if isinstance(v, dict):
-            _record(v, src, origins, (*path, str(k)))
-
-
-def _unwrap(mapping: dict | None, name: str | None) -> tuple[dict, str | None]:
-    m = dict(mapping or {})
-    keys = [k for k in ("global_costmap", "local_costmap") if isinstance(m.get(k), dict)]
-    if len(m) == 1 and len(keys) == 1 and (name is None or name == keys[0]):
-        return dict(m[keys[0]]), keys[0]
-    return m, None
-
-
 def load_costmap_config(common: dict | None, specific: dict | None,
-                        source: str | tuple[str, str] = "<config>", *,
-                        name: str | None = None) -> CostmapConfig:
+                        source: str | tuple[str, str] = "<config>", *, name: str | None = None,
+                        notes: list[str] | None = None) -> CostmapConfig:
     """Costmap configuration from the common and the specific mapping (e.g. read from the ROS YAML files).
 
     ``source`` names the file(s) for errors: one string, or (common_file, specific_file). ``name`` defaults
     to the specific file's top-level key, else local_costmap for a rolling window, else global_costmap.
+    Raises one ConfigError with every problem of both; ``notes`` (if given) gets the no-effect notes.
     """
-    src_common, src_specific = (source, source) if isinstance(source, str) else source
-    spec_map, spec_name = _unwrap(specific, name)
-    common_map, _ = _unwrap(common, name or spec_name)
-    origins = _Origins(src_specific)
-    if spec_name and src_specific != src_common:
-        origins.wrapper[src_specific] = spec_name
-    merged = _merge(_merge({}, common_map, src_common, origins), spec_map, src_specific, origins)
+    merged, origins, spec_name = merge_files(common, specific, source, name)
+    ld = _Loader(merged, origins)
     flat = merged.get("plugins") is None
-    layers_raw, ignored = _flat_layers(merged, origins) if flat else _plugin_layers(merged, origins)
-    layer_keys = tuple(n for n, _t, _m in layers_raw)
-    accepted = set(KNOWN_IGNORED_KEYS) | set(_FLAT_LAYER_KEYS) | set(layer_keys)
-    accepted |= {k for k, v in merged.items() if isinstance(v, dict)}  # layer / source namespaces
-    costmap = origins.load(CostmapParams, merged, "", ignore=tuple(accepted))
-    try:
-        fp = footprint_from_params(costmap.footprint, costmap.robot_radius, costmap.footprint_padding)
-    except ValueError as e:
-        raise origins.error("footprint", str(e)) from None
-    specs = tuple(_layer_spec(n, t, m, merged, origins) for n, t, m in layers_raw)
-    if not flat:
-        used = set(layer_keys) | set(CostmapParams.__dataclass_fields__) | set(KNOWN_IGNORED_KEYS)
-        ignored += tuple(sorted(k for k in merged if k not in used and k not in SOURCE_INHERITED_KEYS))
-        ignored += tuple(k for k in ("static_map", "map_type") if k in merged)  # pre-Hydro only
-    final_name = name or spec_name or ("local_costmap" if costmap.rolling_window else "global_costmap")
-    return CostmapConfig(final_name, costmap, specs, tuple(map(tuple, fp.tolist())),
-                         "flat" if flat else "layered", ignored)
-
-
-def load_costmap_files(common_path: str | Path, specific_path: str | Path, *, name: str | None = None
-                       ) -> CostmapConfig:
-    return load_costmap_config(read_yaml(common_path), read_yaml(specific_path),
-                               (str(common_path), str(specific_path)), name=name)
-
-
-def _flat_layers(m: dict, origins: _Origins) -> tuple[list[tuple[str, str, dict]], tuple[str, ...]]:
-    """The layers costmap_2d derives from pre-Hydro parameters (Costmap2DROS::resetOldParameters)."""
-    layers, ignored = [], []
-    for layer in ("static_layer", "obstacle_layer", "inflation_layer"):
-        for k in (*_FLAT_LAYER_KEYS, "track_unknown_space", *str(m.get("observation_sources", "")).split()):
-            if k in m:
-                origins.moved[(layer, k)] = (k,)
-    if m.get("static_map") is True:
-        d = dict(m.get("static_layer") or {})
-        d.update({k: m[k] for k in _STATIC_KEYS + ("track_unknown_space",) if k in m})
-        layers.append(("static_layer", "costmap_2d::StaticLayer", d))
-    voxel = m.get("map_type") == "voxel"
-    d = dict(m.get("obstacle_layer") or {})
-    moved = _OBSTACLE_KEYS + ("track_unknown_space",) + (_VOXEL_KEYS if voxel else ())
-    d.update({k: m[k] for k in moved if k in m})
-    for src in str(m.get("observation_sources", "")).split():
-        if src in m:
-            d[src] = m[src]
-    ignored += [k for k in _VOXEL_KEYS if k in m and not voxel]
-    layers.append(("obstacle_layer", "costmap_2d::VoxelLayer" if voxel else "costmap_2d::ObstacleLayer", d))
-    d = dict(m.get("inflation_layer") or {})
-    d.update({k: m[k] for k in _INFLATION_KEYS if k in m})
-    layers.append(("inflation_layer", "costmap_2d::InflationLayer", d))
-    if m.get("static_map") is not True:
-        ignored += [k for k in _STATIC_KEYS if k in m]
-    return layers, tuple(ignored)
-
-
-def _plugin_layers(m: dict, origins: _Origins) -> tuple[list[tuple[str, str, dict]], tuple[str, ...]]:
-    plugins = m["plugins"]
-    if not isinstance(plugins, list):
-        raise origins.error("plugins", f"expected a list of {{name, type}}, got {plugins!r}")
-    out, seen = [], set()
-    for i, p in enumerate(plugins):
-        if isinstance(p, dict) and set(p) <= {"name", "type", "enabled"} and "name" in p and "type" in p:
-            name, kind = str(p["name"]), str(p["type"])
-        elif isinstance(p, str) and isinstance(m.get(p), dict) and "plugin" in m[p]:
-            name, kind = p, str(m[p]["plugin"])  # nav2: plugins: [name, ...], name.plugin: type
-        else:
-            raise origins.error(f"plugins[{i}]", f"expected {{name: ..., type: ...}}, got {p!r}")
-        if name in seen:
-            raise origins.error(f"plugins[{i}]", f"layer name {name!r} used twice")
-        seen.add(name)
+    layers_raw = ld.flat_layers() if flat else ld.plugin_layers()
+    costmap = ld.costmap_level(flat, layers_raw)
+    fp = None
+    if costmap is not None:
         try:
-            layer_class(kind)
-        except KeyError as e:
-            raise origins.error(f"plugins[{i}].type", str(e.args[0])) from None
-        raw = m.get(name, {})
-        if not isinstance(raw, dict):
-            raise origins.error(name, f"layer parameters must be a mapping, got {raw!r}")
-        out.append((name, kind, raw))
-    return out, ()
+            fp = footprint_from_params(costmap.footprint, costmap.robot_radius, costmap.footprint_padding)
+        except ValueError as e:
+            ld.problems.add(*origins.error("footprint", str(e)))
+    specs = tuple(ld.layer_spec(n, t, m) for n, t, m in layers_raw)
+    if ld.problems:
+        raise ConfigError.of(list(dict.fromkeys(ld.problems.items)))
+    final_name = name or spec_name or ("local_costmap" if costmap.rolling_window else "global_costmap")
+    if notes is not None:
+        notes.extend(ld.notes)
+    return CostmapConfig(final_name, costmap, specs, tuple(map(tuple, fp.tolist())),
+                         "flat" if flat else "layered", tuple(ld.ignored), tuple(ld.notes))
 
 
-def _layer_spec(name: str, kind: str, raw: dict, top: dict, origins: _Origins) -> LayerSpec:
-    cls = layer_class(kind)
-    if not issubclass(cls, ObstacleLayer):
-        return LayerSpec(name, kind, origins.load(cls.Params, raw, name, ignore=LAYER_IGNORED_KEYS))
-    names = str(raw.get("observation_sources", "")).split()
-    params = origins.load(cls.Params, raw, name, ignore=LAYER_IGNORED_KEYS + tuple(names))
-    sources = []
-    for s in names:
-        src = raw.get(s, {})
-        if not isinstance(src, dict):
-            raise origins.error(f"{name}.{s}", f"observation source must be a mapping, got {src!r}")
-        src = dict(src)
-        for k in SOURCE_INHERITED_KEYS:
-            if k not in src and raw.get(k) is not None:
-                src[k] = raw[k]
-            elif k not in src and k in top:
-                src[k] = top[k]
-        sp = origins.load(ObservationSourceParams, src, f"{name}.{s}")
-        sp = dataclasses.replace(sp, topic=sp.topic or s, sensor_frame=strip_frame(sp.sensor_frame))
-        sources.append((s, sp))
-    return LayerSpec(name, kind, params, tuple(sources))
+def load_costmap_files(common_path: str | Path, specific_path: str | Path, *, name: str | None = None,
+                       notes: list[str] | None = None) -> CostmapConfig:
+    problems = Problems()
+    data = []
+    for path in (common_path, specific_path):
+        with problems.collect():
+            data.append(read_yaml(path))
+    problems.raise_if_any()
+    return load_costmap_config(*data, (str(common_path), str(specific_path)), name=name, notes=notes)
+
+
+@dataclass(frozen=True)
+class CostmapNodeParams:
+    """The costmap node's own mapping (``master_side.costmap.node``)."""
+
+    common: str = param("", doc="costmap_common_params.yaml (relative to this file)")
+    specific: str = param("", doc="global_costmap_params.yaml / local_costmap_params.yaml")
+    name: str | None = param(None, doc="global_costmap / local_costmap (default: from the file)")
+    sensor_grace: float | None = param(None, lo=0.0, hi=3600.0, unit="s",
+                                       doc="time without sensor data before a warning")
+
+
+def check_costmap_node(cfg: dict, source: str) -> list[str]:
+    """The costmap node's parameters checked without the bus: every problem in one ConfigError;
+    returns the no-effect notes (the agents call this before starting anything)."""
+    problems, notes = Problems(), []
+    p = None
+    with problems.collect():
+        p = load_params(CostmapNodeParams, cfg, source)
+    if p is not None:
+        base = Path(source).parent
+        paths = {}
+        for key in ("common", "specific"):
+            path = base / getattr(p, key) if getattr(p, key) else None
+            if path is None:
+                problems.add(source, key, "path of the ROS costmap file is required")
+            elif not path.is_file():
+                problems.add(source, key, f"file not found: {path}")
+            paths[key] = path
+        if not problems:
+            with problems.collect():
+                load_costmap_files(paths["common"], paths["specific"], name=p.name, notes=notes)
+    problems.raise_if_any()
+    return notes
+
+
+class _Loader:
+    """One costmap namespace: which keys go where, the problems found and the notes."""
+
+    def __init__(self, merged: dict, origins: Origins):
+        self.m, self.origins = merged, origins
+        self.problems, self.notes, self.ignored = Problems(), [], []
+        self.consumed: set[str] = set()       # costmap-level keys read by a layer / source
+        self.reasons: dict[str, str] = {}     # costmap-level key -> why it has no effect here
+
+    def load(self, cls: type, mapping: dict, section: str, components: tuple[str, ...],
+             ignore: set[str] = frozenset(), extra: dict[str, str] | None = None) -> Any:
+        found: list = []
+        no_effect = {**no_effect_keys(components, cls), **(extra or {})}
+        try:
+            obj = load_params(cls, mapping, "", section, ignore=tuple(ignore), no_effect=no_effect, notes=found)
+        except ConfigError as e:
+            self.problems.items.extend(self.origins.error(k, why) for _s, k, why in e.problems)
+            return None
+        for n in found:
+            self.note(n.key, n.why)
+        return obj
+
+    def note(self, key: str, why: str) -> None:
+        self.notes.append(Note(*self.origins.error(key, why)))
+        self.ignored.append(".".join(self.origins.as_written(key)))
+
+    def flat_layers(self) -> list[tuple[str, str, dict]]:
+        """The layers costmap_2d derives from pre-Hydro parameters (Costmap2DROS::loadOldParameters)."""
+        m, layers = self.m, []
+        sources = str(m.get("observation_sources", "")).split()
+        for layer in ("static_layer", "obstacle_layer", "inflation_layer"):
+            for k in (*FLAT_LAYER_KEYS, "track_unknown_space", *sources):
+                if k in m:
+                    self.origins.moved[(layer, k)] = (k,)
+        static, voxel = m.get("static_map") is True, m.get("map_type") == "voxel"
+        if static:
+            layers.append(("static_layer", "costmap_2d::StaticLayer",
+                           self._move("static_layer", STATIC_KEYS + ("track_unknown_space",))))
+        moved = OBSTACLE_KEYS + ("track_unknown_space",) + (VOXEL_KEYS if voxel else ()) + tuple(sources)
+        layers.append(("obstacle_layer", "costmap_2d::VoxelLayer" if voxel else "costmap_2d::ObstacleLayer",
+                       self._move("obstacle_layer", moved)))
+        layers.append(("inflation_layer", "costmap_2d::InflationLayer", self._move("inflation_layer",
+                                                                                   INFLATION_KEYS)))
+        self.consumed |= set(SOURCE_INHERITED_KEYS)
+        if not voxel:
+            self.reasons.update({k: "no effect (used only with map_type: voxel)" for k in VOXEL_KEYS})
+        if not static:
+            self.reasons.update({k: "no effect (used only with static_map: true)" for k in STATIC_KEYS})
+        return layers
+
+    def _move(self, layer: str, keys: tuple[str, ...]) -> dict:
+        d = dict(self.m.get(layer) or {})
+        d.update({k: self.m[k] for k in keys if k in self.m})
+        self.consumed.update(k for k in keys if k in self.m)
+        return d
+
+    def plugin_layers(self) -> list[tuple[str, str, dict]]:
+        m, plugins = self.m, self.m["plugins"]
+        if not isinstance(plugins, list):
+            self.problems.add(*self.origins.error("plugins", f"expected a list of {{name, type}}, got {plugins!r}"))
+            return []
+        out, seen = [], set()
+        for i, p in enumerate(plugins):
+            if isinstance(p, dict) and set(p) <= {"name", "type", "enabled"} and "name" in p and "type" in p:
+                name, kind = str(p["name"]), str(p["type"])
+            elif isinstance(p, str) and isinstance(m.get(p), dict) and "plugin" in m[p]:
+                name, kind = p, str(m[p]["plugin"])  # nav2: plugins: [name, ...], name.plugin: type
+            else:
+                self.problems.add(*self.origins.error(f"plugins[{i}]", f"expected {{name: ..., type: ...}}, got {p!r}"))
+                continue
+            if name in seen:
+                self.problems.add(*self.origins.error(f"plugins[{i}]", f"layer name {name!r} used twice"))
+                continue
+            seen.add(name)
+            try:
+                layer_class(kind)
+            except KeyError as e:
+                self.problems.add(*self.origins.error(f"plugins[{i}].type", str(e.args[0])))
+                continue
+            raw = m.get(name, {})
+            if not isinstance(raw, dict):
+                self.problems.add(*self.origins.error(name, f"layer parameters must be a mapping, got {raw!r}"))
+                continue
+            out.append((name, kind, self._copy_parent(name, kind, dict(raw))))
+        types = {kind for _n, kind, _r in out}
+        for keys in PARENT_KEYS.values():
+            for k in keys:
+                if k not in self.consumed:
+                    readers = [c for c, ks in PARENT_KEYS.items() if k in ks]
+                    self.reasons[k] = ("no effect (read only by a " + " / ".join(readers) + "; plugins has none)")
+        for k in _PRE_HYDRO_ONLY:
+            self.reasons[k] = "no effect (a pre-Hydro parameter; plugins is given)"
+        if any(issubclass(layer_class(kind), ObstacleLayer) for kind in types):
+            self.consumed |= set(SOURCE_INHERITED_KEYS)  # found by the sources (searchParam)
+        return out
+
+    def _copy_parent(self, name: str, kind: str, raw: dict) -> dict:
+        for k in PARENT_KEYS.get(kind, ()):  # ROS 1 type names only: nav2 does not copy
+            if k not in self.m:
+                continue
+            if k in raw and raw[k] != self.m[k]:
+                self.note(f"{name}.{k}", f"no effect (the costmap-level {k}: {self.m[k]!r} overrides it, "
+                                         "as ROS copies it into the layer)")
+            raw[k] = self.m[k]
+            self.origins.moved[(name, k)] = (k,)
+            self.consumed.add(k)
+        return raw
+
+    def costmap_level(self, flat: bool, layers_raw: list) -> CostmapParams | None:
+        fields = accepted_names(CostmapParams)
+        layer_names = {n for n, _t, _m in layers_raw}
+        ignore = (self.consumed | layer_names) - fields
+        extra = {k: why for k, why in self.reasons.items() if k not in ignore}
+        for k, v in self.m.items():
+            if isinstance(v, dict) and k not in fields and k not in ignore and k not in extra \
+                    and not _is_catalogued(k):
+                extra[k] = "no effect (no layer or observation source of this costmap has this name)"
+        costmap = self.load(CostmapParams, self.m, "", _COSTMAP_COMPONENTS, ignore, extra)
+        if not flat:
+            for k in ("static_map", "map_type"):
+                if k in self.m:
+                    self.note(k, self.reasons[k])
+        return costmap
+
+    def layer_spec(self, name: str, kind: str, raw: dict) -> LayerSpec | None:
+        cls = layer_class(kind)
+        comps = (cls.type_names[0], NAV2_COSTMAP)
+        if not issubclass(cls, ObstacleLayer):
+            params = self.load(cls.Params, raw, name, comps, set(_STRUCTURAL), self._namespaces(cls.Params, raw))
+            return LayerSpec(name, kind, params)
+        names = str(raw.get("observation_sources", "")).split()
+        params = self.load(cls.Params, raw, name, comps, set(_STRUCTURAL) | set(names),
+                           self._namespaces(cls.Params, raw, "an observation source of this layer"))
+        sources = []
+        for s in names:
+            src = raw.get(s, {})
+            if not isinstance(src, dict):
+                self.problems.add(*self.origins.error(f"{name}.{s}",
+                                                      f"observation source must be a mapping, got {src!r}"))
+                continue
+            src = dict(src)
+            for k in SOURCE_INHERITED_KEYS:
+                if k not in src and raw.get(k) is not None:
+                    src[k] = raw[k]
+                    self.origins.moved[(name, s, k)] = (name, k)
+                elif k not in src and k in self.m:
+                    src[k] = self.m[k]
+                    self.origins.moved[(name, s, k)] = (k,)
+            sp = self.load(ObservationSourceParams, src, f"{name}.{s}", (OBSERVATION_SOURCE, NAV2_COSTMAP))
+            if sp is not None:
+                sources.append((s, dataclasses.replace(sp, topic=sp.topic or s,
+                                                       sensor_frame=strip_frame(sp.sensor_frame))))
+        return LayerSpec(name, kind, params, tuple(sources))
+
+    @staticmethod
+    def _namespaces(cls: type, raw: dict, what: str = "a parameter namespace of this layer") -> dict[str, str]:
+        """Sub-mappings of a layer that nothing reads (e.g. a source not in observation_sources)."""
+        fields = accepted_names(cls)
+        return {k: f"no effect (not {what})" for k, v in raw.items()
+                if isinstance(v, dict) and k not in fields and not _is_catalogued(k)}
+
+
+def _is_catalogued(key: str) -> bool:
+    return key in ALL_KEYS

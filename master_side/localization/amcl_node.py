@@ -12,14 +12,35 @@ from __future__ import annotations
 import logging
 import threading
 
-from common.config import ConfigError, merge_included, strip_frame
+from common.config import Problems, load_params, merge_included, strip_frame
 from common.geometry import Pose2D
 from common.messages import Empty, Header, LaserScan, OccupancyGrid, PoseStamped, TransformStamped
 from master_side.localization.amcl import Amcl
-from master_side.localization.params import load_amcl_params
+from master_side.localization.params import UNUSED, AmclParams
 
 log = logging.getLogger("zenav.amcl")
 NODE_ONLY = ("transform_publish_period",)
+
+
+def load(cfg: dict, source: str, notes: list[str] | None = None) -> tuple[AmclParams, float]:
+    """The filter parameters and the TF period; every problem in one ConfigError. ROS amcl keys zenav
+    does not use (``UNUSED``) are accepted and listed in ``notes``."""
+    problems, p = Problems(), None
+    with problems.collect():
+        p = load_params(AmclParams, cfg, source=source, ignore=NODE_ONLY, notes=notes,
+                        no_effect={k: "no effect (not implemented in zenav)" for k in UNUSED})
+    period = cfg.get("transform_publish_period", 0.05)
+    if isinstance(period, bool) or not isinstance(period, (int, float)) or not 0 <= period <= 10:
+        problems.add(source, "transform_publish_period", f"{period!r}: must be in [0, 10] s")
+    problems.raise_if_any()
+    return p, float(period)
+
+
+def check(cfg: dict, source: str) -> list[str]:
+    """Parameters checked without the bus (the agents call this before starting anything)."""
+    notes: list[str] = []
+    load(*merge_included(cfg, "amcl", source), notes=notes)
+    return notes
 
 
 class AmclNode:
@@ -27,10 +48,7 @@ class AmclNode:
         from common.tf import TFBroadcaster, TFListener
 
         self.node = node
-        self.p = load_amcl_params(cfg, source, ignore=NODE_ONLY)
-        period = cfg.get("transform_publish_period", 0.05)
-        if isinstance(period, bool) or not isinstance(period, (int, float)) or not 0 <= period <= 10:
-            raise ConfigError(source, "transform_publish_period", f"{period!r}: must be in [0, 10] s")
+        self.p, period = load(cfg, source)
         self.map_frame = strip_frame(self.p.global_frame_id)
         self.odom_frame = strip_frame(self.p.odom_frame_id)
         self.base_frame = strip_frame(self.p.base_frame_id)

@@ -1,27 +1,50 @@
-"""map_server: load a map_server YAML and publish it once on the latched `map` topic."""
+"""map_server: load a map_server YAML and publish it once on the latched `map` topic.
+
+Parameters: ``map`` (or ROS's ``yaml_filename``): the map YAML, relative to the config file;
+``frame_id`` (default map).
+"""
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
-from common.config import strip_frame
-from common.messages import Header
-from master_side.mapping.map_io import load_map
+from common.config import ConfigError, load_params, param, strip_frame
+from common.messages import Header, OccupancyGrid
+from master_side.mapping.map_io import MapFormatError, load_map
+
+
+@dataclass(frozen=True)
+class MapServerParams:
+    map: str = param("", aliases=("yaml_filename",), doc="map_server YAML (relative to the config file)")
+    frame_id: str = param("map", doc="frame of the published map")
+
+
+def load(cfg: dict, source: str) -> tuple[OccupancyGrid, str]:
+    """The map and its frame; every problem as a ConfigError."""
+    p = load_params(MapServerParams, cfg, source)
+    if not p.map:
+        raise ConfigError(source, "map", "path of the map YAML is required")
+    path = Path(p.map).expanduser()
+    if not path.is_absolute():  # relative to the config file, like every other path in it
+        path = Path(source).parent / path
+    if not path.is_file():
+        raise ConfigError(source, "map", f"file not found: {path}")
+    try:
+        return load_map(path), strip_frame(p.frame_id)
+    except MapFormatError as e:
+        raise ConfigError(source, "map", str(e)) from None
+
+
+def check(cfg: dict, source: str) -> list[str]:
+    """Parameters and map checked without the bus (the agents call this before starting anything)."""
+    load(cfg, source)
+    return []
 
 
 class MapServer:
     def __init__(self, node, cfg: dict, source: str):
-        yaml_path = cfg.get("map") or cfg.get("yaml_filename")
-        if not yaml_path:
-            from common.config import ConfigError
-
-            raise ConfigError(source, "map", "path of the map YAML is required")
-        path = Path(yaml_path).expanduser()
-        if not path.is_absolute():  # relative to the config file, like every other path in it
-            path = Path(source).parent / path
-        grid = load_map(path)
-        frame = strip_frame(str(cfg.get("frame_id", "map")))
+        grid, frame = load(cfg, source)
         self.grid = replace(grid, header=Header(node.clock.now(), frame))
         self.pub = node.publisher("map", latched=True)
         self.pub.publish(self.grid)

@@ -3,21 +3,57 @@
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass
 
-from common.config import load_params, strip_frame
+from common.config import Problems, load_params, param, strip_frame
 from common.geometry import Pose2D
 from common.messages import Header, LaserScan, TransformStamped
 from master_side.slam.gridslam import GridSlam
 from master_side.slam.params import NODE_ONLY, GMappingParams
 
 
+@dataclass(frozen=True)
+class SlamNodeParams:
+    """slam_gmapping's node-level parameters that this node reads (the rest are GMappingParams)."""
+
+    base_frame: str = param("base_link")
+    odom_frame: str = param("odom")
+    map_frame: str = param("map")
+    transform_publish_period: float = param(0.05, lo=0.0, hi=10.0, unit="s", doc="map->odom TF period (0: off)")
+
+
+NODE_KEYS = tuple(SlamNodeParams.__dataclass_fields__)
+UNUSED_NODE_KEYS = tuple(k for k in NODE_ONLY if k not in NODE_KEYS)  # slam_gmapping's, not read here
+
+
+def load(cfg: dict, source: str, notes: list[str] | None = None) -> tuple[GMappingParams, SlamNodeParams]:
+    """GMapping and node parameters; every problem in one ConfigError; unused gmapping node keys in notes."""
+    problems, gm, nodep = Problems(), None, None
+    with problems.collect():
+        gm = load_params(GMappingParams, cfg, source=source, ignore=NODE_KEYS, notes=notes,
+                         no_effect={k: "no effect (not implemented in zenav)" for k in UNUSED_NODE_KEYS})
+    with problems.collect():
+        nodep = load_params(SlamNodeParams, {k: v for k, v in cfg.items() if k in NODE_KEYS}, source=source)
+    problems.raise_if_any()
+    return gm, nodep
+
+
+def check(cfg: dict, source: str) -> list[str]:
+    """Parameters checked without the bus (the agents call this before starting anything)."""
+    from common.config import merge_included
+
+    notes: list[str] = []
+    load(*merge_included(cfg, "gmapping", source), notes=notes)
+    return notes
+
+
 class SlamNode:
     def __init__(self, node, cfg: dict, source: str):
         self.node = node
-        self.params = load_params(GMappingParams, cfg, source=source, ignore=NODE_ONLY)
-        self.base = strip_frame(str(cfg.get("base_frame", "base_link")))
-        self.odom = strip_frame(str(cfg.get("odom_frame", "odom")))
-        self.map_frame = strip_frame(str(cfg.get("map_frame", "map")))
+        self.params, np_ = load(cfg, source)
+        self.base = strip_frame(np_.base_frame)
+        self.odom = strip_frame(np_.odom_frame)
+        self.map_frame = strip_frame(np_.map_frame)
         self.slam: GridSlam | None = None
         self.lock = threading.Lock()
         self.last_map = -float("inf")
@@ -29,7 +65,7 @@ class SlamNode:
         self.map_pub = node.publisher("map", latched=True)
         # keep-latest: while a scan is being processed newer ones replace older ones (no backlog)
         self.sub = node.subscribe("scan", LaserScan, callback=self._on_scan, mode="latest")
-        period = float(cfg.get("transform_publish_period", 0.05))
+        period = np_.transform_publish_period
         self.timer = node.timer(period, self._publish_tf) if period > 0 else None
 
     def _on_scan(self, scan: LaserScan) -> None:
