@@ -19,7 +19,8 @@ __all__ = [
     "Pose", "Twist", "Odometry", "LaserScan", "DepthImage", "CameraInfo", "PointCloud", "OccupancyGrid",
     "Costmap", "Path", "PoseStamped", "TransformStamped", "TFMessage", "GoalStatus", "MotorState",
     "BatteryState", "Clock", "PolygonStamped", "Text", "Empty", "Collision", "NodeState", "Scalar",
-    "MoveBaseStatus", "PlanRequest", "PlanResult", "MoveBaseGoal", "empty_f32",
+    "MoveBaseStatus", "PlanRequest", "PlanResult", "MoveBaseGoal", "ObservationSourceStatus", "CostmapSensors",
+    "empty_f32",
 ]
 
 
@@ -311,3 +312,35 @@ class MoveBaseGoal:
 
     goal_id: str = ""
     target_pose: PoseStamped = PoseStamped()
+
+
+@register("ObservationSourceStatus")
+@dataclass(frozen=True)
+class ObservationSourceStatus:
+    """One observation source of a costmap: is its sensor delivering? (an item of ``CostmapSensors``)."""
+
+    OK, LATE, SILENT = "ok", "late", "silent"
+
+    source: str = ""  # source name in observation_sources, e.g. "scan"
+    layer: str = ""  # the obstacle / voxel layer it feeds
+    topic: str = ""  # topic subscribed to (under the robot's key prefix)
+    data_type: str = ""  # LaserScan / PointCloud / PointCloud2 (as configured)
+    delivered: bool = False  # a reading reached the costmap since it started
+    messages: int = 0  # messages received on the topic since start (used or not)
+    age_s: float = 0.0  # since the last reading; since the costmap started when nothing was delivered
+    expected_update_rate: float = 0.0  # s, ROS: max gap between readings (0: not checked)
+    state: str = "ok"  # ok | late (expected_update_rate exceeded) | silent (nothing delivered since start)
+    detail: str = ""  # one human line, e.g. "source 'scan' on topic 'front/scan' (LaserScan) has delivered ..."
+
+
+@register("CostmapSensors")
+@dataclass(frozen=True)
+class CostmapSensors:
+    """``<costmap>/sensors``: the state of every observation source, at 1 Hz and on every change."""
+
+    header: Header = Header()
+    costmap: str = ""  # e.g. global_costmap, local_costmap
+    sources: tuple[ObservationSourceStatus, ...] = ()
+
+    def problems(self) -> tuple[ObservationSourceStatus, ...]:
+        return tuple(s for s in self.sources if s.state != ObservationSourceStatus.OK)

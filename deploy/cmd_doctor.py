@@ -3,8 +3,9 @@
 Checks, in order: the Zenoh session opens with the effective config (mode, endpoints, multicast,
 lease); configured endpoints / routers are reached; multicast scouting finds other Zenoh processes;
 zenav nodes alive per robot (liveliness); expected topics flow (rates); TF odom→base_link is fresh;
-clock skew between this machine and the robot's header stamps; optionally the serial port (on the
-robot). Exit 0 only if every check passes (SKIP counts as passed).
+clock skew between this machine and the robot's header stamps; every costmap observation source
+delivers (``<costmap>/sensors``: a late or silent source fails, naming its topic); optionally the
+serial port (on the robot). Exit 0 only if every check passes (SKIP counts as passed).
 """
 
 from __future__ import annotations
@@ -16,7 +17,14 @@ import time
 from collections import defaultdict
 
 from deploy import close_quietly, robot_pattern
-from deploy.hosts.doctor_checks import OK_STATES, Check, describe_config, serial_check, skew_check
+from deploy.hosts.doctor_checks import (
+    OK_STATES,
+    Check,
+    describe_config,
+    sensor_checks,
+    serial_check,
+    skew_check,
+)
 
 SCOUT_S = 1.5
 
@@ -40,7 +48,8 @@ def add_parser(subparsers):
 
 
 class _Listener:
-    """Collects liveliness tokens and stamped samples of the expected topics (+ clock)."""
+    """Collects liveliness tokens, stamped samples of the expected topics (+ clock) and the costmaps'
+    sensor status (``<costmap>/sensors``)."""
 
     def __init__(self, session, robot: str, topics: list[str]) -> None:
         import zenoh
@@ -51,11 +60,13 @@ class _Listener:
         self.offsets: dict[str, list[float]] = defaultdict(list)  # robot -> receive wall - stamp
         self.tf: dict[str, tuple[float, float]] = {}  # robot -> (monotonic, stamp) of odom->base_link
         self.tf_edges: dict[str, set[str]] = defaultdict(set)
+        self.sensors: dict[tuple[str, str], object] = {}  # (robot, costmap) -> latest CostmapSensors
         self.kind_put = zenoh.SampleKind.PUT
         self.ents = [session.liveliness().declare_subscriber(f"zenavlive/{robot}/**", self._on_token,
                                                              history=True)]
         for t in [*topics, "clock"]:
             self.ents.append(session.declare_subscriber(f"zenav/{robot}/{t}", self._on_sample))
+        self.ents.append(session.declare_subscriber(f"zenav/{robot}/**/sensors", self._on_sensors))
 
     def _on_token(self, s) -> None:
         parts = str(s.key_expr).split("/")
@@ -86,6 +97,18 @@ class _Listener:
                     self.tf[robot] = (now_m, tr.header.stamp)
             if topic != "clock":
                 self.offsets[robot] += [now_w - st for st in stamps if st > 0]
+
+    def _on_sensors(self, s) -> None:
+        from common.codec import decode
+        from common.messages import CostmapSensors
+
+        _, robot, topic = str(s.key_expr).split("/", 2)
+        try:
+            msg = decode(s.payload.to_bytes(), CostmapSensors)
+        except Exception:  # noqa: BLE001 - another type on a '.../sensors' topic: not ours
+            return
+        with self.lock:
+            self.sensors[(robot, msg.costmap or topic.removesuffix("/sensors"))] = msg
 
     def close(self) -> None:
         close_quietly(*self.ents)
@@ -190,6 +213,8 @@ def _robot_checks(lis: _Listener, robots: list[str], topics: list[str], window: 
             check = skew_check(lis.offsets.get(r, []), args.max_skew, sim)
             check.name = f"[{r}] {check.name}"
             report(check)
+            for c in sensor_checks(r, {cm: msg for (rr, cm), msg in lis.sensors.items() if rr == r}, pubs):
+                report(c)
 
 
 def run(args) -> int:

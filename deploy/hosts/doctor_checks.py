@@ -1,5 +1,5 @@
-"""Pure parts of ``zenav doctor``: the result type, clock skew estimation, serial port check,
-and the effective-config summary (no zenoh session here)."""
+"""Pure parts of ``zenav doctor``: the result type, clock skew estimation, serial port check, the
+costmaps' sensor checks and the effective-config summary (no zenoh session here)."""
 
 from __future__ import annotations
 
@@ -7,6 +7,10 @@ import json
 import os
 import stat
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # imported where used: every `zenav` command imports this module
+    from common.messages import CostmapSensors, ObservationSourceStatus
 
 OK_STATES = ("PASS", "SKIP")
 
@@ -104,3 +108,52 @@ def serial_check(path: str) -> Check:
                      f"add the user to group {group}: `sudo usermod -aG {group} $USER` (log in again); the "
                      "zenav service\nuser is in dialout (install-robot.sh)")
     return Check(name, "PASS", f"{real} character device, read/write ok")
+
+
+def _look_alikes(topic: str, source: str, published: dict[str, set[str]]) -> list[str]:
+    """Published topics that may be the one meant: same last name segment, or named like the source."""
+    last = topic.rsplit("/", 1)[-1]
+    return sorted(t for t in published if t != topic and t.rsplit("/", 1)[-1] in (last, source))
+
+
+def _sensor_fix(s: ObservationSourceStatus, published: dict[str, set[str]]) -> str:
+    from master_side.costmap.health import LATE, publisher_hint
+
+    if s.state == LATE:
+        return (f"'{s.topic}' arrives less often than expected_update_rate {s.expected_update_rate:g} s: check "
+                f"the sensor node\n(`zenav topic hz {s.topic}`), or raise expected_update_rate in the costmap's "
+                "observation source")
+    if s.messages:
+        return (f"messages arrive on '{s.topic}' but the costmap cannot use them: check TF from the sensor's "
+                "frame to the costmap's\nglobal frame (`zenav tf tree`) and the source's sensor_frame / data_type")
+    who = sorted(published.get(s.topic, ()))
+    if who:
+        return (f"'{s.topic}' is announced by {', '.join(who)} but nothing reached the costmap: is it publishing "
+                f"(`zenav topic hz {s.topic}`)?\nis its type {s.data_type} (data_type)?")
+    fix = publisher_hint(s.topic)
+    alike = _look_alikes(s.topic, s.source, published)
+    if alike:
+        fix += "\npublished topics with a similar name: " + ", ".join(
+            f"{t} ({', '.join(sorted(published[t]))})" for t in alike[:5])
+    return fix
+
+
+def sensor_checks(robot: str, statuses: dict[str, CostmapSensors], published: dict[str, set[str]]) -> list[Check]:
+    """One check per costmap whose sources are all fine, one FAIL per late or silent source.
+
+    ``statuses``: costmap name -> its latest ``<costmap>/sensors``; ``published``: topic -> publishing
+    nodes (liveliness) of this robot, for the fix."""
+    from master_side.costmap.health import summary
+
+    if not statuses:
+        return [Check(f"[{robot}] costmap sensors", "SKIP",
+                      "no <costmap>/sensors status received (no costmap running, or an older zenav)")]
+    out = []
+    for name, msg in sorted(statuses.items()):
+        bad = msg.problems()
+        if not bad:
+            out.append(Check(f"[{robot}] {name} sensors", "PASS", summary(msg)))
+        for s in bad:
+            out.append(Check(f"[{robot}] {name} source '{s.source}' on '{s.topic}' {s.state}", "FAIL",
+                             s.detail, _sensor_fix(s, published)))
+    return out

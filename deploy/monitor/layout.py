@@ -6,7 +6,8 @@ Entity paths (stable; the monitor logs to these):
   tf/<child_frame>                 TF edges (rr.Transform3D with parent_frame / child_frame)
   camera/<topic>                   depth images
   plots/cmd_vel/..., plots/odom/speed, plots/move_base/distance_to_goal, plots/loop_time/<node>
-  log/move_base, log/agent/<name>, log/<topic>   text events (on change)
+  plots/sensors/<costmap>/<layer>/<source>   age of each observation source's last reading (s)
+  log/move_base, log/agent/<name>, log/<costmap>/sensors, log/<topic>   text events (on change)
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ def blueprint(map_frame: str = "map", odom_frame: str = "odom") -> rrb.Blueprint
                                             contents=["/plots/cmd_vel/**", "/plots/odom/**"]),
                          rrb.TimeSeriesView(name="loop times", origin="/plots/loop_time"),
                          rrb.TimeSeriesView(name="move_base", origin="/plots/move_base"),
+                         rrb.TimeSeriesView(name="sensor age", origin="/plots/sensors"),
                          rrb.Spatial2DView(name="Depth", origin="/camera")),
                 rrb.TextLogView(name="Events", origin="/log"),
                 row_shares=[3, 2, 2]),

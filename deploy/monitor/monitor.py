@@ -24,6 +24,7 @@ from common.codec import DecodeError, decode
 from deploy.monitor import loggers as L
 from deploy.monitor.layout import blueprint  # noqa: F401 - re-exported for callers
 from deploy.monitor.pacing import DEFAULT_RATES, StampTimeline, Throttle  # noqa: F401
+from master_side.costmap.health import summary as sensors_summary
 
 log = logging.getLogger("zenav.monitor")
 
@@ -199,6 +200,11 @@ class Monitor:
             self._move_base_status(topic, msg)
         elif isinstance(msg, m.NodeState):
             self._node_state(topic, msg)
+        elif isinstance(msg, m.CostmapSensors):
+            self._sensors(topic, msg)
+            for s in msg.sources:  # age of each source's last reading: gaps show as saw teeth
+                entity = f"plots/sensors/{msg.costmap or topic}/{s.layer}/{s.source}"
+                sub(entity, topic, kind, stamp, lambda e=entity, v=s.age_s: rec.log(e, rr.Scalars(v)))
         elif isinstance(msg, m.GoalStatus):
             name = STATUS_NAMES.get(msg.status, str(msg.status))
             self._text_on_change(f"log/{topic}", stamp, f"goal {msg.goal_id} {name} {msg.text}".strip())
@@ -238,6 +244,13 @@ class Monitor:
             text += f" {msg.detail}"
         self._text_on_change(entity, msg.header.stamp, text, NODE_LEVELS.get(msg.state, "INFO"),
                              key=f"{entity}|{msg.node}", change=f"{msg.state}|{msg.restarts}|{msg.detail}")
+
+    def _sensors(self, topic: str, msg: m.CostmapSensors) -> None:
+        """``<costmap>/sensors`` -> one event per change of a source's state at ``log/<costmap>/sensors``
+        (WARN while a source is late or silent)."""
+        change = "|".join(f"{s.layer}/{s.source}/{s.topic}:{s.state}" for s in msg.sources)
+        level = "WARN" if msg.problems() else "INFO"
+        self._text_on_change(f"log/{topic}", msg.header.stamp, sensors_summary(msg), level, change=change)
 
     def _text_on_change(self, entity: str, stamp: float | None, text: str, level: str = "INFO",
                         key: str | None = None, change: str | None = None) -> None:

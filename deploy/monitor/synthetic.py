@@ -5,7 +5,8 @@
 A 10 x 8 m room with a box, a robot driving a circle in it, TF ``map -> odom -> base_link -> laser``
 (the laser mounted backwards, yaw pi) and ``base_link -> camera_link``, a ray-cast laser scan, map,
 global / local costmaps with obstacle and inflation layers, plans, footprint, goal, odometry,
-cmd_vel, a depth image and cloud, move_base status, loop times and node states. Used by the monitor's
+cmd_vel, a depth image and cloud, move_base status, loop times, node states and the local costmap's
+sensor status. Used by the monitor's
 tests and the web-viewer check; handy to try the monitor without a robot.
 """
 
@@ -214,6 +215,10 @@ class SyntheticRobot:
         v, u = np.mgrid[0:60, 0:80]
         depth = (1.0 + 3.0 * u / 80 + 0.5 * np.sin(v / 6.0 + t)).astype(np.float32)
         self.pub("camera/depth/image", m.DepthImage(m.Header(s, "camera_link"), depth))
+        src = m.ObservationSourceStatus("laser_scan_sensor", "obstacle_layer", "scan", "LaserScan", True,
+                                        int(t * self.rate_hz), 1.0 / self.rate_hz, 0.0, "ok",
+                                        "source 'laser_scan_sensor' on topic 'scan' (LaserScan): ok")
+        self.pub("local_costmap/sensors", m.CostmapSensors(m.Header(s, "odom"), "local_costmap", (src,)))
 
     def close(self) -> None:
         self._stop.set()

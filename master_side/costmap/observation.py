@@ -48,28 +48,38 @@ class ObservationBuffer:
         self.name = name
         self.params = params
         self.observations: list[Observation] = []
-        self.last_updated: float | None = None
+        self.last_updated: float | None = None  # when the last reading was buffered (ROS last_updated_)
+        self._last_stamp = 0.0
 
-    def add(self, points: np.ndarray, origin: np.ndarray, stamp: float) -> None:
-        """Buffer a reading: points (N, 3) and origin (3,) in the global frame, at time ``stamp`` (s)."""
+    def add(self, points: np.ndarray, origin: np.ndarray, stamp: float, received: float | None = None) -> None:
+        """Buffer a reading: points (N, 3) and origin (3,) in the global frame, at time ``stamp`` (s).
+
+        ``received``: the costmap's clock when the reading was buffered; ROS keeps that (not the stamp)
+        as ``last_updated`` for ``is_current``. Without it the stamp stands in (pure callers, tests).
+        """
         pts = np.asarray(points, np.float64).reshape(-1, 3)
         z = pts[:, 2]
         keep = (z >= self.params.min_obstacle_height) & (z <= self.params.max_obstacle_height)
         keep &= np.isfinite(pts).all(axis=1)
         origin = np.asarray(origin, np.float64).reshape(3)
         self.observations.append(Observation(origin, pts[keep], float(stamp), self.params))
-        self.last_updated = float(stamp)
+        self.last_updated = float(stamp if received is None else received)
+        self._last_stamp = float(stamp)
         self._purge()
 
     def _purge(self) -> None:
+        """Keep readings within ``observation_persistence`` of the latest one's stamp (stamps only, so a
+        clock offset between the sensor's machine and this one changes nothing)."""
         keep = self.params.observation_persistence
         if keep == 0.0:
             self.observations = self.observations[-1:]
         else:
-            self.observations = [o for o in self.observations if self.last_updated - o.stamp <= keep]
+            self.observations = [o for o in self.observations if self._last_stamp - o.stamp <= keep]
 
     def is_current(self, now: float) -> bool:
-        """False when readings are overdue by more than ``expected_update_rate`` (0 disables the check)."""
+        """ROS ``isCurrent``: False when the last reading was buffered more than ``expected_update_rate``
+        seconds before ``now`` (0 disables the check). A source that never delivered is not current.
+        (zenav also reports a source that never delivered whatever the rate: ``costmap.health``.)"""
         rate = self.params.expected_update_rate
         if rate == 0.0:
             return True

@@ -147,3 +147,30 @@ def test_pacing_helpers():
     assert tl.resolve(0.0) == ("duration", 5.0)
     assert scalar_entity("local_costmap/loop_time") == "plots/loop_time/local_costmap"
     assert scalar_entity("battery") == "plots/battery"
+
+
+def _sensors(state: str, age: float) -> m.CostmapSensors:
+    detail = f"source 'scan' on topic 'front/scan' (LaserScan) {state} {age:.1f} s"
+    src = m.ObservationSourceStatus("scan", "obstacle_layer", "front/scan", "LaserScan", state == "ok", 0, age,
+                                    0.0, state, detail)
+    return m.CostmapSensors(m.Header(time.time(), "odom"), "local_costmap", (src,))
+
+
+def test_costmap_sensor_status_is_one_event_per_change_and_an_age_plot(rig):
+    node, make, close = rig
+    mon, path = make()
+    pub = node.publisher("local_costmap/sensors")
+    wait_for(lambda: (pub.publish(_sensors("silent", 1.2)), mon.stats.received > 0)[1], what="monitor connected")
+    for age in (2.2, 3.2):  # same state, new numbers: no new event
+        pub.publish(_sensors("silent", age))
+    pub.publish(_sensors("ok", 0.1))
+    wait_for(lambda: mon.stats.by_entity.get("log/local_costmap/sensors", 0) >= 2, what="the recovery event")
+    close(mon)
+    rec = read_rrd(path)
+    rows = rec["/log/local_costmap/sensors"]
+    texts = [t[0] for t in values(rows, "TextLog:text")]
+    assert texts == ["local_costmap: source 'scan' on topic 'front/scan' (LaserScan) silent 1.2 s",
+                     "local_costmap: 1 source(s) ok ('scan' on 'front/scan')"]
+    assert [lv[0] for lv in values(rows, "TextLog:level")] == ["WARN", "INFO"]
+    ages = [v[0] for v in values(rec["/plots/sensors/local_costmap/obstacle_layer/scan"], "Scalars:scalars")]
+    assert ages[-3:] == pytest.approx([2.2, 3.2, 0.1])

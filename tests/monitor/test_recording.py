@@ -124,6 +124,9 @@ def test_recording_has_every_display_in_its_frame(tmp_path, robot_bus):
     assert len(texts) < len(published["move_base/status"]) / 3
     assert not any(a.split()[0] == b.split()[0] for a, b in zip(texts, texts[1:]))
     assert "move_base: RUNNING" in [t[0] for t in values(rec["/log/agent/synth"], "TextLog:text")]
+    sensors = [t[0] for t in values(rec["/log/local_costmap/sensors"], "TextLog:text")]
+    assert sensors == ["local_costmap: 1 source(s) ok ('laser_scan_sensor' on 'scan')"]  # once: no change
+    assert values(rec["/plots/sensors/local_costmap/obstacle_layer/laser_scan_sensor"], "Scalars:scalars")
     assert rec["/world/scan"][0]["_stamp_type"].startswith("timestamp")
 
     # Where the scan lands: compose map<-odom<-base_link<-laser from the recorded edges at the scan's
