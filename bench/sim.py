@@ -1,4 +1,5 @@
-"""Simulator sensor cost in the room world: laser scans (SICK S300, 720 beams) and depth frames.
+"""Simulator sensor cost in the room world: laser scans (SICK S300, 720 beams) and depth frames; the BARN
+Jackal's Hokuyo UST-10LX (720 beams, 50 Hz) in the barn_demo world (0.01 m cells, 252 cylinders).
 
 Run: python bench/sim.py   (targets: scan < 1 ms, VGA depth < 5 ms)
 """
@@ -20,9 +21,9 @@ from robot_side.sim.simulator import WORLDS_DIR  # noqa: E402
 from robot_side.sim.world import load_world  # noqa: E402
 
 
-def _poses(world, n: int, seed: int = 0) -> list[Pose2D]:
+def _poses(world, n: int, seed: int = 0, region=None) -> list[Pose2D]:
     rng = np.random.default_rng(seed)
-    x0, y0, x1, y1 = world.bounds
+    x0, y0, x1, y1 = region or world.bounds
     out = []
     while len(out) < n:
         x, y = rng.uniform(x0 + 0.6, x1 - 0.6), rng.uniform(y0 + 0.6, y1 - 0.6)
@@ -50,6 +51,9 @@ def main() -> None:
         "depth_qvga": (DepthCamera(world, DepthCameraParams(depth_mode=5)).frame, 100),
         "depth_vga": (DepthCamera(world, DepthCameraParams(depth_mode=2)).frame, 60),
     }
+    barn = load_world(WORLDS_DIR / "barn_demo.yaml")
+    barn_poses = _poses(barn, 50, region=(-4.5, 0.0, 0.0, 9.6))  # inside the box and the field
+    barn_laser = Laser(barn, Laser.preset("hokuyo_ust10lx", x=0.055, z=0.31)).scan
     print(f"world room {world.shape[1]}x{world.shape[0]} cells @ {world.resolution} m, noise on")
     print(f"{'case':<16} {'p50 ms':>8} {'p90 ms':>8} {'max ms':>8}")
     med = {}
@@ -57,8 +61,13 @@ def main() -> None:
         ts = _time(fn, poses, n)
         med[name] = float(np.median(ts))
         print(f"{name:<16} {med[name]:8.3f} {np.percentile(ts, 90):8.3f} {ts.max():8.3f}")
+    ts = _time(barn_laser, barn_poses, 300)
+    med["barn_ust10"] = float(np.median(ts))
+    print(f"{'barn_ust10_720':<16} {med['barn_ust10']:8.3f} {np.percentile(ts, 90):8.3f} {ts.max():8.3f}"
+          f"   (barn_demo {barn.shape[1]}x{barn.shape[0]} cells @ {barn.resolution} m)")
     print(f"laser_scan_ms={med['laser_s300_541']:.3f} laser_720_ms={med['laser_720']:.3f} "
-          f"depth_qvga_ms={med['depth_qvga']:.3f} depth_vga_ms={med['depth_vga']:.3f}")
+          f"depth_qvga_ms={med['depth_qvga']:.3f} depth_vga_ms={med['depth_vga']:.3f} "
+          f"barn_ust10_ms={med['barn_ust10']:.3f}")
 
 
 if __name__ == "__main__":

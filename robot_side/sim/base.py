@@ -1,4 +1,5 @@
-"""Simulated differential-drive base (Pioneer 3-AT): cmd_vel with limits, odometry with error, collisions.
+"""Simulated differential-drive base (Pioneer 3-AT; ``model: jackal`` for a Clearpath Jackal): cmd_vel with
+limits, odometry with error, collisions.
 
 Limits (MobileRobots P3-AT datasheet): top speed 0.7 m/s, rotation 140 deg/s (2.44 rad/s). Acceleration
 limits default to the tutorial's DWAPlannerROS values (acc_lim_x 1.0 m/s^2, acc_lim_th 2.0 rad/s^2) so
@@ -14,7 +15,9 @@ Odometry error (the gmapping terms; dρ, dθ the true translation and rotation o
 
 so after a single 1 m (1 rad) motion the error std is srr (srt) metres and str (stt) radians, and since
 variances add, the error after a straight run of length L has std srr*sqrt(L) (independent of dt).
-Odometry integrates (dρ', dθ') from Pose2D(0, 0, 0) in the odom frame.
+Odometry integrates (dρ', dθ') from Pose2D(0, 0, 0) in the odom frame, or from Pose2D(0, 0, start yaw)
+with ``odom_start_yaw_from_world`` (an odom frame with the world's axes at the start position, as a
+Jackal's IMU-fused odometry: the BARN challenge sends its goal as (0, 10) in that frame).
 
 Collision: if the footprint (sampled every <= res/2, inside and on the edge) at the next pose covers a
 cell taller than ``min_obstacle_height``, the robot stays, its velocity drops to zero, ``contact`` records
@@ -30,12 +33,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from common.config import load_params, param
+from common.config import ConfigError, load_params, param
 from common.geometry import Pose2D, normalize_angle
 from common.messages import Collision, Header, Odometry, Twist
 from robot_side.sim.world import World
 
-__all__ = ["BaseParams", "DiffDriveBase", "P3AT_FOOTPRINT", "load_base_params"]
+__all__ = ["BaseParams", "DiffDriveBase", "P3AT_FOOTPRINT", "JACKAL_FOOTPRINT", "BASE_PRESETS", "base_preset",
+           "load_base_params"]
 
 P3AT_FOOTPRINT = ((0.3302, -0.0508), (0.254, -0.0508), (0.254, -0.254), (-0.254, -0.254), (-0.254, 0.254),
                   (0.254, 0.254), (0.254, 0.0508), (0.3302, 0.0508))
@@ -61,14 +65,42 @@ class BaseParams:
                                       doc="a contact after this long without one is a new collision")
     min_obstacle_height: float = param(0.02, lo=0.0, hi=10.0, unit="m", doc="lower cells do not collide")
     seed: int = param(0, lo=0, doc="odometry noise RNG seed")
+    odom_start_yaw_from_world: bool = param(False, doc="odometry starts at (0, 0, start yaw) instead of "
+                                                       "(0, 0, 0): odom axes aligned with the world's")
 
     def validate(self) -> None:
         if len(self.footprint) < 3:
             raise ValueError("footprint needs at least 3 points")
 
 
+# Clearpath Jackal as simulated by the BARN challenge. Footprint 0.508 x 0.430 m centred on base_link
+# (../shared/datasets/barn/README.md). Limits from jackal_control/config/control.yaml (github jackal/jackal,
+# jackal_velocity_controller): linear.x max_velocity 2.0 m/s, max_acceleration 20.0 m/s^2; angular.z
+# max_velocity 4.0 rad/s, max_acceleration 25.0 rad/s^2; cmd_vel_timeout 0.25 s. Odometry fused with an
+# IMU (robot_localization ekf with the IMU's absolute yaw): small errors, little heading drift (our choice).
+JACKAL_FOOTPRINT = ((0.254, 0.215), (-0.254, 0.215), (-0.254, -0.215), (0.254, -0.215))
+BASE_PRESETS: dict[str, dict] = {
+    "p3at": {},
+    "jackal": dict(footprint=JACKAL_FOOTPRINT, max_vel_x=2.0, max_vel_theta=4.0, acc_lim_x=20.0,
+                   acc_lim_th=25.0, cmd_vel_timeout=0.25, srr=0.01, srt=0.01, str=0.002, stt=0.005,
+                   odom_start_yaw_from_world=True),
+}
+
+
+def base_preset(name: str, **overrides) -> BaseParams:
+    """``base_preset("jackal", seed=3)`` -> BaseParams."""
+    return BaseParams(**{**BASE_PRESETS[name], **overrides})
+
+
 def load_base_params(mapping: dict | None, source: str = "<config>", section: str = "base") -> BaseParams:
-    return load_params(BaseParams, mapping, source, section)
+    """Like ``load_params`` but an optional ``model:`` key (a ``BASE_PRESETS`` name) sets the defaults."""
+    m = dict(mapping or {})
+    model = m.pop("model", None)
+    if model is not None:
+        if model not in BASE_PRESETS:
+            raise ConfigError(source, f"{section}.model", f"{model!r} is not one of {sorted(BASE_PRESETS)}")
+        m = {**BASE_PRESETS[model], **m}
+    return load_params(BaseParams, m, source, section)
 
 
 def _footprint_samples(poly: np.ndarray, step: float) -> np.ndarray:
@@ -109,7 +141,7 @@ class DiffDriveBase:
     def __init__(self, world: World, params: BaseParams = BaseParams(), start: Pose2D | None = None):
         self.world, self.p = world, params
         self.pose = start if start is not None else world.start  # ground truth in the world (map) frame
-        self.odom = Pose2D()
+        self.odom = Pose2D(0.0, 0.0, self.pose.theta) if params.odom_start_yaw_from_world else Pose2D()
         self.v = self.w = 0.0  # actual velocities
         self.cmd = (0.0, 0.0)
         self.cmd_time = -math.inf

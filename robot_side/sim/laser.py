@@ -36,6 +36,7 @@ class LaserParams:
     z: float = param(0.35, lo=0.0, hi=10.0, unit="m", doc="mount height; only taller obstacles are seen")
     yaw: float = param(0.0, lo=-math.pi, hi=math.pi, unit="rad", doc="mount yaw in base_link")
     frame_id: str = param("laser", doc="frame of the scan")
+    topic: str = param("scan", doc="bus topic the simulator node publishes the scan on")
     seed: int = param(1, lo=0, doc="noise RNG seed")
 
     def validate(self) -> None:
@@ -43,6 +44,8 @@ class LaserParams:
             raise ValueError("angle_max must be greater than angle_min")
         if self.range_max <= self.range_min:
             raise ValueError("range_max must be greater than range_min")
+        if not self.topic.strip("/") or any(c in self.topic for c in "*$#? "):
+            raise ValueError(f"topic {self.topic!r} is not a topic name")
 
     @property
     def angle_increment(self) -> float:
@@ -54,12 +57,17 @@ class LaserParams:
 
 
 # Datasheet values: SICK S300 (270 deg, 0.5 deg, 40 ms scan, 30 m), Hokuyo URG-04LX (240 deg, 683 steps,
-# 100 ms scan, 0.02..5.6 m, accuracy +-10 mm below 1 m).
+# 100 ms scan, 0.02..5.6 m, accuracy +-10 mm below 1 m). Hokuyo UST-10LX as the BARN challenge simulates
+# it (../shared/datasets/barn/README.md; jackal_description hokuyo_ust10.urdf.xacro: 720 samples over
+# +-2.35619 rad, 0.1..30 m, 50 Hz, gaussian noise stddev 0.001 m); the Jackal publishes it on front/scan
+# in frame front_laser.
 LASER_PRESETS: dict[str, dict] = {
     "sick_s300": dict(angle_min=-math.radians(135), angle_max=math.radians(135), samples=541,
                       range_min=0.05, range_max=30.0, noise_std=0.01, rate=25.0),
     "hokuyo_urg04lx": dict(angle_min=-math.radians(120), angle_max=math.radians(120), samples=683,
                            range_min=0.02, range_max=5.6, noise_std=0.01, rate=10.0),
+    "hokuyo_ust10lx": dict(angle_min=-2.35619, angle_max=2.35619, samples=720, range_min=0.1, range_max=30.0,
+                           noise_std=0.001, rate=50.0),
 }
 
 

@@ -1,4 +1,4 @@
-"""Simulator bus node: the simulated Pioneer publishes what the real drivers publish, on the same keys.
+"""Simulator bus node: the simulated robot publishes what the real drivers publish, on the same keys.
 
     python -m robot_side.sim.node --config FILE [--section KEY] [--world W] [--start X Y YAW] [--speed N]
 
@@ -15,7 +15,7 @@ Published (all stamps sim time; sim time starts at the wall time at start unless
     tf_static (latched)         TFMessage       base_link -> laser, base_link -> camera_link (mount_tf),
                                                 camera_link -> camera_depth_frame (identity, or see
                                                 mount_tf) -> camera_depth_optical_frame
-    scan                        LaserScan       laser.rate, when a laser is configured
+    scan (laser.topic)          LaserScan       laser.rate, when a laser is configured (a Jackal: front/scan)
     camera/depth/image          DepthImage      depth_camera.rate / (data_skip + 1), when configured
     camera/depth/camera_info    CameraInfo      with every depth image
     ground_truth                Odometry        map -> base_link, ground_truth_rate (evaluation only)
@@ -104,7 +104,7 @@ class SimNode:
         self.pub_collision = pub("collision", latched=True)
         self.pub_motor = pub("motor_state", latched=True)
         self.pub_battery = pub("battery_state")
-        self.pub_scan = pub("scan") if sim.laser else None
+        self.pub_scan = pub(sim.laser.p.topic) if sim.laser else None
         self.pub_depth = pub("camera/depth/image", reliable=False) if sim.camera else None
         self.pub_info = pub("camera/depth/camera_info") if sim.camera else None
         self._odom_tick, self._gt_tick = _Tick(p.odom_rate), _Tick(p.ground_truth_rate)
@@ -130,8 +130,8 @@ class SimNode:
         if s.laser:
             lp = s.laser.p
             fov = math.degrees(lp.angle_max - lp.angle_min)
-            parts.append(f"laser '{lp.frame_id}' {lp.samples} beams {fov:.0f} deg {lp.range_max:g} m "
-                         f"{lp.rate:g} Hz")
+            parts.append(f"laser '{lp.frame_id}' on {lp.topic} {lp.samples} beams {fov:.0f} deg "
+                         f"{lp.range_max:g} m {lp.rate:g} Hz")
         if s.camera:
             cp = s.camera.p
             parts.append(f"depth '{cp.frame_id}' {s.camera.width}x{s.camera.height} {cp.publish_rate:g} Hz")

@@ -108,7 +108,7 @@ def test_presets_and_loader():
     assert urg.range_max == 5.6
     assert urg.z == 0.2
     assert math.isclose(urg.angle_max - urg.angle_min, math.radians(240))
-    assert set(LASER_PRESETS) == {"sick_s300", "hokuyo_urg04lx"}
+    assert set(LASER_PRESETS) == {"sick_s300", "hokuyo_urg04lx", "hokuyo_ust10lx"}
     with pytest.raises(ConfigError, match="model"):
         load_laser_params({"model": "nope"})
     with pytest.raises(ConfigError, match="angle_max"):
