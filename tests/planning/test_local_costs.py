@@ -108,11 +108,11 @@ def test_alignment_costs_prefer_facing_along_the_path():
         assert s[0] < s[1]
 
 
-def test_alignment_costs_switch_off_near_the_goal():
+def test_path_alignment_switches_off_near_the_goal_but_goal_front_stays():
     plan = np.array([[1.0, 1.5, 0.0], [1.1, 1.5, 0.0]])
     ctx = _ctx(free_map(60, 60), plan=plan)
     assert not PathAlign(forward_point_distance=0.325).prepare(ctx)
-    assert not GoalAlign(forward_point_distance=0.325).prepare(ctx)
+    assert GoalAlign(forward_point_distance=0.325).prepare(ctx)  # dwa_planner.cpp keeps goal_front
 
 
 def test_oscillation_blocks_reversing_rotation_until_the_robot_turned_enough():

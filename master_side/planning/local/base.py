@@ -14,7 +14,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from master_side.planning.grid import check_grid
-from master_side.planning.local.costs import ObstacleCost, Oscillation
+from master_side.planning.local.costs import ObstacleCost
 from master_side.planning.local.map_grid import ScoringContext, angle_diff
 from master_side.planning.local.scoring import ScoredSamplingPlanner
 from master_side.planning.local.trajectories import Trajectories, simulate
@@ -58,10 +58,11 @@ def _toward(v: float, target: float, step: float) -> float:
 
 
 class LocalPlanner:
-    """Shared logic; subclasses provide ``_samples(vel)`` and ``_simulate(pose, vel, samples)``."""
+    """Shared logic; subclasses provide ``_samples(vel)`` and ``_simulate(pose, vel, samples)`` (or their
+    own ``_choose(ctx)``)."""
 
     def __init__(
-        self, limits: Limits, scorer: ScoredSamplingPlanner, oscillation: Oscillation, prune_plan: bool = True
+        self, limits: Limits, scorer: ScoredSamplingPlanner, oscillation, prune_plan: bool = True
     ):
         self.limits = limits
         self.scorer = scorer
@@ -111,7 +112,7 @@ class LocalPlanner:
             return LocalResult((0.0, 0.0, 0.0), False, "no plan", np.zeros((0, 3)), 0)
         if self.prune_plan:
             self._prune(p)
-        ctx = ScoringContext(
+        ctx = self._context(ScoringContext(
             p,
             v,
             g,
@@ -120,7 +121,7 @@ class LocalPlanner:
             np.asarray(footprint, float).reshape(-1, 2),
             self._plan,
             self._plan[-1],
-        )
+        ))
         local = self._local_plan(ctx)
         if len(local) == 0:
             return LocalResult(
@@ -133,24 +134,28 @@ class LocalPlanner:
             self._latched = True
         if self._latched or dist <= self.limits.xy_goal_tolerance:
             return self._approach_goal(ctx, goal)
-        samples = self._samples(v)
-        trajs = self._simulate(p, v, samples)
-        res = self.scorer.score(trajs, ctx)
-        if res.best < 0:
-            return self._all_rejected(ctx, trajs, res.reason)
-        cmd = trajs.vels[res.best]
-        self.oscillation.update(cmd, p)
-        return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.poses[res.best], len(trajs))
+        return self._choose(ctx)
 
     # --- hooks -----------------------------------------------------------------------------------------
+    def _context(self, ctx: ScoringContext) -> ScoringContext:
+        """Adjust the scoring context of this cycle (e.g. mark the footprint cells for the flood fills)."""
+        return ctx
+
+    def _choose(self, ctx: ScoringContext) -> LocalResult:
+        """Sample, simulate and score; the cheapest valid trajectory wins (SimpleScoredSamplingPlanner)."""
+        trajs = self._simulate(ctx.pose, ctx.vel, self._samples(ctx.vel))
+        res = self.scorer.score(trajs, ctx)
+        if res.best < 0:
+            return LocalResult(self._brake(ctx.vel), False, res.reason, np.zeros((0, 3)), len(trajs))
+        cmd = trajs.vels[res.best]
+        self.oscillation.update(cmd, ctx.pose)
+        return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.poses[res.best], len(trajs))
+
     def _samples(self, vel: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
     def _simulate(self, pose: np.ndarray, vel: np.ndarray, samples: np.ndarray) -> Trajectories:
         raise NotImplementedError
-
-    def _all_rejected(self, ctx: ScoringContext, trajs: Trajectories, reason: str) -> LocalResult:
-        return LocalResult(self._brake(ctx.vel), False, reason, np.zeros((0, 3)), len(trajs))
 
     # --- shared pieces ---------------------------------------------------------------------------------
     def _prune(self, p: np.ndarray) -> None:

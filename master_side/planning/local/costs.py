@@ -17,7 +17,6 @@ from master_side.planning.local.map_grid import (
     angle_diff,
     footprint_outline,
     footprint_radii,
-    polyline_distance,
 )
 from master_side.planning.local.trajectories import Trajectories
 
@@ -80,15 +79,27 @@ class ObstacleCost(CostFunction):
         res = ctx.resolution
         bad = ~inside | (centre >= INSCRIBED) | (clear < self.inscribed - 0.5 * res)
         cost = centre.astype(float)
+        # A pose equal to the previous one of its trajectory (padding after a short trajectory, a robot
+        # standing still) has the same outline: rasterise it once.
+        w = ctx.grid.shape[1]
+        same = np.zeros((s, t), bool)
+        poses = trajs.poses
+        same[:, 1:] = (poses[:, 1:] == poses[:, :-1]).all(axis=2)
+        first = ~same
+        src = np.maximum.accumulate(np.where(first, np.arange(t)[None, :], 0), axis=1)
+        src = (src + (np.arange(s) * t)[:, None]).ravel()
+        first = first.ravel()
         # outline cells can be LETHAL only within the circumscribed radius; they can cost > 0 within
         # circumscribed + inflation extent. Check the first band, drop rejected trajectories, then the second.
         band = self.circumscribed + 1.5 * res  # cell-centre distances: allow for the discretisation
-        flat, w = ctx.grid.ravel(), ctx.grid.shape[1]
+        flat = ctx.grid.ravel()
+        outline_bad = np.zeros(s * t, bool)
+        outline_cost = np.zeros(s * t)
         # the cost-only band samples every other outline point (about 2 cells apart): cheaper, and
         # the inflation cost changes little over one cell
         for lo, hi, outline in ((-np.inf, band, self.outline), (band, band + self.extent, self.outline[::2])):
             dead = np.repeat(bad.reshape(s, t).any(axis=1), t)
-            near = np.flatnonzero(~dead & (clear <= hi) & (clear > lo))
+            near = np.flatnonzero(first & ~dead & (clear <= hi) & (clear > lo))
             if near.size == 0:
                 continue
             p = pts[near]
@@ -96,8 +107,11 @@ class ObstacleCost(CostFunction):
             ox, oy = outline[:, 0][None, :], outline[:, 1][None, :]
             orr, occ, oin = ctx.cells_xy(p[:, 0:1] + cs * ox - sn * oy, p[:, 1:2] + sn * ox + cs * oy)
             oc = flat[orr * w + occ]
-            bad[near] |= (~oin | (oc >= LETHAL)).any(axis=1)
-            cost[near] = np.maximum(cost[near], oc.max(axis=1))
+            outline_bad[near] = (~oin | (oc >= LETHAL)).any(axis=1)
+            outline_cost[near] = oc.max(axis=1)
+            bad |= outline_bad[src]
+        bad |= outline_bad[src]
+        cost = np.maximum(cost, outline_cost[src])
         bad = bad.reshape(s, t)
         if t > 1 and bad[:, 0].any():
             _allow_escape(bad, clear.reshape(s, t))
@@ -107,68 +121,100 @@ class ObstacleCost(CostFunction):
         return out
 
 
-class PathDistance(CostFunction):
-    """Distance (m) from the trajectory end point to the local plan (MapGrid path cost); off-map rejects."""
+class MapGridCost(CostFunction):
+    """base_local_planner's MapGridCostFunction: the flood-fill distance (see ``grid_distance``) of a
+    trajectory point to the plan (``target="path"``) or to the local goal (``"goal"``), in metres
+    (cells x resolution). The score is the value at the last point; ``stop_on_failure``: a trajectory
+    with any point on an obstacle or unreachable cell is rejected. ``forward`` shifts each point that far
+    ahead along its heading (DWA's alignment costs, which keep the nose on the path)."""
+
+    name = "MapGrid"
+
+    def __init__(self, scale: float = 1.0, target: str = "path", forward: float = 0.0,
+                 stop_on_failure: bool = True):
+        super().__init__(scale)
+        self.target, self.forward, self.stop_on_failure = target, float(forward), stop_on_failure
+
+    def distances(self) -> np.ndarray:
+        return self.ctx.path_distance() if self.target == "path" else self.ctx.goal_distance()
+
+    def points(self, trajs: Trajectories) -> np.ndarray:
+        p = trajs.poses
+        if self.forward == 0.0:
+            return p[..., :2]
+        return p[..., :2] + self.forward * np.stack((np.cos(p[..., 2]), np.sin(p[..., 2])), axis=-1)
+
+    def score(self, trajs: Trajectories) -> np.ndarray:
+        d = self.distances()
+        r, c, inside = self.ctx.cells(self.points(trajs))
+        vals = np.where(inside, d[r, c], np.inf) * self.ctx.resolution
+        last = vals[:, -1]
+        off = ~inside.all(axis=1)
+        if self.stop_on_failure:
+            bad = ~np.isfinite(vals).all(axis=1)
+        else:  # off-map still rejects; an impossible end point costs what ROS gives it (the map size)
+            bad = np.zeros(len(last), bool)
+            last = np.where(np.isfinite(last), last, self.ctx.grid.size * self.ctx.resolution)
+        return np.where(off | bad, REJECT, last)
+
+
+class PathDistance(MapGridCost):
+    """Flood-fill distance (m) from the trajectory end point to the local plan; rejects trajectories
+    through obstacles or cells with no way to the plan."""
 
     name = "PathDistance"
+
+    def __init__(self, scale: float = 1.0):
+        super().__init__(scale, "path")
 
     def prepare(self, ctx: ScoringContext) -> bool:
         super().prepare(ctx)
         return len(ctx.plan) > 0
 
-    def point(self, trajs: Trajectories) -> np.ndarray:
-        return trajs.poses[:, -1, :2]
 
-    def score(self, trajs: Trajectories) -> np.ndarray:
-        pts = self.point(trajs)
-        _, _, inside = self.ctx.cells(pts)
-        return np.where(inside, polyline_distance(pts, self.ctx.plan_polyline()), REJECT)
-
-
-class GoalDistance(CostFunction):
-    """Distance (m) from the trajectory end point to the local goal."""
+class GoalDistance(MapGridCost):
+    """Flood-fill distance (m) from the trajectory end point to the local goal."""
 
     name = "GoalDistance"
 
-    def point(self, trajs: Trajectories) -> np.ndarray:
-        return trajs.poses[:, -1, :2]
-
-    def score(self, trajs: Trajectories) -> np.ndarray:
-        d = self.point(trajs) - self.ctx.goal[None, :2]
-        return np.hypot(d[:, 0], d[:, 1])
-
-
-def _forward_point(trajs: Trajectories, distance: float) -> np.ndarray:
-    end = trajs.poses[:, -1]
-    return end[:, :2] + distance * np.stack((np.cos(end[:, 2]), np.sin(end[:, 2])), axis=1)
-
-
-class _ForwardPoint:
-    """Mixin for DWA's alignment costs: score a point ``forward_point_distance`` ahead of the trajectory
-    end pose instead of the end pose; switched off near the goal (where the robot may have to turn)."""
-
-    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
-        super().__init__(scale)
-        self.forward = forward_point_distance
+    def __init__(self, scale: float = 1.0):
+        super().__init__(scale, "goal")
 
     def prepare(self, ctx: ScoringContext) -> bool:
-        near_goal = math.hypot(*(ctx.goal[:2] - ctx.pose[:2])) < self.forward
-        return super().prepare(ctx) and self.forward > 0 and not near_goal
-
-    def point(self, trajs: Trajectories) -> np.ndarray:
-        return _forward_point(trajs, self.forward)
+        super().prepare(ctx)
+        return len(ctx.plan) > 0
 
 
-class PathAlign(_ForwardPoint, PathDistance):
-    """DWA: path distance of the forward point."""
+class PathAlign(MapGridCost):
+    """DWA: path distance of a point ``forward_point_distance`` ahead of each pose (not a rejecter);
+    switched off once the robot is within that distance of the goal (dwa_planner.cpp, cheat_factor 1)."""
 
     name = "PathAlign"
 
+    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
+        super().__init__(scale, "path", forward_point_distance, stop_on_failure=False)
 
-class GoalAlign(_ForwardPoint, GoalDistance):
-    """DWA: goal distance of the forward point."""
+    def prepare(self, ctx: ScoringContext) -> bool:
+        super().prepare(ctx)
+        far = math.hypot(*(ctx.goal[:2] - ctx.pose[:2])) > self.forward
+        return len(ctx.plan) > 0 and self.forward > 0 and far
+
+
+class GoalAlign(MapGridCost):
+    """DWA: distance of the forward point to the local goal of the plan whose last pose is pushed
+    ``forward_point_distance`` further along the robot -> goal direction (not a rejecter)."""
 
     name = "GoalAlign"
+
+    def __init__(self, scale: float = 1.0, forward_point_distance: float = 0.325):
+        super().__init__(scale, "goal", forward_point_distance, stop_on_failure=False)
+
+    def prepare(self, ctx: ScoringContext) -> bool:
+        super().prepare(ctx)
+        return len(ctx.plan) > 0 and self.forward > 0
+
+    def distances(self) -> np.ndarray:
+        return self.ctx.goal_distance(front=self.forward)
 
 
 class Twirling(CostFunction):
@@ -181,17 +227,21 @@ class Twirling(CostFunction):
 
 
 class Oscillation(CostFunction):
-    """Rejects reversing a motion direction (x, y or rotation) right after the robot reversed it once.
+    """DWA's OscillationCostFunction: rejects reversing a motion direction right after the robot
+    reversed it once.
 
     After the chosen command flips the sign of an axis, only the new sign is allowed on that axis
-    until the robot has moved ``reset_dist`` or turned ``reset_angle`` (base_local_planner flags).
+    until the robot has moved ``reset_dist`` or turned ``reset_angle`` from where that happened. The
+    strafe and rotation axes count only for commands that barely translate (|vx| <= min_trans_vel).
     """
 
     name = "Oscillation"
 
-    def __init__(self, reset_dist: float = 0.05, reset_angle: float = 0.2, eps: float = 1e-3):
+    def __init__(self, reset_dist: float = 0.05, reset_angle: float = 0.2, eps: float = 1e-3,
+                 min_trans_vel: float = 0.1):
         super().__init__(1.0)
         self.reset_dist, self.reset_angle, self.eps = reset_dist, reset_angle, eps
+        self.min_trans_vel = min_trans_vel
         self.reset()
 
     def reset(self) -> None:
@@ -216,6 +266,8 @@ class Oscillation(CostFunction):
     def update(self, cmd: np.ndarray, pose: np.ndarray) -> None:
         """Record the command chosen this cycle (call after every cycle that moved the robot)."""
         sg = np.sign(np.where(np.abs(cmd) > self.eps, cmd, 0.0))
+        if abs(float(cmd[0])) > self.min_trans_vel:  # translating: only the x axis is tracked
+            sg[1:] = 0.0
         flipped = (sg != 0) & (self.last_sign != 0) & (sg != self.last_sign)
         if flipped.any():
             self.allowed[flipped] = sg[flipped]

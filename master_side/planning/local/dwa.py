@@ -105,21 +105,22 @@ class DWAPlannerParams:
 
 
 class DWAPlanner(LocalPlanner):
-    """Costs (dwa_planner.cpp): oscillation, obstacle (occdist_scale), path align + path distance
-    (0.5 * path_distance_bias, per metre), goal align + goal distance (0.5 * goal_distance_bias), twirling."""
+    """Costs as ROS noetic's dwa_planner.cpp: oscillation, obstacle (occdist_scale), goal-front and goal
+    distance (goal_distance_bias per metre of flood-fill distance), alignment and path distance
+    (path_distance_bias per metre), twirling. (Kinetic and older halved the two biases.)"""
 
     def __init__(self, params: DWAPlannerParams | None = None):
         p = params or DWAPlannerParams()
         self.params = p
-        osc = Oscillation(p.oscillation_reset_dist, p.oscillation_reset_angle)
+        osc = Oscillation(p.oscillation_reset_dist, p.oscillation_reset_angle, min_trans_vel=p.min_trans_vel)
         fpd = p.forward_point_distance
         costs = [
             osc,
             ObstacleCost(p.occdist_scale),
-            PathAlign(0.5 * p.path_distance_bias, fpd),
-            GoalAlign(0.5 * p.goal_distance_bias, fpd),
-            PathDistance(0.5 * p.path_distance_bias),
-            GoalDistance(0.5 * p.goal_distance_bias),
+            GoalAlign(p.goal_distance_bias, fpd),
+            PathAlign(p.path_distance_bias, fpd),
+            PathDistance(p.path_distance_bias),
+            GoalDistance(p.goal_distance_bias),
             Twirling(p.twirling_scale),
         ]
         super().__init__(p.limits(), ScoredSamplingPlanner(costs), osc, p.prune_plan)

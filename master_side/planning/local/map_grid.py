@@ -1,8 +1,7 @@
-"""Local-costmap geometry for scoring: the scoring context, footprint helpers, plan distance maps.
+"""Local-costmap geometry for scoring: the scoring context, footprint helpers.
 
-Path distance stands in for base_local_planner's MapGrid (a BFS from the plan cells): here the exact
-Euclidean distance to the local plan polyline, evaluated only at the points that are scored (cheaper
-than a whole-grid transform; like the MapGrid it ignores obstacles, which ObstacleCost handles).
+Path and goal distances are base_local_planner's MapGrid flood fills (``grid_distance``), computed
+once per cycle on demand and cached in the context.
 """
 
 from __future__ import annotations
@@ -11,6 +10,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+from master_side.planning.local.grid_distance import MapGrid, densify
 
 
 @dataclass
@@ -25,6 +26,7 @@ class ScoringContext:
     footprint: np.ndarray  # (K, 2) polygon in the robot frame
     plan: np.ndarray  # (N, 3) the part of the global plan inside the local costmap, from the robot on
     goal: np.ndarray  # (3,) local goal: the last plan pose inside the local costmap
+    within_robot: bool = False  # cells under the current footprint are passable for the flood fills
     _cache: dict = field(default_factory=dict, repr=False)
 
     def cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -42,48 +44,66 @@ class ScoringContext:
             r, c = np.where(inside, r, 0), np.where(inside, c, 0)
         return r, c, inside
 
-    def plan_polyline(self) -> np.ndarray:
-        """The local plan's (x, y) resampled to about two cells between vertices (cached)."""
-        if "poly" not in self._cache:
-            self._cache["poly"] = resample(self.plan[:, :2], 2.0 * self.resolution)
-        return self._cache["poly"]
+    def map_grid(self) -> MapGrid:
+        if "grid" not in self._cache:
+            inside = footprint_cells(self.pose, self.footprint, self) if self.within_robot else None
+            self._cache["grid"] = MapGrid(self.grid, self.resolution, self.origin, inside)
+        return self._cache["grid"]
+
+    def path_distance(self) -> np.ndarray:
+        """(H, W) flood-fill cells to the plan (inf: obstacle or no way there)."""
+        if "path" not in self._cache:
+            self._cache["path"] = self.map_grid().path_distance(self.plan[:, :2])
+        return self._cache["path"]
+
+    def goal_distance(self, front: float = 0.0) -> np.ndarray:
+        """(H, W) flood-fill cells to the local goal; ``front`` > 0: of the plan whose last pose is
+        pushed that far along the robot -> goal direction (DWA's goal_front costs)."""
+        key = ("goal", front)
+        if key not in self._cache:
+            xy = self.plan[:, :2].copy()
+            if front > 0.0 and len(xy):
+                d = xy[-1] - self.pose[:2]
+                a = math.atan2(d[1], d[0])
+                xy[-1] += front * np.array([math.cos(a), math.sin(a)])
+            self._cache[key] = self.map_grid().goal_distance(xy)
+        return self._cache[key]
 
 
-def resample(xy: np.ndarray, spacing: float) -> np.ndarray:
-    """Keep the first and last points and those at least ``spacing`` (along the path) after the last kept."""
-    xy = np.asarray(xy, dtype=float)
-    if len(xy) < 3:
-        return xy
-    s = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(xy, axis=0).T))))
-    keep = np.flatnonzero(np.diff(np.floor(s / spacing), prepend=-1.0) > 0)
-    if keep[-1] != len(xy) - 1:
-        keep = np.append(keep, len(xy) - 1)
-    return xy[keep]
+def footprint_cells(pose: np.ndarray, footprint: np.ndarray, ctx: ScoringContext) -> np.ndarray:
+    """(H, W) bool: cells whose centre lies inside the footprint polygon at ``pose``, plus the cells
+    under its outline (base_local_planner FootprintHelper::getFootprintCells with fill)."""
+    mask = np.zeros(ctx.grid.shape, bool)
+    fp = np.asarray(footprint, float).reshape(-1, 2)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    world = fp @ np.array([[c, s], [-s, c]]) + pose[:2]
+    r, cc, inside = ctx.cells(footprint_outline(world, ctx.resolution))
+    mask[r[inside], cc[inside]] = True
+    lo = np.floor((world.min(0) - ctx.origin) / ctx.resolution).astype(int)
+    hi = np.floor((world.max(0) - ctx.origin) / ctx.resolution).astype(int)
+    lo = np.maximum(lo, 0)
+    hi = np.minimum(hi, np.array(ctx.grid.shape[::-1]) - 1)
+    if (hi < lo).any():
+        return mask
+    cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+    centres = (np.column_stack((cols.ravel(), rows.ravel())) + 0.5) * ctx.resolution + ctx.origin
+    hit = _inside_polygon(centres, world)
+    mask[rows.ravel()[hit], cols.ravel()[hit]] = True
+    return mask
 
 
-def polyline_distance(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance from each of (P, 2) points to the polyline (N, 2)."""
-    if len(poly) == 1:
-        return np.hypot(pts[:, 0] - poly[0, 0], pts[:, 1] - poly[0, 1])
-    a, ab = poly[:-1], np.diff(poly, axis=0)
-    l2 = np.maximum((ab * ab).sum(1), 1e-12)
-    dx = pts[:, None, 0] - a[None, :, 0]
-    dy = pts[:, None, 1] - a[None, :, 1]
-    t = np.clip((dx * ab[None, :, 0] + dy * ab[None, :, 1]) / l2[None, :], 0.0, 1.0)
-    ex, ey = dx - t * ab[None, :, 0], dy - t * ab[None, :, 1]
-    return np.sqrt((ex * ex + ey * ey).min(axis=1))
-
-
-def densify(xy: np.ndarray, spacing: float) -> np.ndarray:
-    """Insert points along a polyline so consecutive points are at most ``spacing`` apart."""
-    xy = np.asarray(xy, dtype=float)
-    if len(xy) < 2:
-        return xy
-    seg = np.diff(xy, axis=0)
-    n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / spacing).astype(int), 1)
-    t = np.concatenate([np.arange(k) / k for k in n])
-    i = np.repeat(np.arange(len(seg)), n)
-    return np.vstack((xy[i] + seg[i] * t[:, None], xy[-1:]))
+def _inside_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Even-odd rule point-in-polygon for (P, 2) points."""
+    inside = np.zeros(len(pts), bool)
+    j = len(poly) - 1
+    for i in range(len(poly)):
+        (xi, yi), (xj, yj) = poly[i], poly[j]
+        cross = (yi > pts[:, 1]) != (yj > pts[:, 1])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = xi + (pts[:, 1] - yi) * (xj - xi) / (yj - yi)
+        inside ^= cross & (pts[:, 0] < xint)
+        j = i
+    return inside
 
 
 def footprint_outline(footprint: np.ndarray, spacing: float) -> np.ndarray:

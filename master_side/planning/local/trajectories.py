@@ -81,6 +81,56 @@ def simulate(
     return Trajectories(poses, samples)
 
 
+def ros_steps(samples: np.ndarray, sim_time: float, sim_granularity: float, angular_granularity: float,
+              fixed: bool = False) -> np.ndarray:
+    """Per-sample step counts as base_local_planner's TrajectoryPlanner computes them: the larger of
+    |v| * sim_time / sim_granularity and |w| / angular_sim_granularity (ROS does not multiply the
+    angular term by sim_time), rounded, at least 1; ``fixed`` (heading scoring): sim_time / granularity."""
+    samples = np.asarray(samples, dtype=float).reshape(-1, 3)
+    if fixed:
+        n = np.full(len(samples), int(sim_time / sim_granularity + 0.5))
+    else:
+        vmag = np.hypot(samples[:, 0], samples[:, 1])
+        n = (np.maximum(vmag * sim_time / sim_granularity, np.abs(samples[:, 2]) / angular_granularity)
+             + 0.5).astype(int)
+    return np.maximum(n, 1)
+
+
+def simulate_ramped(start: np.ndarray, vel0: np.ndarray, samples: np.ndarray, sim_time: float,
+                    steps: np.ndarray, acc: np.ndarray) -> tuple[Trajectories, np.ndarray]:
+    """TrajectoryPlanner::generateTrajectory for all samples at once.
+
+    Sample i takes ``steps[i]`` points ``dt_i = sim_time / steps[i]`` apart, the first at ``start``; the
+    velocity ramps from ``vel0`` toward the sample at ``acc`` per second before each step, and the
+    position advances with the heading of the previous point. Rows are padded with their last point up
+    to the longest sample. Returns (trajectories, steps).
+    """
+    samples = np.asarray(samples, dtype=float).reshape(-1, 3)
+    steps = np.asarray(steps, dtype=int).reshape(-1)
+    s, t = samples.shape[0], int(steps.max(initial=1))
+    dt = (sim_time / steps)[:, None]
+    k = np.arange(1, t)[None, :]
+    live = (k < steps[:, None]).astype(float)  # step k exists (points 0..steps-1)
+    v = np.empty((s, max(t - 1, 0), 3))
+    for a in range(3):
+        reach = acc[a] * k * dt
+        v[:, :, a] = np.clip(samples[:, a:a + 1], vel0[a] - reach, vel0[a] + reach)
+    v *= live[:, :, None]
+    th = np.empty((s, t))
+    th[:, 0] = start[2]
+    np.cumsum(v[:, :, 2] * dt, axis=1, out=th[:, 1:])
+    th[:, 1:] += start[2]
+    c, sn = np.cos(th[:, :-1]), np.sin(th[:, :-1])
+    poses = np.empty((s, t, 3))
+    poses[:, 0, 0], poses[:, 0, 1] = start[0], start[1]
+    np.cumsum((v[:, :, 0] * c - v[:, :, 1] * sn) * dt, axis=1, out=poses[:, 1:, 0])
+    np.cumsum((v[:, :, 0] * sn + v[:, :, 1] * c) * dt, axis=1, out=poses[:, 1:, 1])
+    poses[:, 1:, 0] += start[0]
+    poses[:, 1:, 1] += start[1]
+    poses[:, :, 2] = th
+    return Trajectories(poses, samples), steps
+
+
 def num_steps(
     samples: np.ndarray, sim_time: float, sim_granularity: float, angular_granularity: float
 ) -> int:

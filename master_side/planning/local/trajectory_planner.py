@@ -1,11 +1,23 @@
-"""Trajectory rollout (base_local_planner/TrajectoryPlannerROS).
+"""Trajectory rollout (base_local_planner/TrajectoryPlannerROS), as ROS's TrajectoryPlanner does it.
 
-Samples over the window reachable within ``sim_time`` (or one control period with ``dwa: true``);
-without ``dwa`` the simulated velocity ramps toward the sample at the acceleration limits. Costs:
-``pdist_scale * path distance + gdist_scale * goal distance + occdist_scale * obstacle cost``, with
-distances in cells unless ``meter_scoring``. In-place rotation samples respect
-``min_in_place_vel_theta``. When every sample is rejected the robot backs up at ``escape_vel`` (if that
-is collision-free) until it has moved ``escape_reset_dist``. Defaults are base_local_planner's.
+One cycle (createTrajectories): forward samples over the window reachable within ``sim_time`` (or one
+control period with ``dwa: true``), each with vtheta 0 first and then the rotation samples; then, unless
+something forward is cheaper, an in-place rotation chosen by ``heading_lookahead`` (the rotation whose
+end pose looks at the point with the smallest goal distance), never in the direction the oscillation
+flags forbid; if nothing is valid, back up at ``escape_vel``. Each trajectory costs
+``path_distance_bias * path + goal_distance_bias * goal + occdist_scale * footprint cost`` with path / goal
+the MapGrid flood-fill distances in cells (``meter_scoring``: metres), or ``heading_scoring`` /
+``simple_attractor`` as in ROS. Defaults are the effective ROS ones (BaseLocalPlanner.cfg, whose
+dynamic-reconfigure values override the node's own param() defaults).
+
+Deliberate differences (see the README): after a full revolution of in-place turning without the robot
+moving ``oscillation_reset_dist``, in-place rotations are left out until it has moved one circumscribed
+radius (ROS would keep spinning
+whenever turning scores better than entering a tight gap, which with a large ``occdist_scale`` is
+always); the escape (backing up) is only taken when the backward
+trajectory is collision-free (ROS backs up even into an obstacle); ``acc_lim_th`` is read as
+``acc_lim_theta`` (ROS's TrajectoryPlannerROS ignores it); the goal approach (brake, rotate to the goal
+yaw) is zenav's shared profile (``base.LocalPlanner``), which never reverses the final rotation.
 """
 
 from __future__ import annotations
@@ -17,57 +29,61 @@ import numpy as np
 
 from common.config import param
 from master_side.planning.local.base import Limits, LocalPlanner, LocalResult
-from master_side.planning.local.costs import GoalDistance, ObstacleCost, Oscillation, PathDistance
-from master_side.planning.local.map_grid import ScoringContext
+from master_side.planning.local.map_grid import ScoringContext, angle_diff, footprint_radii
 from master_side.planning.local.scoring import ScoredSamplingPlanner
-from master_side.planning.local.trajectories import (
-    Trajectories,
-    linspace_window,
-    num_steps,
-    sample_grid,
-    simulate,
-)
+from master_side.planning.local.tp_costs import TPOscillation, TrajectoryCost
+from master_side.planning.local.trajectories import Trajectories, ros_steps, simulate_ramped
 
 
 @dataclass(frozen=True)
 class TrajectoryPlannerParams:
-    max_vel_x: float = param(0.5, lo=0.0, hi=10.0, unit="m/s")
-    min_vel_x: float = param(0.1, lo=0.0, hi=10.0, unit="m/s")
-    max_vel_theta: float = param(1.0, lo=0.0, hi=20.0, unit="rad/s", aliases=("max_rotational_vel",))
+    max_vel_x: float = param(0.55, lo=0.0, hi=20.0, unit="m/s")
+    min_vel_x: float = param(0.0, lo=0.0, hi=20.0, unit="m/s")
+    max_vel_theta: float = param(1.0, lo=0.0, hi=20.0, unit="rad/s")
     min_vel_theta: float = param(-1.0, lo=-20.0, hi=0.0, unit="rad/s")
-    min_in_place_vel_theta: float = param(
-        0.4, lo=0.0, hi=20.0, unit="rad/s", aliases=("min_in_place_rotational_vel",)
-    )
-    escape_vel: float = param(-0.1, lo=-10.0, hi=0.0, unit="m/s", doc="negative: back up when stuck")
+    max_rotational_vel: float = param(1.0, lo=0.0, hi=20.0, unit="rad/s",
+                                      doc="rotation limit of the goal approach (ROS reads it separately)")
+    min_in_place_vel_theta: float = param(0.4, lo=0.0, hi=20.0, unit="rad/s",
+                                          aliases=("min_in_place_rotational_vel",))
+    escape_vel: float = param(-0.1, lo=-10.0, hi=0.0, unit="m/s", aliases=("backup_vel",),
+                              doc="negative: back up when stuck")
     acc_lim_x: float = param(2.5, lo=0.0, hi=100.0, unit="m/s^2")
     acc_lim_y: float = param(2.5, lo=0.0, hi=100.0, unit="m/s^2")
     acc_lim_theta: float = param(3.2, lo=0.0, hi=100.0, unit="rad/s^2", aliases=("acc_lim_th",))
     holonomic_robot: bool = param(True)
-    y_vels: tuple[float, ...] = param((-0.3, -0.1, 0.1, 0.3), unit="m/s", doc="strafe samples (holonomic)")
-    sim_time: float = param(1.0, lo=0.05, hi=20.0, unit="s")
-    sim_granularity: float = param(0.025, lo=0.001, hi=1.0, unit="m")
+    y_vels: tuple[float, ...] | str = param((-0.3, -0.1, 0.1, 0.3), unit="m/s", doc="strafe samples (holonomic)")
+    sim_time: float = param(1.7, lo=0.05, hi=20.0, unit="s")
+    sim_granularity: float = param(0.025, lo=0.001, hi=5.0, unit="m")
     angular_sim_granularity: float = param(0.025, lo=0.001, hi=3.2, unit="rad")
-    vx_samples: int = param(3, lo=1, hi=200)
-    vtheta_samples: int = param(20, lo=1, hi=400, aliases=("vth_samples",))
-    pdist_scale: float = param(0.6, lo=0.0, hi=1000.0)
-    gdist_scale: float = param(0.8, lo=0.0, hi=1000.0)
+    vx_samples: int = param(20, lo=1, hi=300)
+    vtheta_samples: int = param(20, lo=1, hi=300, aliases=("vth_samples",))
+    path_distance_bias: float = param(0.6, lo=0.0, hi=1000.0, aliases=("pdist_scale",))
+    goal_distance_bias: float = param(0.8, lo=0.0, hi=1000.0, aliases=("gdist_scale",))
     occdist_scale: float = param(0.01, lo=0.0, hi=1000.0)
-    dwa: bool = param(False, doc="true: window of one control period, constant-velocity simulation")
-    meter_scoring: bool = param(False, doc="distances in metres (true) or cells (false)")
-    heading_lookahead: float = param(
-        0.325, lo=0.0, hi=10.0, unit="m", doc="accepted; heading scoring not used"
-    )
-    heading_scoring: bool = param(False, doc="accepted; not implemented")
+    dwa: bool = param(False, doc="true: window of one control period (the velocity still ramps)")
+    meter_scoring: bool = param(False, doc="path / goal distances in metres (true) or cells (false)")
+    heading_lookahead: float = param(0.325, lo=0.0, hi=10.0, unit="m",
+                                     doc="look-ahead that picks among in-place rotations")
+    heading_scoring: bool = param(False, doc="score the heading to the plan at heading_scoring_timestep")
+    heading_scoring_timestep: float = param(0.1, lo=0.0, hi=10.0, unit="s")
+    simple_attractor: bool = param(False, doc="score squared distance to the goal only (no flood fill)")
     oscillation_reset_dist: float = param(0.05, lo=0.0, hi=10.0, unit="m")
     escape_reset_dist: float = param(0.10, lo=0.0, hi=10.0, unit="m")
-    escape_reset_theta: float = param(math.pi / 4, lo=0.0, hi=6.3, unit="rad", doc="accepted; not used")
+    escape_reset_theta: float = param(math.pi / 2, lo=0.0, hi=6.3, unit="rad")
     prune_plan: bool = param(True)
     xy_goal_tolerance: float = param(0.10, lo=0.0, hi=10.0, unit="m")
     yaw_goal_tolerance: float = param(0.05, lo=0.0, hi=3.2, unit="rad")
     latch_xy_goal_tolerance: bool = param(False)
-    controller_frequency: float = param(
-        20.0, lo=0.1, hi=1000.0, unit="Hz", doc="move_base's, sets sim_period"
-    )
+    controller_frequency: float = param(20.0, lo=0.1, hi=1000.0, unit="Hz", doc="move_base's, sets sim_period")
+
+    def __post_init__(self):
+        if isinstance(self.y_vels, str):  # ROS gives y_vels as a string "-0.3,-0.1,0.1,0.3"
+            try:
+                vals = tuple(float(v) for v in self.y_vels.replace("[", " ").replace("]", " ")
+                             .replace(",", " ").split())
+            except ValueError as e:
+                raise ValueError(f"y_vels: expected numbers, got {self.y_vels!r}") from e
+            object.__setattr__(self, "y_vels", vals)
 
     def validate(self) -> None:
         if self.min_vel_x > self.max_vel_x:
@@ -77,94 +93,138 @@ class TrajectoryPlannerParams:
 
     def limits(self) -> Limits:
         return Limits(
-            vx=(self.min_vel_x, self.max_vel_x),
-            vy=(0.0, 0.0),
-            vth=(self.min_vel_theta, self.max_vel_theta),
-            min_in_place_vth=self.min_in_place_vel_theta,
-            max_in_place_vth=self.max_vel_theta,
-            max_trans_vel=max(self.max_vel_x, abs(self.escape_vel)),
-            min_trans_vel=0.0,
-            acc=(self.acc_lim_x, self.acc_lim_y, self.acc_lim_theta),
-            sim_period=1.0 / self.controller_frequency,
-            xy_goal_tolerance=self.xy_goal_tolerance,
-            yaw_goal_tolerance=self.yaw_goal_tolerance,
-            latch_xy_goal_tolerance=self.latch_xy_goal_tolerance,
-        )
+            vx=(self.min_vel_x, self.max_vel_x), vy=(0.0, 0.0), vth=(self.min_vel_theta, self.max_vel_theta),
+            min_in_place_vth=self.min_in_place_vel_theta, max_in_place_vth=self.max_rotational_vel,
+            max_trans_vel=max(self.max_vel_x, abs(self.escape_vel)), min_trans_vel=0.0,
+            acc=(self.acc_lim_x, self.acc_lim_y, self.acc_lim_theta), sim_period=1.0 / self.controller_frequency,
+            xy_goal_tolerance=self.xy_goal_tolerance, yaw_goal_tolerance=self.yaw_goal_tolerance,
+            latch_xy_goal_tolerance=self.latch_xy_goal_tolerance)
+
+
+def _window_samples(lo: float, hi: float, n: int) -> tuple[np.ndarray, float]:
+    """ROS's sampling: lo, lo + d, ... with d = (hi - lo) / (n - 1); (samples, d)."""
+    d = (hi - lo) / (n - 1) if n > 1 else 0.0
+    return lo + d * np.arange(n), d
 
 
 class TrajectoryPlanner(LocalPlanner):
     def __init__(self, params: TrajectoryPlannerParams | None = None):
         p = params or TrajectoryPlannerParams()
         self.params = p
-        osc = Oscillation(p.oscillation_reset_dist, 0.2)
-        self._path = PathDistance(p.pdist_scale)
-        self._goal = GoalDistance(p.gdist_scale)
-        super().__init__(
-            p.limits(),
-            ScoredSamplingPlanner([osc, ObstacleCost(p.occdist_scale), self._path, self._goal]),
-            osc,
-            p.prune_plan,
-        )
-        self._escape_from: np.ndarray | None = None
+        self.cost = TrajectoryCost(p)
+        self.flags = TPOscillation(p.oscillation_reset_dist)
+        super().__init__(p.limits(), ScoredSamplingPlanner([]), self.flags, p.prune_plan)
+        self._escape: np.ndarray | None = None  # pose where the escape started
+        self._spin = 0.0  # in-place turning (rad) since the robot last moved oscillation_reset_dist
+        self._spin_from: np.ndarray | None = None  # (x, y, theta) where that turning started / last seen
+        self._no_spin_from: np.ndarray | None = None  # where in-place rotation was left out
 
-    def compute_velocity(self, pose, velocity, grid, resolution, origin, footprint) -> LocalResult:
-        if not self.params.meter_scoring:  # base_local_planner counts distances in cells
-            self._path.scale = self.params.pdist_scale / resolution
-            self._goal.scale = self.params.gdist_scale / resolution
-        if (
-            self._escape_from is not None
-            and math.hypot(pose.x - self._escape_from[0], pose.y - self._escape_from[1])
-            >= self.params.escape_reset_dist
-        ):
-            self._escape_from = None
-        return super().compute_velocity(pose, velocity, grid, resolution, origin, footprint)
+    def _context(self, ctx: ScoringContext) -> ScoringContext:
+        ctx.within_robot = True  # TrajectoryPlanner::findBestPath marks the footprint cells
+        return ctx
 
-    def _window(self) -> float:
-        return self.limits.sim_period if self.params.dwa else self.params.sim_time
+    def _choose(self, ctx: ScoringContext) -> LocalResult:
+        p, pose, vel = self.params, ctx.pose, ctx.vel
+        t = self.limits.sim_period if p.dwa else p.sim_time
+        vmax = p.max_vel_x
+        if len(self._plan):  # slow down toward the plan's end (final_goal_dist / sim_time)
+            vmax = min(vmax, math.hypot(*(self._plan[-1, :2] - pose[:2])) / p.sim_time)
+        vx_hi = max(min(vmax, vel[0] + p.acc_lim_x * t), p.min_vel_x)
+        vx_lo = max(p.min_vel_x, vel[0] - p.acc_lim_x * t)
+        th_hi = min(p.max_vel_theta, vel[2] + p.acc_lim_theta * t)
+        th_lo = max(p.min_vel_theta, vel[2] - p.acc_lim_theta * t)
+        vxs, _ = _window_samples(vx_lo, vx_hi, p.vx_samples)
+        ths, dth = _window_samples(th_lo, th_hi, p.vtheta_samples)
+        escaping = self._escape is not None
+        fwd = []
+        if not escaping:
+            for vx in vxs:  # ROS order: vtheta 0 first, then min .. (the last sample is never max)
+                fwd.append((vx, 0.0, 0.0))
+                fwd.extend((vx, 0.0, th) for th in ths[:-1] if p.vtheta_samples > 1)
+            if p.holonomic_robot:
+                fwd += [(0.1, 0.1, 0.0), (0.1, -0.1, 0.0)]
+        spun = self._spun(pose, ctx.footprint)
+        rot = [] if spun else [(0.0, 0.0, max(th, p.min_in_place_vel_theta) if th > 0
+                                else min(th, -p.min_in_place_vel_theta)) for th in ths]
+        samples = np.array(fwd + rot, float).reshape(-1, 3)
+        trajs = self._rollout(pose, vel, samples)
+        costs = self.cost.score(trajs, ctx)
+        best = -1
+        for i in range(len(fwd)):  # strictly better wins: the first of equals stays
+            if costs[i] >= 0 and (best < 0 or costs[i] < costs[best]):
+                best = i
+        heading = math.inf
+        ahead = self.cost.lookahead_goal_distance(trajs, ctx, p.heading_lookahead)
+        for k, th in enumerate(ths[:len(rot)]):
+            i = len(fwd) + k
+            better = best < 0 or costs[i] <= costs[best] or samples[best, 1] != 0.0
+            if costs[i] < 0 or not better or not (th > dth or th < -dth) or not ahead[i] < heading:
+                continue
+            if (th < 0 and not self.flags.stuck_left) or (th > 0 and not self.flags.stuck_right):
+                best, heading = i, ahead[i]
+        if best < 0 and p.holonomic_robot:
+            strafe = np.array([(0.0, vy, 0.0) for vy in p.y_vels], float).reshape(-1, 3)
+            if len(strafe):
+                st = self._rollout(pose, vel, strafe)
+                sc, sa = self.cost.score(st, ctx), self.cost.lookahead_goal_distance(st, ctx, p.heading_lookahead)
+                for i, vy in enumerate(strafe[:, 1]):
+                    if sc[i] >= 0 and sa[i] < heading and ((vy > 0 and not self.flags.stuck_left_strafe)
+                                                          or (vy < 0 and not self.flags.stuck_right_strafe)):
+                        trajs, samples, costs, best, heading = st, strafe, sc, i, sa[i]
+        if best >= 0:
+            cmd = samples[best]
+            self.flags.chose(cmd, pose)
+            self._end_escape(pose)
+            return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.poses[best], len(samples))
+        return self._back_up(ctx, len(samples))
 
-    def _samples(self, vel: np.ndarray) -> np.ndarray:
-        p, t = self.params, self._window()
-        vx = linspace_window(
-            max(p.min_vel_x, vel[0] - p.acc_lim_x * t),
-            min(p.max_vel_x, vel[0] + p.acc_lim_x * t),
-            p.vx_samples,
-        )
-        vx = vx[vx > 0.0] if self._escape_from is None else vx[:0]
-        wlo = max(p.min_vel_theta, vel[2] - p.acc_lim_theta * t)
-        whi = min(p.max_vel_theta, vel[2] + p.acc_lim_theta * t)
-        w = linspace_window(wlo, whi, p.vtheta_samples)
-        parts = [sample_grid(vx, np.zeros(1), w)]
-        inplace = w[np.abs(w) >= p.min_in_place_vel_theta]  # rotate in place, above the friction floor
-        floor = [s * p.min_in_place_vel_theta for s in (-1, 1) if wlo <= s * p.min_in_place_vel_theta <= whi]
-        parts.append(sample_grid(np.zeros(1), np.zeros(1), np.unique(np.concatenate((inplace, floor)))))
-        if p.holonomic_robot:
-            parts.append(sample_grid(np.zeros(1), np.asarray(p.y_vels, float), np.zeros(1)))
-        if self._escape_from is not None:
-            parts.append(np.array([[p.escape_vel, 0.0, 0.0]]))
-        return np.vstack(parts)
+    def _spun(self, pose: np.ndarray, footprint: np.ndarray) -> bool:
+        """Leave in-place rotations out? Yes from a full revolution of in-place turning without moving
+        oscillation_reset_dist, until the robot has moved one circumscribed radius from there."""
+        reset = self.params.oscillation_reset_dist
+        if self._no_spin_from is not None:
+            if math.hypot(*(pose[:2] - self._no_spin_from[:2])) <= max(reset, footprint_radii(footprint)[1]):
+                return True
+            self._no_spin_from = None
+        start = self._spin_from
+        if start is None or math.hypot(*(pose[:2] - start[:2])) > reset:
+            self._spin, self._spin_from = 0.0, pose.copy()
+            return False
+        self._spin += abs(angle_diff(pose[2], start[2]))
+        start[2] = pose[2]
+        if self._spin < 2 * math.pi:
+            return False
+        self._spin, self._spin_from, self._no_spin_from = 0.0, None, pose.copy()
+        return True
 
-    def _simulate(self, pose: np.ndarray, vel: np.ndarray, samples: np.ndarray) -> Trajectories:
+    def _rollout(self, pose: np.ndarray, vel: np.ndarray, samples: np.ndarray) -> Trajectories:
         p = self.params
-        steps = num_steps(samples, p.sim_time, p.sim_granularity, p.angular_sim_granularity)
-        acc = None if p.dwa else np.array([p.acc_lim_x, p.acc_lim_y, p.acc_lim_theta])
-        return simulate(pose, vel, samples, p.sim_time, steps, acc)
+        steps = ros_steps(samples, p.sim_time, p.sim_granularity, p.angular_sim_granularity, p.heading_scoring)
+        acc = np.array([p.acc_lim_x, p.acc_lim_y, p.acc_lim_theta])
+        trajs, _ = simulate_ramped(pose, vel, samples, p.sim_time, steps, acc)
+        return trajs
 
-    def _all_rejected(self, ctx: ScoringContext, trajs: Trajectories, reason: str) -> LocalResult:
-        """Back up at escape_vel if that is collision-free (base_local_planner's escape)."""
-        p = self.params
+    def _back_up(self, ctx: ScoringContext, n: int) -> LocalResult:
+        """Nothing valid: back up at escape_vel (ROS's escape). zenav takes it only when the backward
+        trajectory is collision-free; otherwise the cycle fails and move_base's patience decides."""
+        p, pose = self.params, ctx.pose
+        reason = self.cost.reason or "every trajectory was rejected"
+        self.flags.moved(pose)
         if p.escape_vel < 0.0:
-            back = simulate(
-                ctx.pose,
-                ctx.vel,
-                np.array([[p.escape_vel, 0.0, 0.0]]),
-                p.sim_time,
-                num_steps(np.array([[p.escape_vel, 0, 0]]), p.sim_time, p.sim_granularity, 1.0),
-            )
-            self.collision.prepare(ctx)
-            if self.collision.score(back)[0] >= 0:
-                if self._escape_from is None:
-                    self._escape_from = ctx.pose.copy()
-                return LocalResult(
-                    (p.escape_vel, 0.0, 0.0), True, f"escaping: {reason}", back.poses[0], len(trajs) + 1
-                )
-        return super()._all_rejected(ctx, trajs, reason)
+            back = self._rollout(pose, ctx.vel, np.array([[p.escape_vel, 0.0, 0.0]]))
+            if self.cost.collision_free(back, ctx)[0]:
+                if self._escape is None:
+                    self._escape = pose.copy()
+                self._end_escape(pose)
+                return LocalResult((p.escape_vel, 0.0, 0.0), True, f"escaping: {reason}", back.poses[0], n + 1)
+        return LocalResult(self._brake(ctx.vel), False, reason, np.zeros((0, 3)), n + 1)
+
+    def _end_escape(self, pose: np.ndarray) -> None:
+        e = self._escape
+        if e is not None and (math.hypot(*(pose[:2] - e[:2])) > self.params.escape_reset_dist
+                              or abs(angle_diff(pose[2], e[2])) > self.params.escape_reset_theta):
+            self._escape = None
+
+    @property
+    def escaping(self) -> bool:
+        return self._escape is not None
