@@ -10,10 +10,6 @@ Zenoh network (multicast off), so a demo never talks to robots on the LAN.
 from __future__ import annotations
 
 import math
-import os
-import signal
-import subprocess
-import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
@@ -27,6 +23,7 @@ from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, O
 from common.zenoh_config import BusConfig
 from deploy import free_port
 from deploy.map_check import map_accuracy
+from deploy.procs import ProcessGroup
 from deploy.world_maps import export_world_map, world_path
 from master_side.mapping.map_io import save_map
 from robot_side.sim.world import parse_pose
@@ -81,7 +78,7 @@ def master_config(world: str, planner: str, out_dir: Path, slam: bool = False, a
     mapping it with SLAM as in the tutorial's section 3.6; absolute paths into the package."""
     mb, lp = PLANNERS[planner]
     common = str(MASTER_DIR / "p3at" / "costmap_common_params.yaml")
-    local = str(MASTER_DIR / "p3at" / "local_costmap_params.yaml")
+    local = str(MASTER_DIR / "p3at_local_costmap.yaml")
     if slam:
         first = {"slam_gmapping": {"module": "master_side.slam.node", "respawn": True,
                                    "params": {"gmapping": str(MASTER_DIR / "p3at" / "gmapping.yaml"),
@@ -104,7 +101,8 @@ def master_config(world: str, planner: str, out_dir: Path, slam: bool = False, a
                               "params": {"name": "local_costmap", "common": common, "specific": local}},
             "move_base": {"module": "master_side.move_base.node", "respawn": True,
                           "params": {"move_base": str(mb), "local_planner": str(lp),
-                                     "costmap_common": common, "local_costmap": local}},
+                                     "costmap_common": common, "local_costmap": local,
+                                     "global_costmap": global_specific}},
         },
     }
     path = out_dir / f"master_{world}.yaml"
@@ -116,9 +114,9 @@ class Demo:
     def __init__(self, opts: DemoOptions, echo=print) -> None:
         self.o, self.echo = opts, echo
         self.endpoint = f"tcp/127.0.0.1:{free_port()}"
-        self.procs: list[tuple[str, subprocess.Popen]] = []
         self.work = Path(opts.workdir or tempfile.mkdtemp(prefix="zenav-demo-"))
         self.work.mkdir(parents=True, exist_ok=True)
+        self.group = ProcessGroup(opts.robot, self.endpoint, self.work)
         self.node = Node("demo", config=BusConfig(robot=opts.robot, multicast=False, listen=(self.endpoint,)))
         self.truth = self.node.subscribe("ground_truth", Odometry)
         self.collisions = self.node.subscribe("collision", Collision)
@@ -127,44 +125,14 @@ class Demo:
         self.costmaps = [self.node.subscribe(f"{n}/costmap", Costmap) for n in ("global_costmap", "local_costmap")]
 
     # -- processes ---------------------------------------------------------------------------------
-    def _bus_args(self) -> list[str]:
-        return ["--robot", self.o.robot, "--no-multicast", "--connect", self.endpoint]
-
-    def spawn(self, name: str, args: list[str]) -> subprocess.Popen:
-        log = open(self.work / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self._bus_args()], stdout=log,
-                             stderr=subprocess.STDOUT, env=env, start_new_session=True, cwd=self.work)
-        self.procs.append((name, p))
-        return p
+    def spawn(self, name: str, args: list[str]):
+        return self.group.spawn(name, args)
 
     def stop(self, name: str | None = None, grace: float = 10.0) -> None:
-        keep = []
-        for n, p in self.procs:
-            if name is not None and n != name:
-                keep.append((n, p))
-                continue
-            if p.poll() is None:
-                os.killpg(p.pid, signal.SIGINT)
-                try:
-                    p.wait(grace)
-                except subprocess.TimeoutExpired:
-                    os.killpg(p.pid, signal.SIGKILL)
-                    p.wait(5)
-        self.procs = keep
-
-    def _check_alive(self) -> None:
-        for n, p in self.procs:
-            if p.poll() is not None:
-                raise RuntimeError(f"{n} exited with status {p.returncode} (log: {self.work / (n + '.log')})")
+        self.group.stop(name, grace)
 
     def _wait(self, what: str, cond, timeout: float) -> None:
-        t0 = time.monotonic()
-        while not cond():
-            self._check_alive()
-            if time.monotonic() - t0 > timeout:
-                raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
-            time.sleep(0.1)
+        self.group.wait(what, cond, timeout)
 
     # -- the scenario --------------------------------------------------------------------------------
     def run(self) -> bool:

@@ -1,13 +1,22 @@
-"""move_base parameters, named as in ROS move_base (the tutorial's move_base.yaml loads unchanged)."""
+"""move_base parameters, named as in ROS move_base (the tutorial's and BARN's move_base files load unchanged).
+
+move_base plans and controls in the frames of its costmaps, as ROS does: goals are converted to the
+global costmap's ``global_frame`` (``map`` for a known map, ``odom`` for BARN's odometry-only setup),
+the robot pose comes from its ``robot_base_frame``. Parameters of move_base that zenav does not
+implement are accepted and listed at start as having no effect.
+"""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 from common.config import param
 
 GLOBAL_PLANNERS = ("navfn/NavfnROS", "global_planner/GlobalPlanner", "nav_core/BaseGlobalPlanner")
-LOCAL_PLANNERS = ("dwa_local_planner/DWAPlannerROS", "base_local_planner/TrajectoryPlannerROS")
+LOCAL_PLANNERS = ("dwa_local_planner/DWAPlannerROS", "base_local_planner/TrajectoryPlannerROS",
+                  "zenav/RegulatedPurePursuit")
 
 
 @dataclass(frozen=True)
@@ -15,9 +24,9 @@ class MoveBaseParams:
     base_global_planner: str = param("navfn/NavfnROS", choices=GLOBAL_PLANNERS,
                                      doc="global planner plugin (navfn is the one implemented)")
     base_local_planner: str = param("base_local_planner/TrajectoryPlannerROS", choices=LOCAL_PLANNERS,
-                                    doc="local planner plugin: DWA or trajectory rollout")
+                                    doc="local planner: DWA, trajectory rollout, or zenav's regulated pure pursuit")
     controller_frequency: float = param(20.0, lo=0.1, hi=100.0, unit="Hz", doc="control loop rate")
-    planner_frequency: float = param(0.0, lo=0.0, hi=50.0, unit="Hz",
+    planner_frequency: float = param(0.0, lo=0.0, hi=100.0, unit="Hz",
                                      doc="global replanning rate; 0 = plan only on a new goal or failure")
     controller_patience: float = param(15.0, lo=0.0, unit="s",
                                        doc="time without a valid command before recovery")
@@ -27,12 +36,12 @@ class MoveBaseParams:
                                            doc="costmap reset keeps obstacles within this square")
     recovery_behavior_enabled: bool = param(True, doc="run recovery behaviours when stuck")
     clearing_rotation_allowed: bool = param(True, doc="allow in-place rotation recoveries")
-    shutdown_costmaps: bool = param(False, doc="(accepted for compatibility; costmaps keep running)")
+    recovery_behaviors: Any = param(None, doc="[{name, type}, ...] (clear_costmap_recovery/ClearCostmapRecovery, "
+                                              "rotate_recovery/RotateRecovery); default: ROS's four")
     oscillation_timeout: float = param(0.0, lo=0.0, unit="s",
                                        doc="time to move oscillation_distance before recovery; 0 = off")
     oscillation_distance: float = param(0.5, lo=0.0, unit="m")
-    rotate_recovery_vel: float = param(0.5, lo=0.05, hi=3.0, unit="rad/s",
-                                       doc="in-place rotation speed of the rotate recovery")
-    global_frame: str = param("map", doc="frame goals are converted to and plans are made in")
-    robot_base_frame: str = param("base_link")
-    transform_tolerance: float = param(0.5, lo=0.0, unit="s", doc="max age of the robot pose TF")
+    max_in_place_rotation: float = param(
+        4 * math.pi, lo=0.0, unit="rad",
+        doc="zenav: in-place turning without translating (valid commands) that counts as a failed "
+            "controller; 0 = off (ROS has no such check)")

@@ -1,12 +1,25 @@
-"""move_base as an explicit state machine (pure: no bus, no clock of its own).
+"""move_base as an explicit state machine (pure: no bus, no clock of its own), following move_base.cpp.
 
 States: IDLE → PLANNING → CONTROLLING → (CLEARING → PLANNING …) → IDLE with a terminal status
 (SUCCEEDED, ABORTED, PREEMPTED). The node calls ``tick(now, pose, velocity)`` at
 controller_frequency and publishes the returned command; ``reason`` always says, in one line, why
 the robot is not moving towards an active goal (empty while it makes progress).
 
-Collaborators are small protocols, supplied by the node:
-  planner(start: Pose2D, goal: Pose2D) -> (path (N,3), goal_used: Pose2D)   raises PlannerError-like
+As in ROS: the global planner runs on its own (``planner_thread``): while PLANNING the machine waits
+for it (zero velocity), a plan moves it to CONTROLLING, failures past ``planner_patience`` (or
+``max_planning_retries``) start a recovery; while CONTROLLING the planner keeps replanning at
+``planner_frequency`` and each new plan goes to the controller. A cycle without a valid command goes
+back to PLANNING, or, once ``controller_patience`` has passed since the last valid command, to a
+recovery. Moving ``oscillation_distance`` resets the ``oscillation_timeout`` clock. The recovery index
+goes back to 0 when the condition that triggered the recovery clears (a plan, a valid command, progress).
+
+zenav's addition (``max_in_place_rotation``): valid commands that only turn the robot in place for a
+full revolution without it getting anywhere count as a failed controller (recovery), so a local
+planner that prefers spinning to entering a tight gap cannot spin until the goal's timeout.
+
+Collaborators, supplied by the node:
+  planner: start(goal) / stop() / wake() / poll(now, pose) -> PlanOutcome (see planner_thread); a plain
+           callable planner(start, goal) -> (path, goal_used) is wrapped in an ImmediatePlanner
   controller.set_plan(path); controller.compute(pose, velocity) -> ControlResult;
   controller.goal_reached(pose, velocity) -> bool
   recoveries: list of RecoveryBehavior (see recovery.py)
@@ -20,9 +33,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from common.geometry import Pose2D
+from common.geometry import Pose2D, normalize_angle
 from common.messages import GoalStatus
 from master_side.move_base.params import MoveBaseParams
+from master_side.move_base.planner_thread import ImmediatePlanner
 
 
 class State(enum.Enum):
@@ -30,6 +44,13 @@ class State(enum.Enum):
     PLANNING = "PLANNING"
     CONTROLLING = "CONTROLLING"
     CLEARING = "CLEARING"
+
+
+class Trigger(enum.Enum):
+    """What started the current recovery sequence (move_base's recovery_trigger_)."""
+    PLANNING = "planning"
+    CONTROLLING = "controlling"
+    OSCILLATION = "oscillation"
 
 
 @dataclass(frozen=True)
@@ -48,11 +69,12 @@ class Decision:
     state: State
     status: int  # GoalStatus code of the current goal (or of the last one when IDLE)
     reason: str
-    new_plan: np.ndarray | None = None  # set when a plan was (re)computed this tick
+    new_plan: np.ndarray | None = None  # set when a new plan reached the controller this tick
     event: str = ""  # state-change text for the log ("" if none)
 
 
 ZERO = (0.0, 0.0, 0.0)
+IN_PLACE = 0.01  # m/s: a command slower than this turns the robot in place
 
 
 @dataclass
@@ -71,144 +93,187 @@ class MoveBaseMachine:
     recoveries: list = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        if callable(self.planner) and not hasattr(self.planner, "poll"):
+            self.planner = ImmediatePlanner(self.planner, self.params.planner_frequency)
         self.state = State.IDLE
         self.status = GoalStatus.PENDING
         self.goal: _Goal | None = None
         self.reason = "no goal"
         self.recovery_index = 0
-        self._last_plan_time = -math.inf
-        self._plan_fail_since: float | None = None
-        self._last_valid_control = 0.0
-        self._osc_pose: Pose2D | None = None
-        self._osc_time = 0.0
+        self.trigger: Trigger | None = None
         self._recovery = None
-        self._plan_failures = 0
         self._pending_event = ""
+        self._reset_clocks(0.0, None)
+
+    def _reset_clocks(self, now: float, pose: Pose2D | None) -> None:
+        self._last_valid_plan = self._last_valid_control = self._osc_time = now
+        self._osc_pose = pose
+        self._retries = 0
+        self._spin = 0.0
+        self._spin_yaw: float | None = None
 
     # -- goal management -----------------------------------------------------------------------
     def set_goal(self, goal_id: str, goal: Pose2D, now: float) -> None:
         """A new goal (already in the global frame) preempts any current one."""
         self.goal = _Goal(goal_id, goal)
         self.status = GoalStatus.ACTIVE
-        self.recovery_index = 0
-        self._recovery = None
-        self._plan_failures = 0
-        self._plan_fail_since = None
-        self._enter(State.PLANNING, now, f"new goal {goal_id} at ({goal.x:.2f}, {goal.y:.2f}, {goal.theta:.2f})")
-        self._last_plan_time = -math.inf
+        self.recovery_index, self.trigger, self._recovery = 0, None, None
+        self._reset_clocks(now, None)
+        self.planner.start(goal)
+        self._enter(State.PLANNING, f"new goal {goal_id} at ({goal.x:.2f}, {goal.y:.2f}, {goal.theta:.2f})")
+        self.reason = "waiting for a global plan"
 
     def cancel(self, now: float) -> Decision:
         """Cancel from any state: zero velocity now, status PREEMPTED."""
         if self.goal is not None and self.state is not State.IDLE:
             self.status = GoalStatus.PREEMPTED
-            self._enter(State.IDLE, now, "goal cancelled")
-            self.reason = "goal cancelled"
+            self._finish("goal cancelled")
         return self._decide(ZERO)
 
     # -- one control cycle ---------------------------------------------------------------------
     def tick(self, now: float, pose: Pose2D | None, velocity: tuple[float, float, float],
-             pose_problem: str = "") -> Decision:
+             pose_problem: str = "", blocked: str = "") -> Decision:
+        """One cycle. ``blocked``: a reason the base must not move this cycle (stale sensor data); it
+        stops the robot like ROS's "sensor data is out of date" without consuming patience."""
         if self.state is State.IDLE or self.goal is None:
             return self._decide(ZERO)
         if pose is None:
             # Cannot localise (stale or missing TF): stop and say why; do not run out of patience.
             self.reason = pose_problem or "robot pose unknown"
             return self._decide(ZERO)
+        p = self.params
+        if self._osc_pose is None or pose.distance(self._osc_pose) >= p.oscillation_distance:
+            self._osc_pose, self._osc_time = pose, now
+            if self.trigger is Trigger.OSCILLATION:
+                self.recovery_index = 0
+        if blocked:
+            self.reason = blocked
+            return self._decide(ZERO)
+        new_plan = self._take_plan(now, pose)
+        if self.state is State.IDLE:  # planning failed past patience with no recovery left: aborted
+            return self._decide(ZERO)
         if self.state is State.CLEARING:
             return self._tick_clearing(now, pose, velocity)
-        new_plan = self._maybe_plan(now, pose)
-        if self.state is not State.CONTROLLING:
+        if self.state is State.PLANNING:
+            self.planner.wake()
             return self._decide(ZERO, new_plan)
         return self._tick_controlling(now, pose, velocity, new_plan)
 
-    def _maybe_plan(self, now: float, pose: Pose2D) -> np.ndarray | None:
+    def _take_plan(self, now: float, pose: Pose2D) -> np.ndarray | None:
+        out = self.planner.poll(now, pose)
         p = self.params
-        due = self.state is State.PLANNING or (
-            p.planner_frequency > 0 and now - self._last_plan_time >= 1.0 / p.planner_frequency)
-        if not due:
-            return None
-        self._last_plan_time = now
-        try:
-            path, used = self.planner(pose, self.goal.pose)
-        except Exception as e:  # planner failures are typed exceptions; any error = no plan
-            self._plan_failures += 1
-            if self._plan_fail_since is None:
-                self._plan_fail_since = now
-            waited = now - self._plan_fail_since
-            # While CONTROLLING the old plan is still followed, as move_base does.
-            self.reason = f"no plan: {e} (for {waited:.1f} s, planner_patience {p.planner_patience:.1f} s)"
-            over_retries = 0 <= p.max_planning_retries < self._plan_failures
-            if waited > p.planner_patience or over_retries:
-                self._start_recovery(now, f"no plan for {waited:.1f} s: {e}")
-            return None
-        self._plan_fail_since = None
-        self._plan_failures = 0
-        self.goal.path, self.goal.used = path, used
-        self.controller.set_plan(path)
-        if self.state is State.PLANNING:
-            self._last_valid_control = now
-            self._osc_pose, self._osc_time = pose, now
-            self._enter(State.CONTROLLING, now, f"plan found ({len(path)} poses)")
-        return path
+        if out.path is not None:
+            self.goal.path, self.goal.used = out.path, out.goal_used
+            self.controller.set_plan(out.path)
+            self._last_valid_plan, self._retries = now, 0
+            if self.trigger is Trigger.PLANNING:
+                self.recovery_index = 0
+            if self.state is State.PLANNING:
+                self._enter(State.CONTROLLING, f"plan found ({len(out.path)} poses)")
+                self.reason = ""
+            return out.path
+        if out.failures and self.state is State.PLANNING:
+            self._retries += out.failures
+            waited = now - self._last_valid_plan
+            self.reason = f"no plan: {out.error} (for {waited:.1f} s, planner_patience {p.planner_patience:.1f} s)"
+            if waited > p.planner_patience or 0 <= p.max_planning_retries < self._retries:
+                self.planner.stop()
+                self._start_recovery(Trigger.PLANNING, f"no plan for {waited:.1f} s: {out.error}")
+        elif out.failures:  # replanning failed while controlling: keep following the old plan
+            self.reason = f"replanning failed ({out.error}); following the previous plan"
+        return None
 
     def _tick_controlling(self, now: float, pose: Pose2D, velocity, new_plan) -> Decision:
         p = self.params
         if self.controller.goal_reached(pose, velocity):
             self.status = GoalStatus.SUCCEEDED
-            self._enter(State.IDLE, now, "goal reached")
-            self.reason = "goal reached"
+            self._finish("goal reached")
             return self._decide(ZERO, new_plan)
-        # Oscillation / no progress check (oscillation_timeout 0 disables it).
-        if self._osc_pose is None or pose.distance(self._osc_pose) >= p.oscillation_distance:
-            self._osc_pose, self._osc_time = pose, now
-            self.recovery_index = 0 if self._recovery is None else self.recovery_index
-        elif p.oscillation_timeout > 0 and now - self._osc_time > p.oscillation_timeout:
-            self._start_recovery(now, f"oscillating: moved < {p.oscillation_distance} m in "
-                                      f"{p.oscillation_timeout:.1f} s")
-            return self._decide(ZERO, new_plan)
+        cmd = ZERO
+        if p.oscillation_timeout > 0 and now - self._osc_time > p.oscillation_timeout:
+            self._start_recovery(Trigger.OSCILLATION, f"oscillating: moved < {p.oscillation_distance} m in "
+                                                      f"{p.oscillation_timeout:.1f} s")
         res = self.controller.compute(pose, velocity)
-        if res.ok:
+        spin = self._spun(pose, res.cmd) if res.ok else ""
+        if res.ok and not spin:
             self._last_valid_control = now
-            self.reason = ""
-            return self._decide(tuple(res.cmd), new_plan)
+            if self.trigger is Trigger.CONTROLLING:
+                self.recovery_index = 0
+            if self.state is State.CONTROLLING:
+                self.reason = ""
+                cmd = tuple(res.cmd)
+            return self._decide(cmd, new_plan)
+        if self.state is not State.CONTROLLING:  # the oscillation check started a recovery
+            return self._decide(ZERO, new_plan)
+        if spin:
+            self._start_recovery(Trigger.CONTROLLING, spin)
+            return self._decide(ZERO, new_plan)
         waited = now - self._last_valid_control
         self.reason = f"no valid command: {res.reason} (for {waited:.1f} s, controller_patience " \
                       f"{p.controller_patience:.1f} s)"
         if waited > p.controller_patience:
-            self._start_recovery(now, f"controller failed for {waited:.1f} s: {res.reason}")
-        else:
-            self._last_plan_time = -math.inf  # ask for a fresh plan next cycle
+            self._start_recovery(Trigger.CONTROLLING, f"controller failed for {waited:.1f} s: {res.reason}")
+        else:  # ROS: back to planning (the robot stops until a new plan arrives)
+            self._last_valid_plan, self._retries = now, 0
+            self.planner.start(self.goal.pose)
+            self._enter(State.PLANNING, f"no valid command ({res.reason}); replanning")
         return self._decide(ZERO, new_plan)
 
-    def _start_recovery(self, now: float, why: str) -> None:
+    def _spun(self, pose: Pose2D, cmd) -> str:
+        """'' or why the in-place turning has gone on too long (zenav's max_in_place_rotation)."""
+        limit = self.params.max_in_place_rotation
+        if limit <= 0 or math.hypot(cmd[0], cmd[1]) >= IN_PLACE:
+            self._spin, self._spin_yaw = 0.0, None
+            return ""
+        if self._spin_yaw is not None:
+            self._spin += abs(normalize_angle(pose.theta - self._spin_yaw))
+        self._spin_yaw = pose.theta
+        if self._spin < limit:
+            return ""
+        self._spin, self._spin_yaw = 0.0, None
+        return f"turned {limit:.1f} rad in place without moving (the local planner finds nothing better)"
+
+    def _start_recovery(self, trigger: Trigger, why: str) -> None:
         enabled = [r for r in self.recoveries if r.enabled(self.params)]
         if not self.params.recovery_behavior_enabled:
             enabled = []
+        self.trigger = trigger
         if self.recovery_index >= len(enabled):
+            self.planner.stop()
             self.status = GoalStatus.ABORTED
             tried = f"after {self.recovery_index} recoveries" if enabled else "recovery disabled"
-            self._enter(State.IDLE, now, f"aborted: {why} ({tried})")
-            self.reason = f"aborted: {why} ({tried})"
+            self._finish(f"aborted: {why} ({tried})")
             return
         self._recovery = enabled[self.recovery_index]
         self.recovery_index += 1
-        self._recovery.start(now)
-        self._enter(State.CLEARING, now, f"recovery {self.recovery_index}/{len(enabled)} "
-                                          f"({self._recovery.name}) because {why}")
+        self._recovery.start_pending = True
+        self._enter(State.CLEARING, f"recovery {self.recovery_index}/{len(enabled)} "
+                                    f"({self._recovery.name}) because {why}")
         self.reason = f"recovery {self.recovery_index}/{len(enabled)}: {self._recovery.name} ({why})"
 
     def _tick_clearing(self, now: float, pose: Pose2D, velocity) -> Decision:
-        cmd, done = self._recovery.step(now, pose, velocity)
+        r = self._recovery
+        if getattr(r, "start_pending", False):
+            r.start_pending = False
+            r.start(now)
+        cmd, done = r.step(now, pose, velocity)
         if done:
             self._recovery = None
-            self._plan_fail_since = None
-            self._enter(State.PLANNING, now, "recovery done, replanning")
-            self._last_plan_time = -math.inf
+            self._osc_time, self._last_valid_plan, self._retries = now, now, 0
+            self._spin, self._spin_yaw = 0.0, None
+            self.planner.start(self.goal.pose)
+            self._enter(State.PLANNING, "recovery done, replanning")
+            self.reason = "waiting for a global plan"
             return self._decide(ZERO)
         return self._decide(tuple(cmd))
 
     # -- helpers -------------------------------------------------------------------------------
-    def _enter(self, state: State, now: float, event: str) -> None:
+    def _finish(self, why: str) -> None:
+        self.planner.stop()
+        self._enter(State.IDLE, why)
+        self.reason = why
+
+    def _enter(self, state: State, event: str) -> None:
         self.state = state
         self._pending_event = f"{state.value}: {event}"
 

@@ -150,3 +150,20 @@ def test_oscillation_timeout_triggers_recovery():
         m.tick(t, Pose2D(0.01, 0, 0), (0, 0, 0))
         t += 0.1
     assert cleared and 1.0 < t < 1.5
+
+
+def test_planning_failure_after_the_last_recovery_aborts_even_with_an_old_plan_in_the_controller():
+    """A goal reached earlier leaves its plan in the controller; an unreachable next goal must abort, not
+    'succeed' on that old plan."""
+    ctl = ScriptedController(reached_after=0)  # the robot stands at the previous goal
+    recs = [ClearCostmapRecovery(lambda d: None, 3.0)]
+    m = machine(controller=ctl, recoveries=recs, planner_patience=0.5)
+    m.set_goal("a", Pose2D(1, 0, 0), 0.0)
+    assert m.tick(0.1, Pose2D(1, 0, 0), (0, 0, 0)).status == GoalStatus.SUCCEEDED
+    m.planner.plan = ScriptedPlanner(fail=True)
+    m.set_goal("b", Pose2D(10, 10, 0), 0.2)
+    t, d = 0.2, None
+    while m.state is not State.IDLE and t < 10:
+        t += 0.1
+        d = m.tick(t, Pose2D(1, 0, 0), (0, 0, 0))
+    assert d.status == GoalStatus.ABORTED and "unreachable" in d.reason

@@ -1,0 +1,60 @@
+"""A group of `zenav` subprocesses on a private loopback Zenoh network (the demo, the BARN bench).
+
+Each process is ``python -m deploy.cli <args> --robot R --no-multicast --connect <endpoint>`` in its
+own session (so Ctrl-C / SIGINT reaches its children), logging to ``<workdir>/<name>.log``.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+
+class ProcessGroup:
+    def __init__(self, robot: str, endpoint: str, workdir: Path):
+        self.robot, self.endpoint, self.work = robot, endpoint, Path(workdir)
+        self.procs: list[tuple[str, subprocess.Popen]] = []
+
+    def bus_args(self) -> list[str]:
+        return ["--robot", self.robot, "--no-multicast", "--connect", self.endpoint]
+
+    def spawn(self, name: str, args: list[str]) -> subprocess.Popen:
+        log = open(self.work / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self.bus_args()], stdout=log,
+                             stderr=subprocess.STDOUT, env=env, start_new_session=True, cwd=self.work)
+        self.procs.append((name, p))
+        return p
+
+    def stop(self, name: str | None = None, grace: float = 10.0) -> None:
+        """SIGINT the process (all when ``name`` is None), SIGKILL after ``grace`` s."""
+        keep = []
+        for n, p in self.procs:
+            if name is not None and n != name:
+                keep.append((n, p))
+                continue
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGINT)
+                try:
+                    p.wait(grace)
+                except subprocess.TimeoutExpired:
+                    os.killpg(p.pid, signal.SIGKILL)
+                    p.wait(5)
+        self.procs = keep
+
+    def check_alive(self, ignore: tuple[str, ...] = ()) -> None:
+        for n, p in self.procs:
+            if n not in ignore and p.poll() is not None:
+                raise RuntimeError(f"{n} exited with status {p.returncode} (log: {self.work / (n + '.log')})")
+
+    def wait(self, what: str, cond, timeout: float, ignore: tuple[str, ...] = ()) -> None:
+        t0 = time.monotonic()
+        while not cond():
+            self.check_alive(ignore)
+            if time.monotonic() - t0 > timeout:
+                raise RuntimeError(f"timed out after {timeout:.0f} s waiting for {what}")
+            time.sleep(0.1)
