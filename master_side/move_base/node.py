@@ -4,7 +4,8 @@ Config: see ``master_side.move_base.config`` (move_base, local_planner, global_p
 local_costmap, global_costmap). Frames as in ROS: plans in the global costmap's ``global_frame``
 (from ``global_costmap`` if given, else from the global costmap messages), controls in the local
 costmap's; the robot frame and TF tolerance are the costmaps'. The global planner runs on its own
-thread (``planner_thread``), so a slow plan never delays the control cycle.
+thread (``planner_thread``), so a slow plan never delays the control cycle; the thread hands the
+work to a navfn worker process (``planner_process``), so it does not take the interpreter lock either.
 
 Topics: in ``move_base_simple/goal`` (PoseStamped, any frame), ``move_base/goal`` (MoveBaseGoal, with
 an id), ``move_base/cancel`` (any message), ``odom``, ``global_costmap/costmap``,
@@ -17,6 +18,7 @@ in the status), TF. Out ``cmd_vel``, ``move_base/status`` + ``move_base/result``
 from __future__ import annotations
 
 import itertools
+import sys
 import threading
 import time
 
@@ -44,6 +46,7 @@ from common.tf import TFListener
 from master_side.costmap.health import SensorHealth
 from master_side.move_base.config import check, load_move_base_config
 from master_side.move_base.controller import LocalController
+from master_side.move_base.planner_process import NavfnProcess
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
 from master_side.move_base.state_machine import MoveBaseMachine, State
@@ -63,7 +66,7 @@ class MoveBaseNode:
         self.local_frame, self.base_frame = strip_frame(c.local_frame), c.base_frame
         self._global_frame = c.global_frame
         self.controller = LocalController(c.make_local_planner(), c.footprint)
-        self.navfn = NavFn(c.navfn)
+        self.navfn = NavfnProcess(c.navfn)  # plans in a worker process: the control loop keeps its GIL
         self.tf = TFListener(node)
         self.lock = threading.RLock()
         self.cmd_lock = threading.Lock()  # orders cycle commands against cancel's immediate stop
@@ -280,11 +283,15 @@ class MoveBaseNode:
     def close(self) -> None:
         self.timer.cancel()
         self.planner.close()
+        self.navfn.close()
         self.cmd.publish(Twist())
         self.tf.close()
 
 
 def start(node: Node, cfg: dict, source: str) -> MoveBaseNode:
+    # The bus's receiving threads share the GIL with the control cycle: hand it over every 1 ms
+    # instead of Python's 5 ms, so decoding a costmap delays a cycle by little.
+    sys.setswitchinterval(0.001)
     return MoveBaseNode(node, cfg or {}, source)
 
 

@@ -40,8 +40,7 @@ class _Lattice:
         self.shape, self.n = shape, n
         self.dst = dst[order].astype(np.int32)
         counts = np.bincount(src, minlength=n)
-        # rows: cells 0..n-1, the dead end n (no edges), the virtual source n+1 (edges appended per fill)
-        self.indptr = np.concatenate(([0], np.cumsum(counts), [len(dst), len(dst)])).astype(np.int32)
+        self.indptr = np.concatenate(([0], np.cumsum(counts))).astype(np.int32)  # rows of the n cells
         # positions in ``dst`` of each cell's out-edges, padded with len(dst) (a spare slot)
         k = np.arange(4)[None, :]
         out = self.indptr[:n, None] + k
@@ -59,42 +58,55 @@ class _Lattice:
         ``passable`` (n,) bool: cells the fill may enter; ``targets`` flat indices (depth 0; they are
         expanded even when not passable, as ROS expands every plan cell it marks).
         """
-        n = self.n
-        out = np.full(n, IMPOSSIBLE)
-        targets = np.unique(np.asarray(targets, np.int64))
-        if targets.size == 0:
-            return out.reshape(self.shape)
-        # Blocked cells are reached but expand nothing (their out-edges lead to the dead end); their
+        return self.fill_many(passable, [targets])[0]
+
+    def fill_many(self, passable: np.ndarray, target_sets: list[np.ndarray]) -> list[np.ndarray]:
+        """``fill`` for several target sets on the same grid: one graph, one virtual source per set."""
+        n, k = self.n, len(target_sets)
+        sets = [np.unique(np.asarray(t, np.int64)) for t in target_sets]
+        # Blocked cells are reached but expand nothing (their out-edges lead to the dead end n); their
         # depth is overwritten with IMPOSSIBLE below. Targets expand even when blocked.
         blocked = ~passable
-        blocked[targets] = False
-        ind = np.empty(len(self.dst) + 1, np.int32)
-        ind[:-1] = self.dst
+        for t in sets:
+            blocked[t] = False
+        m = len(self.dst)
+        ind = np.empty(m + 1 + sum(len(t) for t in sets), np.int32)
+        ind[:m] = self.dst
+        ind[m] = n  # the spare slot the padding of out_edges points at
         ind[self.out_edges[blocked]] = n
-        ind = ind[:-1]
-        indptr = self.indptr.copy()
-        indptr[-1] = len(ind) + len(targets)
-        graph = csr_matrix((self._ones(indptr[-1]), np.concatenate((ind, targets.astype(np.int32))), indptr),
-                           shape=(n + 2, n + 2))
+        ends = m + 1 + np.cumsum([len(t) for t in sets])
+        ind[m + 1:] = np.concatenate(sets) if sets else []
+        # rows: cells 0..n-1, dead end n (no edges), virtual source n + 1 + i for target set i
+        indptr = np.concatenate((self.indptr[:n + 1], [m + 1], ends)).astype(np.int32)
+        graph = csr_matrix((self._ones(len(ind)), ind, indptr), shape=(n + 1 + k, n + 1 + k))
         graph.has_sorted_indices = True  # order and duplicates do not matter to a BFS: skip canonicalising
-        order, pred = breadth_first_order(graph, n + 1, directed=True, return_predecessors=True)
-        order = order[1:]  # drop the virtual source
-        order = order[order != n]
-        m = len(order)
-        pos = np.empty(n + 2, np.int64)
-        pos[n + 1] = -1
-        pos[order] = np.arange(m)
-        # BFS order is by depth, and the parents' positions never decrease along it, so level k + 1
-        # is the run of nodes whose parents lie in level k: below(j) = how many nodes have a parent
-        # before position j, and the level boundaries are its iterates from 0.
-        below = np.cumsum(np.bincount(pos[pred[order]] + 1, minlength=m + 1))
-        bounds = [0]
-        while bounds[-1] < m:
-            bounds.append(max(int(below[bounds[-1]]), bounds[-1] + 1))
-        depth = np.repeat(np.arange(len(bounds) - 1, dtype=np.float64), np.diff(bounds))
-        out[order] = depth
-        out[blocked] = IMPOSSIBLE
-        return out.reshape(self.shape)
+        outs = []
+        for i, targets in enumerate(sets):
+            out = np.full(n, IMPOSSIBLE)
+            if targets.size:
+                order, depth = _depths(graph, n, n + 1 + i)
+                out[order] = depth
+                out[blocked] = IMPOSSIBLE
+            outs.append(out.reshape(self.shape))
+        return outs
+
+
+def _depths(graph, n: int, source: int) -> tuple[np.ndarray, np.ndarray]:
+    """(cells reached, their BFS depth from the virtual ``source``'s targets) on ``graph``."""
+    order, pred = breadth_first_order(graph, source, directed=True, return_predecessors=True)
+    order = order[1:]  # drop the virtual source
+    order = order[order != n]  # and the dead end
+    m = len(order)
+    pos = np.full(graph.shape[0], -1, np.int64)
+    pos[order] = np.arange(m)
+    # BFS order is by depth, and the parents' positions never decrease along it, so level k + 1 is the
+    # run of nodes whose parents lie in level k: below(j) = how many nodes have a parent before position
+    # j, and the level boundaries are its iterates from 0.
+    below = np.cumsum(np.bincount(pos[pred[order]] + 1, minlength=m + 1))
+    bounds = [0]
+    while bounds[-1] < m:
+        bounds.append(max(int(below[bounds[-1]]), bounds[-1] + 1))
+    return order, np.repeat(np.arange(len(bounds) - 1, dtype=np.float64), np.diff(bounds))
 
 
 _LATTICES: dict[tuple[int, int], _Lattice] = {}
@@ -166,9 +178,17 @@ class MapGrid:
 
     def goal_distance(self, plan_xy: np.ndarray) -> np.ndarray:
         """Cells to the local goal."""
+        return self.lattice.fill(self.passable, self._goal_targets(plan_xy))
+
+    def distances(self, plan_xy: np.ndarray, goal_plans: tuple[np.ndarray, ...] = ()) -> list[np.ndarray]:
+        """[path distance, goal distance of each of ``goal_plans`` (default: of the plan)] in one go."""
+        cells = plan_cells(self.grid, self.resolution, self.origin, plan_xy)
+        goals = [self._goal_targets(g) for g in goal_plans] if goal_plans else [cells[-1:]]
+        return self.lattice.fill_many(self.passable, [cells, *goals])
+
+    def _goal_targets(self, plan_xy: np.ndarray) -> np.ndarray:
         cell = self.local_goal_cell(plan_xy)
-        targets = np.zeros(0, np.int64) if cell is None else np.array([cell])
-        return self.lattice.fill(self.passable, targets)
+        return np.zeros(0, np.int64) if cell is None else np.array([cell])
 
     def goal_xy(self, plan_xy: np.ndarray) -> np.ndarray | None:
         """World coordinates of the local goal cell's centre."""

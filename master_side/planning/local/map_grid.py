@@ -52,14 +52,16 @@ class ScoringContext:
 
     def path_distance(self) -> np.ndarray:
         """(H, W) flood-fill cells to the plan (inf: obstacle or no way there)."""
-        if "path" not in self._cache:
-            self._cache["path"] = self.map_grid().path_distance(self.plan[:, :2])
+        if "path" not in self._cache:  # with the goal distance: one graph for both fills
+            self._cache["path"], self._cache[("goal", 0.0)] = self.map_grid().distances(self.plan[:, :2])
         return self._cache["path"]
 
     def goal_distance(self, front: float = 0.0) -> np.ndarray:
         """(H, W) flood-fill cells to the local goal; ``front`` > 0: of the plan whose last pose is
         pushed that far along the robot -> goal direction (DWA's goal_front costs)."""
-        key = ("goal", front)
+        key = ("goal", float(front))
+        if key == ("goal", 0.0):
+            self.path_distance()
         if key not in self._cache:
             xy = self.plan[:, :2].copy()
             if front > 0.0 and len(xy):
