@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from master_side.costmap.costmap2d import points_in_polygon
 from master_side.planning.local.grid_distance import MapGrid, densify
 
 
@@ -89,23 +90,9 @@ def footprint_cells(pose: np.ndarray, footprint: np.ndarray, ctx: ScoringContext
         return mask
     cols, rows = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
     centres = (np.column_stack((cols.ravel(), rows.ravel())) + 0.5) * ctx.resolution + ctx.origin
-    hit = _inside_polygon(centres, world)
+    hit = points_in_polygon(centres[:, 0], centres[:, 1], world)
     mask[rows.ravel()[hit], cols.ravel()[hit]] = True
     return mask
-
-
-def _inside_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Even-odd rule point-in-polygon for (P, 2) points."""
-    inside = np.zeros(len(pts), bool)
-    j = len(poly) - 1
-    for i in range(len(poly)):
-        (xi, yi), (xj, yj) = poly[i], poly[j]
-        cross = (yi > pts[:, 1]) != (yj > pts[:, 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xint = xi + (pts[:, 1] - yi) * (xj - xi) / (yj - yi)
-        inside ^= cross & (pts[:, 0] < xint)
-        j = i
-    return inside
 
 
 def footprint_outline(footprint: np.ndarray, spacing: float) -> np.ndarray:

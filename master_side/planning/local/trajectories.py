@@ -66,6 +66,13 @@ def simulate(
         lo = np.asarray(vel0, float)[None, None, :] - np.asarray(acc, float)[None, None, :] * k
         hi = np.asarray(vel0, float)[None, None, :] + np.asarray(acc, float)[None, None, :] * k
         v = np.clip(samples[:, None, :], lo, hi)
+    return Trajectories(_integrate(start, v, dt), samples)
+
+
+def _integrate(start: np.ndarray, v: np.ndarray, dt) -> np.ndarray:
+    """Poses (S, T + 1, 3) from ``start`` under robot-frame velocities ``v`` (S, T, 3) held ``dt`` (scalar
+    or (S, 1)) each: Euler steps with the heading at the start of each step, like base_local_planner."""
+    s, t = v.shape[:2]
     th = np.empty((s, t + 1))
     th[:, 0] = start[2]
     np.cumsum(v[:, :, 2] * dt, axis=1, out=th[:, 1:])
@@ -78,7 +85,7 @@ def simulate(
     poses[:, 1:, 0] += start[0]
     poses[:, 1:, 1] += start[1]
     poses[:, :, 2] = th
-    return Trajectories(poses, samples)
+    return poses
 
 
 def ros_steps(samples: np.ndarray, sim_time: float, sim_granularity: float, angular_granularity: float,
@@ -116,19 +123,7 @@ def simulate_ramped(start: np.ndarray, vel0: np.ndarray, samples: np.ndarray, si
         reach = acc[a] * k * dt
         v[:, :, a] = np.clip(samples[:, a:a + 1], vel0[a] - reach, vel0[a] + reach)
     v *= live[:, :, None]
-    th = np.empty((s, t))
-    th[:, 0] = start[2]
-    np.cumsum(v[:, :, 2] * dt, axis=1, out=th[:, 1:])
-    th[:, 1:] += start[2]
-    c, sn = np.cos(th[:, :-1]), np.sin(th[:, :-1])
-    poses = np.empty((s, t, 3))
-    poses[:, 0, 0], poses[:, 0, 1] = start[0], start[1]
-    np.cumsum((v[:, :, 0] * c - v[:, :, 1] * sn) * dt, axis=1, out=poses[:, 1:, 0])
-    np.cumsum((v[:, :, 0] * sn + v[:, :, 1] * c) * dt, axis=1, out=poses[:, 1:, 1])
-    poses[:, 1:, 0] += start[0]
-    poses[:, 1:, 1] += start[1]
-    poses[:, :, 2] = th
-    return Trajectories(poses, samples), steps
+    return Trajectories(_integrate(start, v, dt), samples), steps
 
 
 def num_steps(
