@@ -83,7 +83,10 @@ class MoveBaseConfig:
         return float(inscribed_circumscribed(self.footprint)[1])
 
     def make_local_planner(self):
-        return _local_planners()[self.local_kind][2](self.local_params)
+        planner = _local_planners()[self.local_kind][2](self.local_params)
+        if hasattr(planner, "footprint_padding"):  # the escape may check the robot's own outline
+            planner.footprint_padding = self.local_costmap.costmap.footprint_padding
+        return planner
 
 
 def _collect(problems: Problems, fn, *args, **kw):

@@ -81,6 +81,7 @@ class MoveBaseNode:
         self._last_terminal = None
         self._pose_global: Pose2D | None = None
         self._blind = ""
+        self._last_event = ("", float("-inf"), 0)
         self.health = SensorHealth(required=("local_costmap",))
         self.odom = node.subscribe("odom", Odometry)
         self.global_costmap = node.subscribe("global_costmap/costmap", Costmap)
@@ -244,13 +245,25 @@ class MoveBaseNode:
                     if cancels == self._cancels:  # else a cancel came in during this cycle: stay stopped
                         self.cmd.publish(Twist.planar(d.cmd[0], d.cmd[2], d.cmd[1]))
             if d.event:
-                self.node.log.info("%s", d.event)
+                self._log_event(d.event, now)
             self._report(pose)
         last = self.controller.last
         if self.machine.state is State.CONTROLLING and last is not None and last.trajectory is not None:
             traj = np.asarray(last.trajectory, float).reshape(-1, 3)
             self.lplan_pub.publish(Path(Header(now, self.local_frame), traj))
         self.loop_pub.publish(Scalar(Header(now, ""), time.perf_counter() - t0))
+
+    def _log_event(self, event: str, now: float) -> None:
+        """State changes to the log; the same change again within 2 s (a cycle that keeps going back to
+        PLANNING) is counted and said once with its count."""
+        last, since, count = self._last_event
+        if event == last and now - since < 2.0:
+            self._last_event = (last, since, count + 1)
+            return
+        if count:
+            self.node.log.info("(the last state change happened %d more times)", count)
+        self.node.log.info("%s", event)
+        self._last_event = (event, now, 0)
 
     def _report(self, pose: Pose2D | None) -> None:
         m = self.machine

@@ -10,24 +10,26 @@ the MapGrid flood-fill distances in cells (``meter_scoring``: metres), or ``head
 ``simple_attractor`` as in ROS. Defaults are the effective ROS ones (BaseLocalPlanner.cfg, whose
 dynamic-reconfigure values override the node's own param() defaults).
 
-Deliberate differences (see the README): after a full revolution of in-place turning without the robot
-moving ``oscillation_reset_dist``, in-place rotations are left out until it has moved one circumscribed
-radius (ROS would keep spinning
-whenever turning scores better than entering a tight gap, which with a large ``occdist_scale`` is
-always); the escape (backing up) is only taken when the backward
-trajectory is collision-free (ROS backs up even into an obstacle); ``acc_lim_th`` is read as
-``acc_lim_theta`` (ROS's TrajectoryPlannerROS ignores it); the goal approach (brake, rotate to the goal
-yaw) is zenav's shared profile (``base.LocalPlanner``), which never reverses the final rotation.
+Deliberate differences (see the README): after a full revolution of in-place turning without the
+robot moving ``oscillation_reset_dist``, in-place rotations are left out until it has moved one
+circumscribed radius (ROS keeps spinning whenever turning scores better than entering a tight gap,
+which with a large ``occdist_scale`` is always); the escape (backing up) is only taken when the
+backward trajectory is collision-free, for the robot's own outline when the padded footprint is
+already wedged (ROS backs up even into an obstacle); ``acc_lim_th`` is read as ``acc_lim_theta``
+(ROS's TrajectoryPlannerROS ignores it); the goal approach (brake, rotate to the goal yaw) is zenav's
+shared profile (``base.LocalPlanner``), which never reverses the final rotation.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from common.config import param
+from master_side.costmap.footprint import pad_footprint
 from master_side.planning.local.base import Limits, LocalPlanner, LocalResult
 from master_side.planning.local.map_grid import ScoringContext, angle_diff, footprint_radii
 from master_side.planning.local.scoring import ScoredSamplingPlanner
@@ -118,6 +120,7 @@ class TrajectoryPlanner(LocalPlanner):
         self._spin = 0.0  # in-place turning (rad) since the robot last moved oscillation_reset_dist
         self._spin_from: np.ndarray | None = None  # (x, y, theta) where that turning started / last seen
         self._no_spin_from: np.ndarray | None = None  # where in-place rotation was left out
+        self.footprint_padding = 0.0  # the costmap's footprint_padding (move_base sets it): see _back_up
 
     def _context(self, ctx: ScoringContext) -> ScoringContext:
         ctx.within_robot = True  # TrajectoryPlanner::findBestPath marks the footprint cells
@@ -205,18 +208,26 @@ class TrajectoryPlanner(LocalPlanner):
         return trajs
 
     def _back_up(self, ctx: ScoringContext, n: int) -> LocalResult:
-        """Nothing valid: back up at escape_vel (ROS's escape). zenav takes it only when the backward
-        trajectory is collision-free; otherwise the cycle fails and move_base's patience decides."""
+        """Nothing valid: back up at escape_vel (ROS's escape). ROS backs up even into an obstacle; zenav
+        backs up when the backward trajectory is free for the footprint, or, wedged with the padded
+        footprint already touching something, free for the robot's own outline (``footprint_padding``
+        taken off again); otherwise the cycle fails and move_base's patience decides."""
         p, pose = self.params, ctx.pose
         reason = self.cost.reason or "every trajectory was rejected"
         self.flags.moved(pose)
         if p.escape_vel < 0.0:
             back = self._rollout(pose, ctx.vel, np.array([[p.escape_vel, 0.0, 0.0]]))
-            if self.cost.collision_free(back, ctx)[0]:
+            free = self.cost.collision_free(back, ctx)[0]
+            if not free and self.footprint_padding > 0.0:
+                bare = dataclasses.replace(ctx, footprint=pad_footprint(ctx.footprint, -self.footprint_padding),
+                                           _cache={})
+                free = self.cost.collision_free(back, bare)[0]
+            if free:
                 if self._escape is None:
                     self._escape = pose.copy()
                 self._end_escape(pose)
                 return LocalResult((p.escape_vel, 0.0, 0.0), True, f"escaping: {reason}", back.poses[0], n + 1)
+        self._escape = None  # cannot back up: look forward again next cycle
         return LocalResult(self._brake(ctx.vel), False, reason, np.zeros((0, 3)), n + 1)
 
     def _end_escape(self, pose: np.ndarray) -> None:
