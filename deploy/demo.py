@@ -78,7 +78,7 @@ def master_config(world: str, planner: str, out_dir: Path, slam: bool = False, a
     mapping it with SLAM as in the tutorial's section 3.6; absolute paths into the package."""
     mb, lp = PLANNERS[planner]
     common = str(MASTER_DIR / "p3at" / "costmap_common_params.yaml")
-    local = str(MASTER_DIR / "p3at_local_costmap.yaml")
+    local = str(MASTER_DIR / "local_costmap_padded.yaml")
     if slam:
         first = {"slam_gmapping": {"module": "master_side.slam.node", "respawn": True,
                                    "params": {"gmapping": str(MASTER_DIR / "p3at" / "gmapping.yaml"),

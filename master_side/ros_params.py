@@ -112,6 +112,11 @@ DEPRECATED: dict[str, dict[str, str]] = {
                         "acc_lim_th": "acc_lim_theta"},
 }
 
+# keys a component looks for only to warn that they are misspelt (ROS runs on, without them)
+MISSPELT: dict[str, dict[str, str]] = {
+    BASE_LOCAL_PLANNER: {"acc_limit_x": "acc_lim_x", "acc_limit_y": "acc_lim_y", "acc_limit_th": "acc_lim_theta"},
+}
+
 # ROS plugin / type names -> component (move_base's base_*_planner values, costmap plugin types)
 PLUGIN_COMPONENT = {
     "navfn/NavfnROS": NAVFN, "global_planner/GlobalPlanner": GLOBAL_PLANNER,
@@ -195,6 +200,14 @@ def load_ros_params(cls: type, mapping: Mapping | None, source: str, section: st
     ConfigError; ROS keys without effect appended to ``notes`` (``source: section.key: why``).
     ``ignore``: keys read elsewhere (sub-namespaces); ``extra``: more key -> why, e.g. context-specific."""
     no_effect = no_effect_keys(component, cls)
+    comps = (component,) if isinstance(component, str) else tuple(component)
+    for comp in comps:
+        for wrong, right in MISSPELT.get(comp, {}).items():
+            no_effect.setdefault(wrong, f"no effect (ROS only warns about it: the parameter is {right!r})")
+    for key in mapping or {}:  # "point_grid/max_sensor_range": a key inside a namespace ROS knows
+        head = str(key).split("/")[0]
+        if "/" in str(key) and head in no_effect and str(key) not in accepted_names(cls):
+            no_effect.setdefault(str(key), no_effect[head])
     no_effect.update(extra or {})
     return load_params(cls, dict(mapping or {}), source=source, section=section, ignore=tuple(ignore),
                        no_effect=no_effect, notes=notes)
