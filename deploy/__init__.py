@@ -22,6 +22,33 @@ def robot_pattern(args, all_by_default: bool) -> str:
     return robot
 
 
+def one_robot(args, wait_s: float = 1.5) -> str:
+    """The one robot a command acts on: --robot, else $ZENAV_ROBOT, else the only robot on the network
+    (said on stderr); several robots and none chosen is an error listing them; none at all keeps the
+    default name 'robot'. The choice is exported as ZENAV_ROBOT for this process and its children."""
+    import sys
+
+    robot = getattr(args, "robot", None) or os.environ.get("ZENAV_ROBOT")
+    if robot:
+        if "/" in robot or "*" in robot:
+            raise ValueError(f"this command needs one robot name, not {robot!r}")
+        return robot
+    from common.bus import list_live
+
+    session = open_session()
+    try:
+        robots = sorted({key.split("/")[0] for key in list_live(session, "*", "node", timeout=wait_s)})
+    finally:
+        close_quietly(session)
+    if len(robots) > 1:
+        raise ValueError(f"several robots on the network ({', '.join(robots)}): choose one with --robot")
+    robot = robots[0] if robots else "robot"
+    if robots:
+        print(f"zenav: using robot '{robot}', the only one on the network (--robot to choose)", file=sys.stderr)
+    os.environ["ZENAV_ROBOT"] = robot
+    return robot
+
+
 def open_session():
     """A raw Zenoh session with the bus config from the environment (no liveliness token of its own,
     so inspecting the system does not change what ``zenav nodes`` shows)."""

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import math
+import sys
 import threading
 import time
 import uuid
@@ -12,25 +14,46 @@ Send a goal to move_base (like publishing on move_base_simple/goal in ROS), prin
 wait for the result. The pose may be given in any TF frame: `--frame base_link` means relative to
 where the robot is now. Ctrl-C cancels the goal.
 
-exit status: 0 goal reached, 1 aborted / rejected / cancelled, 2 no answer from move_base
+exit status: 0 goal reached, 1 aborted / rejected / cancelled, 2 no answer from move_base (within
+--wait seconds of the start, or no result within --timeout)
 """
+
+
+def finite(text: str) -> float:
+    """argparse type: a finite number (nan / inf would reach move_base as a goal at infinity)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
+    return v
+
+
+def positive(text: str) -> float:
+    v = finite(text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
+    return v
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("goal", help="send a navigation goal and wait for the result",
                               description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("x", type=float, help="m")
-    p.add_argument("y", type=float, help="m")
-    p.add_argument("yaw", type=float, help="rad")
+    p.add_argument("x", type=finite, help="m")
+    p.add_argument("y", type=finite, help="m")
+    p.add_argument("yaw", type=finite, help="rad")
     p.add_argument("--frame", default="map", help="frame of the pose (default map)")
-    p.add_argument("--timeout", type=float, default=300.0, help="give up after this many seconds")
+    p.add_argument("--timeout", type=positive, default=300.0, help="give up after this many seconds")
+    p.add_argument("--wait", type=positive, default=10.0, metavar="S",
+                   help="exit 2 when move_base has not answered within S seconds (default 10)")
     p.add_argument("--quiet", action="store_true", help="print only the result")
     p.set_defaults(func=run)
     return p
 
 
 def send_goal(node, x: float, y: float, yaw: float, frame: str, timeout: float, echo=print,
-              cancel: threading.Event | None = None):
+              cancel: threading.Event | None = None, wait: float = 60.0):
     """Send one goal and wait; returns (exit code, final MoveBaseStatus or None)."""
     from common.geometry import Pose2D
     from common.messages import Empty, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
@@ -43,9 +66,12 @@ def send_goal(node, x: float, y: float, yaw: float, frame: str, timeout: float, 
     goal = MoveBaseGoal(gid, PoseStamped(Header(node.clock.now(), frame), Pose2D(x, y, yaw).to_transform()))
     t0 = time.monotonic()
     # move_base may still be starting: wait until it is there (its status stream) before sending.
+    if status.latest() is None:
+        echo(f"waiting for move_base of robot '{node.robot}' ({node.key('move_base/status')}) ...")
     while status.latest() is None:
-        if time.monotonic() - t0 > min(timeout, 60.0):
-            echo("zenav goal: move_base is not running (no move_base/status)")
+        if time.monotonic() - t0 > min(timeout, wait):
+            echo(f"zenav goal: no move_base of robot '{node.robot}' answered within {min(timeout, wait):.0f} s "
+                 f"(is `zenav master` running, and is --robot right? `zenav nodes` lists what is there)")
             return 2, None
         if cancel is not None and cancel.is_set():
             return 1, None
@@ -97,15 +123,19 @@ def _final(s, gid: str, echo):
 
 def run(args) -> int:
     from common.bus import Node
+    from deploy import one_robot
 
+    one_robot(args)
     stop = threading.Event()
     import signal
 
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     with Node(f"goal_{uuid.uuid4().hex[:6]}") as node:
         echo = (lambda *_a, **_k: None) if args.quiet else (lambda s: print(s, flush=True))
-        code, s = send_goal(node, args.x, args.y, args.yaw, args.frame, args.timeout, echo, stop)
+        code, s = send_goal(node, args.x, args.y, args.yaw, args.frame, args.timeout, echo, stop, args.wait)
         if args.quiet and s is not None:
             print(f"status={s.status} reason={s.reason!r} distance_m={s.distance_to_goal_m:.3f}")
+        elif args.quiet:
+            print(f"zenav goal: no answer from move_base of robot '{node.robot}'", file=sys.stderr)
         return code
 

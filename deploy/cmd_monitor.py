@@ -87,6 +87,7 @@ def run(args) -> int:
     import zenoh
 
     from common.zenoh_config import BusConfig
+    from deploy import one_robot
     from deploy.monitor.monitor import Monitor
 
     if not (args.spawn or args.connect_viewer or args.serve_web or args.save):
@@ -94,6 +95,7 @@ def run(args) -> int:
             args.spawn = True
         else:
             args.save = f"zenav-monitor-{time.strftime('%Y%m%d-%H%M%S')}.rrd"
+    one_robot(args)
     cfg = BusConfig.from_env()
     robot = cfg.robot
     rec, where = open_recording(args, robot)

@@ -123,9 +123,9 @@ def format_transform(ts) -> str:
 # -- commands ------------------------------------------------------------------------------------
 
 def _open(args, what: str):
-    robot = getattr(args, "robot", None)
-    if robot and "*" in robot:
-        raise ValueError(f"tf {what} needs one robot, not the pattern {robot!r}")
+    from deploy import one_robot
+
+    robot = one_robot(args)
     from common.bus import Node
     from common.tf import TFListener
 

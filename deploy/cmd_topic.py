@@ -11,7 +11,7 @@ from collections import defaultdict, deque
 
 import numpy as np
 
-from deploy import close_quietly, open_session, robot_pattern, wait
+from deploy import close_quietly, one_robot, open_session, robot_pattern, wait
 
 
 def add_parser(subparsers):
@@ -127,7 +127,8 @@ def _subscribe(session, key: str, on_payload, latched_too: bool = True):
 def _topic_key(args) -> tuple[str, str]:
     from common.bus import topic_key
 
-    robot = robot_pattern(args, all_by_default=False)
+    pattern = getattr(args, "robot", None) or ""
+    robot = robot_pattern(args, all_by_default=False) if "*" in pattern else one_robot(args)
     return robot, topic_key(robot, args.topic)
 
 

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from common.config import ConfigError
 from master_side.slam import evaluate
+from master_side.slam.logs import LogError
 from master_side.slam.params import load_gmapping
 
 
@@ -34,8 +36,19 @@ def _run(argv: list[str]) -> int:
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
-    res = run(a.log, params, a.max_scans)
-    write_outputs(res, a.out)
+    if not Path(a.log).is_file():
+        print(f"zenav slam run: {a.log}: no such file", file=sys.stderr)
+        return 2
+    try:
+        res = run(a.log, params, a.max_scans)
+    except (LogError, OSError) as e:
+        print(f"zenav slam run: {e}", file=sys.stderr)
+        return 2
+    try:
+        write_outputs(res, a.out)
+    except OSError as e:
+        print(f"zenav slam run: cannot write {a.out}: {e.strerror or e}", file=sys.stderr)
+        return 2
     print(f"wrote {a.out}/map.pgm, map.yaml, trajectory.txt ({res.scans} poses)")
     return 0
 

@@ -31,31 +31,47 @@ def flaser_scan(ranges: np.ndarray, stamp: float, frame_id: str = "laser") -> La
                      0.0, CARMEN_MAX_RANGE, np.asarray(ranges, np.float32))
 
 
+class LogError(ValueError):
+    """A log file that cannot be read: the message names the file (and line) and what is wrong."""
+
+
 def read_carmen(path: str | Path) -> Iterator[ScanRecord]:
     """FLASER (odometry = the embedded odom_x/y/theta) and ROBOTLASER1 (robot pose) lines."""
-    with open(path) as f:
-        for line in f:
-            t = line.split()
-            if not t or t[0].startswith("#"):
-                continue
-            if t[0] == "FLASER":
-                n = int(t[1])
-                r = np.array(t[2:2 + n], float)
-                o = t[2 + n:2 + n + 6]
-                stamp = float(t[2 + n + 6])
-                yield ScanRecord(stamp, Pose2D(float(o[3]), float(o[4]), float(o[5])), flaser_scan(r, stamp))
-            elif t[0] == "ROBOTLASER1":
-                start, fov, res, max_r = map(float, t[2:6])
-                n = int(t[8])
-                r = np.array(t[9:9 + n], np.float32)
-                k = 9 + n
-                m = int(t[k])
-                k += 1 + m
-                robot = Pose2D(*map(float, t[k + 3:k + 6]))
-                stamp = float(t[k + 11])
-                scan = LaserScan(Header(stamp, "laser"), start, start + (n - 1) * res, res, 0.0, 0.0, 0.0,
-                                 max_r, r)
-                yield ScanRecord(stamp, robot, scan)
+    try:
+        with open(path, encoding="utf-8") as f:
+            for lineno, line in enumerate(f, 1):
+                t = line.split()
+                if not t or t[0] not in ("FLASER", "ROBOTLASER1"):
+                    continue
+                try:
+                    rec = _carmen_record(t)
+                except (IndexError, TypeError, ValueError) as e:
+                    raise LogError(f"{path}:{lineno}: malformed {t[0]} line ({e or 'too short'})") from None
+                yield rec
+    except UnicodeDecodeError:
+        raise LogError(f"{path}: not a CARMEN text log (not UTF-8 text; a ROS1 bag must end in .bag)") from None
+
+
+def _carmen_record(t: list[str]) -> ScanRecord:
+    """One FLASER or ROBOTLASER1 line, split into tokens."""
+    if t[0] == "FLASER":
+        n = int(t[1])
+        r = np.array(t[2:2 + n], float)
+        o = t[2 + n:2 + n + 6]
+        stamp = float(t[2 + n + 6])
+        return ScanRecord(stamp, Pose2D(float(o[3]), float(o[4]), float(o[5])), flaser_scan(r, stamp))
+    # ROBOTLASER1
+    start, fov, res, max_r = map(float, t[2:6])
+    n = int(t[8])
+    r = np.array(t[9:9 + n], np.float32)
+    k = 9 + n
+    m = int(t[k])
+    k += 1 + m
+    robot = Pose2D(*map(float, t[k + 3:k + 6]))
+    stamp = float(t[k + 11])
+    scan = LaserScan(Header(stamp, "laser"), start, start + (n - 1) * res, res, 0.0, 0.0, 0.0,
+                     max_r, r)
+    return ScanRecord(stamp, robot, scan)
 
 
 def _interp_pose(ts: list[float], poses: list[tuple[float, float, float]], t: float) -> Pose2D:
@@ -81,22 +97,27 @@ def read_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str = "/od
     ots: list[float] = []
     oposes: list[tuple[float, float, float]] = []
     scans = []
-    with Reader(str(path)) as reader:
-        conns = [c for c in reader.connections if c.topic in (scan_topic, odom_topic)]
-        for conn, _, raw in reader.messages(connections=conns):
-            msg = store.deserialize_ros1(raw, conn.msgtype)
-            stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
-            if conn.topic == odom_topic:
-                p, q = msg.pose.pose.position, msg.pose.pose.orientation
-                yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
-                ots.append(stamp)
-                oposes.append((p.x, p.y, yaw))
-            else:
-                scans.append(LaserScan(Header(stamp, msg.header.frame_id), msg.angle_min, msg.angle_max,
-                                       msg.angle_increment, msg.time_increment, msg.scan_time, msg.range_min,
-                                       msg.range_max, np.asarray(msg.ranges, np.float32)))
+    try:
+        with Reader(str(path)) as reader:
+            conns = [c for c in reader.connections if c.topic in (scan_topic, odom_topic)]
+            for conn, _, raw in reader.messages(connections=conns):
+                msg = store.deserialize_ros1(raw, conn.msgtype)
+                stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
+                if conn.topic == odom_topic:
+                    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+                    yaw = math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+                    ots.append(stamp)
+                    oposes.append((p.x, p.y, yaw))
+                else:
+                    scans.append(LaserScan(Header(stamp, msg.header.frame_id), msg.angle_min, msg.angle_max,
+                                           msg.angle_increment, msg.time_increment, msg.scan_time,
+                                           msg.range_min, msg.range_max, np.asarray(msg.ranges, np.float32)))
+    except (OSError, MemoryError):
+        raise
+    except Exception as e:  # noqa: BLE001 - rosbags raises many types on a damaged file; one line names it
+        raise LogError(f"{path}: not a readable ROS1 bag ({type(e).__name__}: {e})") from None
     if not ots:
-        raise ValueError(f"{path}: no {odom_topic} messages")
+        raise LogError(f"{path}: no {odom_topic} messages (topics: {scan_topic}, {odom_topic} expected)")
     order = np.argsort(ots, kind="stable")
     ots = [ots[i] for i in order]
     oposes = [oposes[i] for i in order]

@@ -1,0 +1,63 @@
+"""`zenav goal` refuses non-finite numbers and says at once which move_base it waits for."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import pytest
+from bushelp import REPO, child_env
+
+ZENAV = [sys.executable, "-m", "deploy.cli"]
+
+
+@pytest.mark.parametrize("args", [["nan", "0", "0"], ["0", "inf", "0"], ["--", "0", "0", "-inf"], ["1", "x", "0"],
+                                  ["1", "2", "0", "--wait", "0"], ["1", "2", "0", "--timeout", "nan"]])
+def test_goal_refuses_non_finite_and_non_numeric_input(args):
+    r = subprocess.run([*ZENAV, "goal", *args], env=child_env("nobody"), capture_output=True, text=True,
+                       timeout=60, cwd=REPO)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "Traceback" not in r.stderr
+    assert "finite number" in r.stderr or "not a number" in r.stderr or "must be > 0" in r.stderr, r.stderr
+
+
+def test_goal_without_move_base_names_the_robot_at_once_and_gives_up_after_wait(robot_name):
+    # no peer anywhere: multicast off, nothing to connect to
+    env = child_env(robot_name, multicast=False)
+    t0 = time.monotonic()
+    p = subprocess.Popen([*ZENAV, "goal", "1", "2", "0", "--wait", "1.5"], env=env, stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, cwd=REPO)
+    try:
+        first = p.stdout.readline()
+        assert f"waiting for move_base of robot '{robot_name}'" in first, first
+        out, err = p.communicate(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 2
+    assert "Traceback" not in err
+    assert f"no move_base of robot '{robot_name}' answered within 2 s" in out, out
+    assert time.monotonic() - t0 < 45  # the default used to be a silent minute
+
+
+def test_tools_use_the_only_robot_on_the_network_and_say_so(node_pair, robot_name):
+    from procs import make_scan
+
+    node = node_pair("lidar")
+    scan = node.publisher("scan")
+    node.timer(0.05, lambda: scan.publish(make_scan(1, 90, node.clock.now())))
+    env = child_env(robot_name, multicast=False, connect=node.config.listen)
+    env.pop("ZENAV_ROBOT")
+    r = subprocess.run([*ZENAV, "topic", "echo", "scan", "-n", "1"], env=env, capture_output=True, text=True,
+                       timeout=120, cwd=REPO)
+    assert r.returncode == 0, r.stderr
+    assert f"using robot '{robot_name}', the only one on the network" in r.stderr
+    assert r.stdout.startswith("LaserScan ")
+    # a second robot: the tool no longer guesses, it lists them
+    node_pair("lidar", robot=robot_name + "b")
+    r = subprocess.run([*ZENAV, "topic", "echo", "scan", "-n", "1"], env=env, capture_output=True, text=True,
+                       timeout=120, cwd=REPO)
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert f"several robots on the network ({robot_name}, {robot_name}b)" in r.stderr, r.stderr
+    assert "Traceback" not in r.stderr
