@@ -49,6 +49,19 @@ def one_robot(args, wait_s: float = 1.5) -> str:
     return robot
 
 
+def checkout_env(base: dict[str, str] | None = None, drop_zenav: bool = False) -> dict[str, str]:
+    """Environment for a child process that runs this checkout's code (first on PYTHONPATH, whatever
+    ``pip install -e`` last pointed at), unbuffered; ``drop_zenav``: without inherited ZENAV_* settings."""
+    from pathlib import Path
+
+    env = {k: v for k, v in (os.environ if base is None else base).items()
+           if not (drop_zenav and k.startswith("ZENAV_"))}
+    root = str(Path(__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH", "")]))
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
 def open_session():
     """A raw Zenoh session with the bus config from the environment (no liveliness token of its own,
     so inspecting the system does not change what ``zenav nodes`` shows)."""

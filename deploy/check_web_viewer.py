@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import io
-import os
 import shutil
 import subprocess
 import sys
@@ -26,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from deploy import free_port
+from deploy import checkout_env, free_port
 from deploy.monitor.cdp import CDP
 
 REPO = Path(__file__).resolve().parents[1]
@@ -135,9 +134,8 @@ def check(out: Path, timeout: float = 150.0, settle: float = 10.0, chromium: str
     work = Path(tempfile.mkdtemp(prefix="zenav-webcheck-"))
     procs = Procs(work)
     zport, web, grpc, devtools = free_port(), free_port(), free_port(), free_port()
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
-    env.update(ZENAV_ROBOT="web" + uuid.uuid4().hex[:8], ZENAV_MULTICAST="0", PYTHONUNBUFFERED="1",
-               PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH", "")])))
+    env = checkout_env(drop_zenav=True)
+    env.update(ZENAV_ROBOT="web" + uuid.uuid4().hex[:8], ZENAV_MULTICAST="0")
     try:
         procs.start("synthetic", [sys.executable, "-m", "deploy.monitor.synthetic"],
                     dict(env, ZENAV_LISTEN=f"tcp/127.0.0.1:{zport}"))

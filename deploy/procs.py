@@ -13,7 +13,7 @@ import sys
 import time
 from pathlib import Path
 
-_ROOT = Path(__file__).resolve().parents[1]
+from deploy import checkout_env
 
 
 class ProcessGroup:
@@ -26,11 +26,8 @@ class ProcessGroup:
 
     def spawn(self, name: str, args: list[str]) -> subprocess.Popen:
         log = open(self.work / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
-        # the children run this checkout's code, whatever (or wherever) `pip install -e` last pointed at
-        path = os.pathsep.join(filter(None, [str(_ROOT), os.environ.get("PYTHONPATH", "")]))
-        env = dict(os.environ, PYTHONUNBUFFERED="1", PYTHONPATH=path)
         p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self.bus_args()], stdout=log,
-                             stderr=subprocess.STDOUT, env=env, start_new_session=True, cwd=self.work)
+                             stderr=subprocess.STDOUT, env=checkout_env(), start_new_session=True, cwd=self.work)
         self.procs.append((name, p))
         return p
 

@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 
 from common.zenoh_config import BusConfig
+from deploy import checkout_env
 from tests.support import free_port  # noqa: F401
 
 REPO = Path(__file__).resolve().parents[2]
@@ -38,9 +39,7 @@ def wait_for(cond, timeout: float = 20.0, what: str = "condition", step: float =
 
 def child_env(robot: str, **bus) -> dict[str, str]:
     """Environment for a child process: this checkout on PYTHONPATH, ZENAV_* from ``bus``."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH", "")]))
-    env["PYTHONUNBUFFERED"] = "1"
+    env = checkout_env(drop_zenav=True)
     env.update(BusConfig(robot=robot, **bus).to_env())
     return env
 

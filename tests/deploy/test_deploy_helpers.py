@@ -14,6 +14,7 @@ import sys
 import time
 from pathlib import Path
 
+from deploy import checkout_env
 from tests.support import free_port  # noqa: F401
 
 REPO = Path(__file__).resolve().parents[2]
@@ -22,9 +23,7 @@ HELPER = str(Path(__file__).resolve())
 
 def env_for(robot: str | None = None, **zenav: str) -> dict[str, str]:
     """Environment for a child: no inherited ZENAV_*, this checkout on PYTHONPATH, then ``zenav``."""
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH", "")]))
-    env["PYTHONUNBUFFERED"] = "1"
+    env = checkout_env(drop_zenav=True)
     if robot:
         env["ZENAV_ROBOT"] = robot
     env.update(zenav)

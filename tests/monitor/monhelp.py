@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import os
 import time
 from pathlib import Path
 
@@ -10,6 +9,7 @@ import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
+from deploy import checkout_env
 from tests.support import free_port  # noqa: F401
 
 REPO = Path(__file__).resolve().parents[2]
@@ -28,9 +28,8 @@ def wait_for(cond, timeout: float = 30.0, what: str = "condition", step: float =
 
 
 def child_env(robot: str, connect: str) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
-    env.update(ZENAV_ROBOT=robot, ZENAV_MULTICAST="0", ZENAV_CONNECT=connect, PYTHONUNBUFFERED="1",
-               PYTHONPATH=os.pathsep.join(filter(None, [str(REPO), env.get("PYTHONPATH", "")])))
+    env = checkout_env(drop_zenav=True)
+    env.update(ZENAV_ROBOT=robot, ZENAV_MULTICAST="0", ZENAV_CONNECT=connect)
     return env
 
 
