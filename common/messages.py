@@ -20,7 +20,7 @@ __all__ = [
     "Costmap", "Path", "PoseStamped", "TransformStamped", "TFMessage", "GoalStatus", "MotorState",
     "BatteryState", "Clock", "PolygonStamped", "Text", "Empty", "Collision", "NodeState", "Scalar",
     "MoveBaseStatus", "PlanRequest", "PlanResult", "MoveBaseGoal", "ObservationSourceStatus", "CostmapSensors",
-    "empty_f32",
+    "CollisionMonitorState", "SpawnBox", "empty_f32",
 ]
 
 
@@ -234,6 +234,21 @@ class Collision:
     y: float = 0.0
 
 
+@register("SpawnBox")
+@dataclass(frozen=True)
+class SpawnBox:
+    """Simulator only (as Gazebo's spawn_model): a box appears. ``header.frame_id`` ``map`` = the world,
+    the base frame = relative to the robot's true pose when the simulator receives it."""
+
+    header: Header = Header()
+    x: float = 0.0  # centre, m
+    y: float = 0.0
+    yaw: float = 0.0
+    size_x: float = 0.2
+    size_y: float = 0.2
+    height: float = 1.0
+
+
 @register("NodeState")
 @dataclass(frozen=True)
 class NodeState:
@@ -249,6 +264,7 @@ class NodeState:
 
 # navigation messages live in their own module (kept importable from here)
 from common.messages_nav import (  # noqa: E402
+    CollisionMonitorState,
     CostmapSensors,
     GoalStatus,
     MoveBaseGoal,

@@ -13,7 +13,7 @@ from common.messages import Header, Path, PoseStamped
 from common.msg_registry import register
 
 __all__ = ["GoalStatus", "MoveBaseStatus", "PlanRequest", "PlanResult", "MoveBaseGoal", "ObservationSourceStatus",
-           "CostmapSensors"]
+           "CostmapSensors", "CollisionMonitorState"]
 
 
 @register("GoalStatus")
@@ -112,3 +112,22 @@ class CostmapSensors:
 
     def problems(self) -> tuple[ObservationSourceStatus, ...]:
         return tuple(s for s in self.sources if s.state != ObservationSourceStatus.OK)
+
+
+@register("CollisionMonitorState")
+@dataclass(frozen=True)
+class CollisionMonitorState:
+    """What the robot-side collision monitor did to the last command, and why (nav2's
+    CollisionMonitorState plus the numbers). ``action``: none, stop, slowdown, limit, approach,
+    no_data (a source is silent: stop), stale_cmd (no command from the master: zero sent), disabled."""
+
+    header: Header = Header()
+    action: str = "none"
+    polygon: str = ""
+    reason: str = ""
+    ratio: float = 1.0  # safe speed / commanded speed
+    points: int = 0
+    cmd_in_v: float = 0.0  # m/s, rad/s
+    cmd_in_w: float = 0.0
+    cmd_out_v: float = 0.0
+    cmd_out_w: float = 0.0

@@ -8,6 +8,8 @@ process under ``common.supervisor.Supervisor``:
     transforms:   TRANSFORMS - name: {args: "x y z yaw pitch roll parent child [period_ms]"}
                   (or just the string), one common.static_tf_node each
     sensors:      SENSORS CONFIGURATION - laser / depth camera / depth conversion nodes
+    safety:       the collision monitor (robot_side.safety.node) between the master's cmd_vel and
+                  the base, which then listens on safety/cmd_vel (its cmd_vel_topic)
 
 ``--world``, ``--start`` and ``--speed`` override the ``world``, ``start`` and ``speed`` parameters of
 the simulator node(s) (module ``robot_side.sim.node``). Every node's parameters are checked before
@@ -30,6 +32,7 @@ SECTIONS = [
     Section("platform", stop_first=True),
     Section("transforms", default_module="common.static_tf_node", tf_args=True),
     Section("sensors"),
+    Section("safety"),
 ]
 EXIT_CONFIG = 2
 

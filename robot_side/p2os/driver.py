@@ -47,7 +47,12 @@ class P2OSParams:
     pulse: float = param(1.0, lo=0.05, hi=1.9, unit="s", doc="PULSE keepalive period (robot watchdog 2 s)")
     use_sonar: bool = param(False, doc="switch the sonar arrays on (readings are decoded, not published)")
     motors_on_start: bool = param(True, doc="ENABLE the motors after connecting")
-    cmd_vel_timeout: float = param(0.5, lo=0.0, hi=60.0, unit="s", doc="command zero when cmd_vel is older")
+    cmd_vel_timeout: float = param(0.25, lo=0.0, hi=60.0, unit="s", doc="command zero when cmd_vel is older")
+    cmd_vel_topic: str = param("cmd_vel", doc="velocity commands (safety/cmd_vel behind the collision monitor)")
+    trans_decel: float | None = param(None, lo=0.01, hi=5.0, unit="m/s^2",
+                                      doc="SETA braking rate sent on connect; default: the robot's own setting")
+    rot_decel: float | None = param(None, lo=0.01, hi=20.0, unit="rad/s^2",
+                                    doc="SETRA braking rate sent on connect; default: the robot's own setting")
     max_xspeed: float = param(0.5, lo=0.0, hi=1.2, unit="m/s", doc="translational speed limit")
     max_yawspeed: float = param(math.radians(100), lo=0.0, hi=math.radians(300), unit="rad/s",
                                 doc="rotational speed limit")
@@ -184,6 +189,10 @@ class P2OSDriver:
         self._write(P.open_())
         self._write(P.pulse())
         self._write(P.sonar(p.use_sonar))
+        if p.trans_decel is not None:  # a negative SETA / SETRA argument sets the deceleration
+            self._write(P.command(P.Command.SETA, -round(p.trans_decel * 1000.0)))
+        if p.rot_decel is not None:
+            self._write(P.command(P.Command.SETRA, -round(math.degrees(p.rot_decel))))
         if p.motors_on_start:
             self._write(P.enable(True))
             self._motors_wanted = True

@@ -59,10 +59,10 @@ class P2OSNode:
         except Exception:
             self.driver.close()
             raise
-        node.log.info("p2os: %s (%s %s) on %s, %d baud, pulse %g s, motors %s on start, cmd_vel timeout %g s",
+        node.log.info("p2os: %s (%s %s) on %s, %d baud, pulse %g s, motors %s on start, %s timeout %g s",
                       info.name, info.robot_class, info.subclass, p.port, p.baud, p.pulse,
-                      "enabled" if p.motors_on_start else "left", p.cmd_vel_timeout)
-        self.subs = [node.subscribe("cmd_vel", Twist, callback=self._on_cmd_vel),
+                      "enabled" if p.motors_on_start else "left", p.cmd_vel_topic, p.cmd_vel_timeout)
+        self.subs = [node.subscribe(p.cmd_vel_topic, Twist, callback=self._on_cmd_vel),
                      node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state)]
         self.driver.start()
         self._health = node.timer(1.0, self._check)

@@ -52,7 +52,12 @@ class BaseParams:
     max_vel_theta: float = param(math.radians(140), lo=0.0, hi=20.0, unit="rad/s", doc="max |rotation speed|")
     acc_lim_x: float = param(1.0, lo=0.01, hi=1000.0, unit="m/s^2", doc="linear acceleration limit")
     acc_lim_th: float = param(2.0, lo=0.01, hi=1000.0, unit="rad/s^2", doc="angular acceleration limit")
-    cmd_vel_timeout: float = param(0.5, lo=0.0, hi=60.0, unit="s", doc="stop when no cmd_vel for this long")
+    decel_lim_x: float | None = param(None, lo=0.01, hi=1000.0, unit="m/s^2",
+                                      doc="linear braking limit; default acc_lim_x")
+    decel_lim_th: float | None = param(None, lo=0.01, hi=1000.0, unit="rad/s^2",
+                                       doc="angular braking limit; default acc_lim_th")
+    cmd_vel_timeout: float = param(0.25, lo=0.0, hi=60.0, unit="s",
+                                   doc="brake to a stop when no cmd_vel for this long")
     motors_enabled: bool = param(True, doc="motors enabled at start (p2os cmd_motor_state)")
     # `builtins.str`: the gmapping field named `str` shadows the builtin when type hints are resolved
     odom_frame_id: builtins.str = param("odom", doc="odometry frame")
@@ -126,6 +131,12 @@ def _footprint_samples(poly: np.ndarray, step: float) -> np.ndarray:
     return np.vstack([pts[inside], *edges])
 
 
+def _limit(v: float, target: float, acc: float, decel: float | None) -> float:
+    """The rate limit that applies when going from v toward target: braking when the speed shrinks."""
+    braking = abs(target) < abs(v) or target * v < 0
+    return decel if braking and decel is not None else acc
+
+
 def _toward(v: float, target: float, dv: float) -> tuple[float, float]:
     """New velocity and the mean velocity over a step that ramps v toward target by at most dv (dt = 1)."""
     if abs(target - v) <= dv:
@@ -178,8 +189,8 @@ class DiffDriveBase:
         tv, tw = self.cmd if now - self.cmd_time <= p.cmd_vel_timeout else (0.0, 0.0)
         tv = max(-p.max_vel_x, min(p.max_vel_x, tv))
         tw = max(-p.max_vel_theta, min(p.max_vel_theta, tw))
-        nv, mv = _toward(self.v, tv, p.acc_lim_x * dt)
-        nw, mw = _toward(self.w, tw, p.acc_lim_th * dt)
+        nv, mv = _toward(self.v, tv, _limit(self.v, tv, p.acc_lim_x, p.decel_lim_x) * dt)
+        nw, mw = _toward(self.w, tw, _limit(self.w, tw, p.acc_lim_th, p.decel_lim_th) * dt)
         d_rho, d_th = mv * dt, mw * dt
         new = self.pose.compose(_arc(d_rho, d_th))
         if d_rho != 0.0 or d_th != 0.0:

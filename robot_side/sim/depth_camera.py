@@ -89,7 +89,7 @@ class DepthCamera:
         self.world, self.p = world, params
         self.width, self.height = params.size
         self.fx, self.fy, self.cx, self.cy = params.intrinsics()
-        self.cells = surface_cells(world.heights, world.origin, world.resolution, eye_z=params.z)
+        self.refresh()
         u = np.arange(self.width)
         self.col_angle = np.arctan2(self.cx - u, self.fx)  # left positive, relative to the optical axis
         self.col_cos = np.cos(self.col_angle)
@@ -100,6 +100,11 @@ class DepthCamera:
         self.rng = np.random.default_rng(params.seed)
         n = self.width * self.height
         self._pool = self.rng.standard_normal(3 * n, dtype=np.float32) if self._noisy else None
+
+    def refresh(self) -> None:
+        """Re-read the world's surface (after ``World.add_box``)."""
+        w = self.world
+        self.cells = surface_cells(w.heights, w.origin, w.resolution, eye_z=self.p.z)
 
     @property
     def _noisy(self) -> bool:

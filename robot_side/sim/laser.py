@@ -87,10 +87,14 @@ class Laser:
 
     def __init__(self, world: World, params: LaserParams = LaserParams()):
         self.world, self.p = world, params
-        self.cells = surface_cells(world.heights, world.origin, world.resolution, threshold=params.z)
+        self.refresh()
         self.angles = params.angle_min + params.angle_increment * np.arange(params.samples)
         self.rng = np.random.default_rng(params.seed)
         self.scan_time = 1.0 / params.rate
+
+    def refresh(self) -> None:
+        """Re-read the world's surface (after ``World.add_box``)."""
+        self.cells = surface_cells(self.world.heights, self.world.origin, self.world.resolution, threshold=self.p.z)
 
     def sensor_pose(self, robot: Pose2D) -> Pose2D:
         return robot.compose(self.p.mount)

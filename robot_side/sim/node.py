@@ -23,8 +23,10 @@ Published (all stamps sim time; sim time starts at the wall time at start unless
     motor_state (latched)       MotorState      motor_state_rate (1 Hz) + on change
     battery_state               BatteryState    battery_rate (1 Hz), a slowly draining fake
 
-Subscribed: ``cmd_vel`` (Twist; the timeout ``base.cmd_vel_timeout`` runs in sim time) and
-``cmd_motor_state`` (MotorState; disabled motors ignore cmd_vel).
+Subscribed: ``cmd_vel_topic`` (Twist, default ``cmd_vel``; behind the collision monitor
+``safety/cmd_vel``; the timeout ``base.cmd_vel_timeout`` runs in sim time) and
+``cmd_motor_state`` (MotorState; disabled motors ignore cmd_vel), ``sim/spawn_box`` (SpawnBox: a box
+appears, in the world or relative to the robot; for tests and demos of the robot's own safety).
 The physics runs on its own thread paced by ``Pacer`` at ``speed`` x real time; when the machine cannot
 keep up for more than ``max_lag`` wall seconds, the sim runs slower instead of bursting to catch up.
 """
@@ -39,8 +41,8 @@ import time
 from typing import Any
 
 from common.config import ConfigError, load_params
-from common.geometry import Transform
-from common.messages import BatteryState, Clock, Header, MotorState, TransformStamped, Twist
+from common.geometry import Pose2D, Transform
+from common.messages import BatteryState, Clock, Header, MotorState, SpawnBox, TransformStamped, Twist
 from common.tf import StaticTFBroadcaster, TFBroadcaster, TFError, TFListener
 from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
 from robot_side.sim.node_params import SIMULATOR_KEYS, SimNodeParams
@@ -116,8 +118,9 @@ class SimNode:
         if not p.mount_tf:
             self._listener = TFListener(node)
             threading.Thread(target=self._follow_mount_tf, name="sim:mount_tf", daemon=True).start()
-        self.subs = [node.subscribe("cmd_vel", Twist, callback=self._on_cmd_vel),
-                     node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state)]
+        self.subs = [node.subscribe(p.cmd_vel_topic, Twist, callback=self._on_cmd_vel),
+                     node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state),
+                     node.subscribe("sim/spawn_box", SpawnBox, callback=self._on_spawn_box)]
         node.log.info("%s", self.summary(world_path))
         self._thread = threading.Thread(target=self._run, name="sim:loop", daemon=True)
         self._thread.start()
@@ -139,7 +142,7 @@ class SimNode:
             parts.append("no sensors")
         start = "wall time" if self.p.start_time is None else f"{self.p.start_time:g} s"
         parts.append(f"speed {self.speed:g}x, dt {s.params.dt:g} s, sim time from {start}, "
-                     f"cmd_vel timeout {b.p.cmd_vel_timeout:g} s")
+                     f"{self.p.cmd_vel_topic} timeout {b.p.cmd_vel_timeout:g} s")
         return "simulator: " + ", ".join(parts)
 
     def _static_transforms(self, camera_link_to_depth: Transform | None = None) -> list[TransformStamped]:
@@ -197,6 +200,23 @@ class SimNode:
     def _on_cmd_vel(self, twist: Twist) -> None:
         with self.lock:
             self.sim.cmd_vel(twist)
+
+    def _on_spawn_box(self, msg: SpawnBox) -> None:
+        with self.lock:
+            at = Pose2D(msg.x, msg.y, msg.yaw)
+            if msg.header.frame_id == self.sim.base.p.base_frame_id:
+                at = self.sim.base.pose.compose(at)
+            elif msg.header.frame_id not in ("map", "world", ""):
+                self.node.log.warning("sim/spawn_box: frame %r is neither map nor %s: ignored",
+                                      msg.header.frame_id, self.sim.base.p.base_frame_id)
+                return
+            try:
+                self.sim.add_box(at.x, at.y, msg.size_x, msg.size_y, msg.height, at.theta)
+            except ValueError as e:
+                self.node.log.warning("sim/spawn_box: %s", e)
+                return
+        self.node.log.info("simulator: box %.2f x %.2f m spawned at x=%.2f y=%.2f (world)", msg.size_x,
+                           msg.size_y, at.x, at.y)
 
     def _on_motor_state(self, msg: MotorState) -> None:
         with self.lock:

@@ -33,6 +33,7 @@ class SimNodeParams:
                                      "sim then publishes camera_link->camera_depth_frame so that the chain "
                                      "ends at the pose it renders)")
     depth_frame_id: str = param("camera_depth_frame", doc="x-forward frame of the depth sensor (openni)")
+    cmd_vel_topic: str = param("cmd_vel", doc="velocity commands (safety/cmd_vel behind the collision monitor)")
     max_lag: float = param(0.5, lo=0.01, hi=60.0, unit="s",
                            doc="wall seconds behind schedule before the pacer gives up catching up")
 

@@ -131,6 +131,13 @@ class Simulator:
         return due
 
     # ------------------------------------------------------------------ inputs
+    def add_box(self, cx: float, cy: float, sx: float, sy: float, height: float, yaw: float = 0.0) -> None:
+        """A box appears in the world (world frame, metres): the base collides with it, sensors see it."""
+        self.world.add_box(cx, cy, sx, sy, height, yaw)
+        for sensor in (self.laser, self.camera):
+            if sensor is not None:
+                sensor.refresh()
+
     def cmd_vel(self, twist: Twist) -> None:
         self.base.set_cmd_vel(twist, self.time)
 

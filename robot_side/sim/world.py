@@ -105,6 +105,13 @@ class World:
         out[inside] = self.heights[iy[inside], ix[inside]]
         return out
 
+    def add_box(self, cx: float, cy: float, sx: float, sy: float, height: float, yaw: float = 0.0) -> None:
+        """Put a box into the world now (a person, a dropped crate); sensors see it after ``refresh``."""
+        vals = (cx, cy, sx, sy, height, yaw)
+        if not all(math.isfinite(v) for v in vals) or sx <= 0 or sy <= 0 or height <= 0:
+            raise ValueError(f"bad box {vals}: centre, positive size and height must be finite")
+        _Box(cx, cy, sx, sy, yaw, height).rasterise(self.heights, self.origin, self.resolution)
+
     def occupied(self, min_height: float = 0.0) -> np.ndarray:
         """Cells whose obstacle is taller than ``min_height``."""
         return self.heights > min_height

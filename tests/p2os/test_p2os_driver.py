@@ -51,6 +51,16 @@ def test_handshake_identifies_the_robot_and_enables_the_motors(rig):
     assert drv.state.reading.battery_voltage == pytest.approx(12.6)
 
 
+def test_braking_rates_are_sent_on_connect_as_negative_seta_and_setra(rig):
+    robot, _, _ = rig(trans_decel=0.8, rot_decel=math.radians(90))
+    wait_until(lambda: robot.commands(P.Command.SETRA), 5, "SETRA at the robot")
+    assert [a for _, a in robot.commands(P.Command.SETA)] == [-800]  # mm/s^2, negative = deceleration
+    assert [a for _, a in robot.commands(P.Command.SETRA)] == [-90]  # deg/s^2
+    plain, _, _ = rig()  # default: the robot's own FLASH settings are left alone
+    wait_until(lambda: plain.commands(P.Command.ENABLE), 5, "ENABLE")
+    assert plain.commands(P.Command.SETA) == [] and plain.commands(P.Command.SETRA) == []
+
+
 def test_motors_stay_off_when_motors_on_start_is_false_until_asked(rig):
     robot, drv, _ = rig(motors_on_start=False)
     wait_until(lambda: len(drv.states) >= 3, 5, "SIPs")

@@ -18,13 +18,13 @@ FRONT = max(x for x, _ in BaseParams().footprint)  # P3-AT bumper, m ahead of ba
 class Rig:
     """Recorders on the simulator's outputs and a cmd_vel publisher, once the simulator runs."""
 
-    def __init__(self, node, proc, timeout: float = 90.0) -> None:
+    def __init__(self, node, proc, timeout: float = 90.0, cmd_topic: str = "cmd_vel") -> None:
         self.node, self.proc = node, proc
         self.clock = Recorder(node, "clock", Clock)
         self.odom = Recorder(node, "odom", Odometry)
         self.gt = Recorder(node, "ground_truth", Odometry)
         self.collision = Recorder(node, "collision", Collision)
-        self.cmd = node.publisher("cmd_vel")
+        self.cmd = node.publisher(cmd_topic)
         wait_until(lambda: len(self.odom) and len(self.gt) or not proc.alive(), timeout,
                    "odom + ground_truth")
         assert proc.alive(), proc.log()

@@ -12,11 +12,12 @@ import pytest
 import zenoh
 
 from common.codec import decode
-from common.messages import LaserScan, TFMessage
+from common.messages import CollisionMonitorState, LaserScan, TFMessage
 from common.tf import TFListener
 from robot_side.sim.base import BaseParams
 from tests.sim_e2e.conftest import REPO, Recorder, open_world, wait_until
 from tests.sim_e2e.e2e_checks import (
+    FRONT,
     Rig,
     check_odom_tf_ground_truth_agree,
     check_stale_cmd_vel_stops,
@@ -37,11 +38,15 @@ def robot(bus, procs, tmp_path, robot_name):
     """start(wall_x=None) -> Rig on `zenav robot --config p3at_sim.yaml --world <tmp> --start 0 0 0`."""
     node, env = bus
 
-    def start(wall_x: float | None = None, speed: float = 2.0) -> Rig:
+    def start(wall_x: float | None = None, speed: float = 2.0, cmd_topic: str = "cmd_vel") -> Rig:
         world = open_world(tmp_path, wall_x=wall_x)
         proc = procs([*zenav(), "robot", "--config", str(CONFIG), "--world", str(world),
                       "--start", "0", "0", "0", "--speed", str(speed), "--robot", robot_name], env)
-        return Rig(node, proc, timeout=120.0)
+        rig = Rig(node, proc, timeout=120.0, cmd_topic=cmd_topic)
+        state = Recorder(node, "collision_monitor/state", CollisionMonitorState)
+        # the collision monitor holds the robot until the depth camera's scan flows: no data, no motion
+        wait_until(lambda: state.msgs() and state.msgs()[-1].action != "no_data", 120, "scan at the monitor")
+        return rig
 
     return start
 
@@ -56,8 +61,22 @@ def test_agent_stale_cmd_vel_stops_the_robot_within_the_timeout(bus, robot):
     check_stale_cmd_vel_stops(robot(speed=1.0), BaseParams())
 
 
-def test_agent_driving_into_a_wall_reports_a_collision_and_stops(bus, robot):
-    check_wall_collision(robot(wall_x=WALL_X), wall_x=WALL_X, resolution=0.05)
+def test_agent_driving_into_a_wall_behind_the_collision_monitor_reports_a_collision_and_stops(bus, robot):
+    # safety/cmd_vel is what the base listens to: commands there bypass the collision monitor
+    check_wall_collision(robot(wall_x=WALL_X, cmd_topic="safety/cmd_vel"), wall_x=WALL_X, resolution=0.05)
+
+
+def test_agent_commanded_at_a_wall_through_cmd_vel_is_stopped_short_by_its_collision_monitor(bus, robot):
+    node, _ = bus
+    state = Recorder(node, "collision_monitor/state", CollisionMonitorState)
+    rig = robot(wall_x=WALL_X, speed=1.0)
+    rig.drive([(8.0, 0.5, 0.0)])  # the master keeps asking for 0.5 m/s into the wall
+    front = rig.gt.last().pose2d.x + FRONT
+    assert len(rig.collision) == 0, f"collided: {rig.collision.last()}"
+    assert WALL_X - 0.2 < front < WALL_X, f"front stopped at {front:.3f} m, wall at {WALL_X} m"
+    actions = {m.action for m in state.msgs()}
+    assert actions & {"approach", "stop"}, actions
+    assert "collision monitor: " in rig.proc.log()
 
 
 def _publishers(session: zenoh.Session, key: str, samples: int) -> dict[str, set[str]]:
