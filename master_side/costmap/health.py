@@ -71,19 +71,22 @@ class SensorWatch:
     def add(self, layer: str, buffer: ObservationBuffer, kind: str | None = None) -> None:
         self.sources[(layer, buffer.name)] = _Source(layer, buffer, kind or buffer.params.data_type)
 
+    # Sources of a disabled layer are not watched, and a reading can arrive before ``add``: ignore those.
     def received(self, layer: str, source: str) -> None:
-        self.sources[(layer, source)].messages += 1
+        if (s := self.sources.get((layer, source))) is not None:
+            s.messages += 1
 
     def dropped(self, layer: str, source: str, why: str) -> None:
-        s = self.sources[(layer, source)]
-        s.dropped, s.why = s.dropped + 1, why
+        if (s := self.sources.get((layer, source))) is not None:
+            s.dropped, s.why = s.dropped + 1, why
 
     def used(self, layer: str, source: str) -> None:
-        s = self.sources[(layer, source)]
-        s.dropped, s.why = 0, ""
+        if (s := self.sources.get((layer, source))) is not None:
+            s.dropped, s.why = 0, ""
 
     def malformed(self, layer: str, source: str, count: int) -> None:
-        self.sources[(layer, source)].malformed = count
+        if (s := self.sources.get((layer, source))) is not None:
+            s.malformed = count
 
     def _status(self, s: _Source, now: float, elapsed: float) -> ObservationSourceStatus:
         buf, p = s.buffer, s.buffer.params

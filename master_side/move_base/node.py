@@ -28,6 +28,7 @@ from common.bus import Node
 from common.config import strip_frame
 from common.geometry import Pose2D
 from common.messages import (
+    CollisionMonitorState,
     Costmap,
     CostmapSensors,
     GoalStatus,
@@ -89,6 +90,7 @@ class MoveBaseNode:
         for name in ("local_costmap", "global_costmap"):
             node.subscribe(f"{name}/sensors", CostmapSensors, callback=self.health.update, mode="queue")
         self.cmd = node.publisher("cmd_vel")
+        self.safety = node.subscribe("collision_monitor/state", CollisionMonitorState)  # the robot's monitor
         self.status_pub = node.publisher("move_base/status")
         self.result_pub = node.publisher("move_base/result", latched=True)
         self.gplan_pub = node.publisher("move_base/global_plan")
@@ -274,6 +276,9 @@ class MoveBaseNode:
         reason = m.reason
         if self._blind and m.state is State.IDLE:  # say it before a goal comes in too
             reason = f"{reason}; sensor data: {self._blind}"
+        override = _safety_override(self.safety)
+        if override and m.state is not State.IDLE:
+            reason = f"{reason}; {override}" if reason else override
         self._publish_status(m.status, reason, terminal, dist)
 
     def _publish_status(self, status: int, reason: str, terminal: bool, dist: float = 0.0,
@@ -312,3 +317,12 @@ if __name__ == "__main__":
     from common.runner import node_main
 
     node_main("move_base", start)
+
+
+def _safety_override(sub) -> str:
+    """The robot's collision monitor overriding our commands now, in words ("" when it is not)."""
+    st = sub.latest()
+    if st is None or sub.age() > 1.5 or st.action in ("none", "disabled", "stale_cmd"):
+        return ""
+    why = f": {st.reason}" if st.reason else ""
+    return f"robot's collision monitor: {st.action}{why} (speed x{st.ratio:.2f})"
