@@ -306,6 +306,15 @@ class MoveBaseNode:
         self.tf.close()
 
 
+def _safety_override(sub) -> str:
+    """The robot's collision monitor overriding our commands now, in words ("" when it is not)."""
+    st = sub.latest()
+    if st is None or sub.age() > 1.5 or st.action in ("none", "disabled", "stale_cmd"):
+        return ""
+    why = f": {st.reason}" if st.reason else ""
+    return f"robot's collision monitor: {st.action}{why} (speed x{st.ratio:.2f})"
+
+
 def start(node: Node, cfg: dict, source: str) -> MoveBaseNode:
     # The bus's receiving threads share the GIL with the control cycle: hand it over every 1 ms
     # instead of Python's 5 ms, so decoding a costmap delays a cycle by little.
@@ -318,11 +327,3 @@ if __name__ == "__main__":
 
     node_main("move_base", start)
 
-
-def _safety_override(sub) -> str:
-    """The robot's collision monitor overriding our commands now, in words ("" when it is not)."""
-    st = sub.latest()
-    if st is None or sub.age() > 1.5 or st.action in ("none", "disabled", "stale_cmd"):
-        return ""
-    why = f": {st.reason}" if st.reason else ""
-    return f"robot's collision monitor: {st.action}{why} (speed x{st.ratio:.2f})"
