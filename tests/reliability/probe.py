@@ -1,0 +1,69 @@
+"""A bus peer for the network-fault tests, run on the robot's side of the link (its namespace).
+
+Prints one line per event, wall time first (the robot PC's clock)::
+
+    GT t x y yaw v          ground truth, 50 Hz        SAFE t v w     what the base is told
+    CMD t v w               cmd_vel from the master    COLL t count   a collision
+    MON t action            collision monitor state    ST t status state reason   move_base/status
+
+stdin: ``goal X Y YAW`` (map frame), ``box DX DY SX SY`` (a box appears relative to the robot).
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+from common.bus import Node
+from common.geometry import Pose2D
+from common.messages import (
+    Collision,
+    CollisionMonitorState,
+    Header,
+    MoveBaseStatus,
+    Odometry,
+    PoseStamped,
+    SpawnBox,
+    Twist,
+)
+
+_lock = threading.Lock()
+
+
+def say(*words) -> None:
+    with _lock:
+        print(f"{time.time():.3f}", *words, flush=True)
+
+
+def main() -> None:
+    node = Node("netem_probe", use_sim_time=False)
+    node.subscribe("ground_truth", Odometry, mode="queue", callback=lambda m: say(
+        "GT", f"{m.pose2d.x:.4f}", f"{m.pose2d.y:.4f}", f"{m.pose2d.theta:.4f}", f"{m.twist.linear.x:.4f}"))
+    node.subscribe("cmd_vel", Twist, mode="queue",
+                   callback=lambda m: say("CMD", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}"))
+    node.subscribe("safety/cmd_vel", Twist, mode="queue",
+                   callback=lambda m: say("SAFE", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}"))
+    node.subscribe("collision", Collision, mode="queue", callback=lambda m: say("COLL", m.count))
+    node.subscribe("collision_monitor/state", CollisionMonitorState, mode="queue",
+                   callback=lambda m: say("MON", m.action))
+    node.subscribe("move_base/status", MoveBaseStatus, mode="queue",
+                   callback=lambda m: say("ST", m.status, m.state or "-", (m.reason or "-").replace("\n", " ")))
+    goal = node.publisher("move_base_simple/goal")
+    box = node.publisher("sim/spawn_box")
+    say("READY")
+    for line in sys.stdin:
+        w = line.split()
+        if w[:1] == ["goal"]:
+            x, y, yaw = map(float, w[1:4])
+            goal.publish(PoseStamped(Header(time.time(), "map"), Pose2D(x, y, yaw).to_transform()))
+            say("SENT", "goal")
+        elif w[:1] == ["box"]:
+            dx, dy, sx, sy = map(float, w[1:5])
+            box.publish(SpawnBox(Header(time.time(), "base_link"), dx, dy, 0.0, sx, sy, 1.0))
+            say("SENT", "box")
+    node.close()
+
+
+if __name__ == "__main__":
+    main()
