@@ -201,3 +201,27 @@ def test_dwa_samples_respect_the_dynamic_window(dwa_params):
     assert np.all(np.abs(s[:, 0] - 0.3) <= p.acc_lim_x * dt + 1e-9)
     assert np.all(np.abs(s[:, 2] - 0.2) <= p.acc_lim_th * dt + 1e-9)
     assert np.all(s[:, 1] == 0.0)  # holonomic_robot: false
+
+
+def test_rotation_holds_through_jitter(tp_params):
+    """The estimate wanders a few cm across xy_goal_tolerance (not latched, as the tutorial's file) while
+    the robot turns in place to the goal yaw: the rotation goes on in one direction and ends at the yaw."""
+    p = dataclasses.replace(tp_params, latch_xy_goal_tolerance=False)
+    planner = TrajectoryPlanner(p)
+    dt, acc, tol = planner.limits.sim_period, planner.limits.acc[2], p.xy_goal_tolerance
+    goal = (1.5, 1.5, -2.0)
+    planner.set_plan(np.array([[1.2, 1.5, 0.0], [1.35, 1.5, 0.0], [1.5, 1.5, -2.0]]))
+    rng, theta, w, cmds = np.random.default_rng(3), 0.0, 0.0, []
+    for cycle in range(200):
+        r = tol + (0.03 if cycle % 3 == 1 else -0.01) + rng.uniform(-0.005, 0.005)  # in and out of tolerance
+        pose = Pose2D(goal[0] - r, goal[1], theta)
+        if planner.is_goal_reached(Pose2D(goal[0] - 0.5 * tol, goal[1], theta), (0.0, 0.0, w)):
+            break
+        cmds.append(planner.compute_velocity(pose, (0.0, 0.0, w), free_map(60, 60), RES, (0.0, 0.0),
+                                             P3AT_FOOTPRINT).cmd[2])
+        w += float(np.clip(cmds[-1] - w, -acc * dt, acc * dt))
+        theta += w * dt
+    else:
+        pytest.fail(f"goal yaw not reached: {np.round(cmds, 3)}")
+    assert all(c <= 1e-12 for c in cmds), f"the rotation turned back: {np.round(cmds, 3)}"
+    assert abs(angle_diff(goal[2], theta)) <= p.yaw_goal_tolerance

@@ -21,6 +21,10 @@ from master_side.planning.local.trajectories import Trajectories, simulate
 
 # Control cycles of command lag budgeted before the final in-place rotation brakes (see _rotation_speed).
 LAG_CYCLES = 3.0
+# Once the final in-place rotation has started, localisation jitter may carry the estimate a little past
+# xy_goal_tolerance; the rotation goes on within this margin (m) instead of falling back to path
+# following for a cycle, which commanded a turn the other way (ROS does fall back: deliberate difference).
+ROTATION_HOLD_M = 0.05
 
 
 @dataclass(frozen=True)
@@ -132,7 +136,12 @@ class LocalPlanner:
         dist = math.hypot(goal[0] - p[0], goal[1] - p[1])
         if dist <= self.limits.xy_goal_tolerance and self.limits.latch_xy_goal_tolerance:
             self._latched = True
-        if self._latched or dist <= self.limits.xy_goal_tolerance:
+        rotating = self._rot_dir != 0.0 and (
+            abs(angle_diff(goal[2], p[2])) > self.limits.yaw_goal_tolerance or abs(v[2]) > self.limits.rot_stopped_vel
+        )
+        if self._latched or dist <= self.limits.xy_goal_tolerance or (
+            rotating and dist <= self.limits.xy_goal_tolerance + ROTATION_HOLD_M
+        ):
             return self._approach_goal(ctx, goal)
         return self._choose(ctx)
 
