@@ -25,7 +25,7 @@ import zenoh
 from common.bus_topics import Publisher, Subscription, topic_key
 from common.clock import SimClock, Timer, WallClock
 from common.codec import DecodeError, decode, encode
-from common.messages import Clock
+from common.messages import Clock, Header, NodeStats, TopicStats
 from common.zenoh_config import BusConfig
 
 log = logging.getLogger("zenav.bus")
@@ -62,8 +62,10 @@ class Node:
         if use_sim_time is None:
             use_sim_time = os.environ.get("ZENAV_USE_SIM_TIME", "0") in ("1", "true", "yes")
         self.clock: WallClock | SimClock = SimClock() if use_sim_time else WallClock()
+        self.stats_sources: list[Any] = []  # objects with stats() -> TopicStats rows (subscriptions, TF)
         if use_sim_time:
             self.subscribe("clock", Clock, callback=lambda m: self.clock.update(m.clock))
+        self.service(f"node_stats/{name}", lambda _req: self.stats(), token=False)
         self._node_token = self._declare_token(f"node/{name}")
         self.log = logging.getLogger(f"zenav.{name}")
 
@@ -86,10 +88,18 @@ class Node:
                   mode: str = "latest", queue_size: int = 100) -> Subscription:
         sub = Subscription(self, topic, msg_type, callback, mode, queue_size)
         self._entities.append(sub)
+        self.stats_sources.append(sub)
         return sub
 
+    def stats(self) -> NodeStats:
+        """Counters of every subscription (and TF listener) of this node; also served as
+        ``node_stats/<name>`` (``zenav nodes --stats``)."""
+        rows = [TopicStats(*row) for src in list(self.stats_sources) for row in src.stats()]
+        return NodeStats(Header(self.clock.now(), ""), self.name, os.getpid(), tuple(rows))
+
     # -- services ------------------------------------------------------------------------------
-    def service(self, name: str, handler: Callable[[Any], Any], request_type: type | None = None):
+    def service(self, name: str, handler: Callable[[Any], Any], request_type: type | None = None,
+                token: bool = True):
         key = f"zenav/{self.robot}/srv/{name.strip('/')}"
 
         def run(query: zenoh.Query) -> None:
@@ -109,7 +119,8 @@ class Node:
 
         q = self.session.declare_queryable(key, lambda query: self._pool.submit(run, query), complete=True)
         self._entities.append(q)
-        self._declare_token(f"srv/{self.name}/{name.strip('/')}")
+        if token:  # node_stats/<node> has none: every node serves it
+            self._declare_token(f"srv/{self.name}/{name.strip('/')}")
         return q
 
     def call(self, name: str, request: Any, response_type: type | None = None, timeout: float = 2.0) -> Any:

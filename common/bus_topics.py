@@ -15,6 +15,8 @@ from typing import TYPE_CHECKING, Any, Callable
 import zenoh
 
 from common.codec import DecodeError, decode, encode
+from common.log_util import RateLimitedLog
+from common.msg_check import problem
 
 if TYPE_CHECKING:
     from common.bus import Node
@@ -27,20 +29,6 @@ def topic_key(robot: str, topic: str) -> str:
     if not topic or "*" in topic or "$" in topic:
         raise ValueError(f"bad topic name {topic!r}")
     return f"zenav/{robot}/{topic}"
-
-
-class _RateLimitedLog:
-    def __init__(self, period: float = 5.0) -> None:
-        self.period, self.last, self.suppressed = period, 0.0, 0
-
-    def __call__(self, logger: logging.Logger, msg: str) -> None:
-        now = time.monotonic()
-        if now - self.last >= self.period:
-            extra = f" (+{self.suppressed} similar)" if self.suppressed else ""
-            logger.warning(msg + extra)
-            self.last, self.suppressed = now, 0
-        else:
-            self.suppressed += 1
 
 
 class Publisher:
@@ -91,10 +79,12 @@ class Subscription:
         self._queue: collections.deque = collections.deque(maxlen=queue_size if mode == "queue" else 1)
         self.received = 0  # valid messages
         self.malformed = 0  # payloads that failed to decode (dropped)
+        self.invalid = 0  # decoded but unusable: NaN position, zero quaternion, empty map... (dropped)
+        self.errors = 0  # messages whose callback raised
         self.dropped = 0  # valid messages overwritten before being consumed
         self.last_receive_time = 0.0  # time.monotonic() of the last valid message
         self.last_publisher = ""
-        self._warn = _RateLimitedLog()
+        self._warn = RateLimitedLog()
         self._closed = False
         self._sub = node.session.declare_subscriber(self.key, self._on_sample)
         self._worker = None
@@ -131,6 +121,12 @@ class Subscription:
             self._warn(log, f"[{self._node.name}] dropped malformed payload on '{self.topic}' "
                             f"(#{self.malformed}): {e}")
             return
+        why = problem(msg, self._node.clock.now())
+        if why:
+            self.invalid += 1
+            self._warn(log, f"[{self._node.name}] dropped invalid message on '{self.topic}' "
+                            f"(#{self.invalid}): {why}")
+            return
         with self._cv:
             self._latest = msg
             if len(self._queue) == self._queue.maxlen:
@@ -153,8 +149,14 @@ class Subscription:
             try:
                 self._callback(msg)
             except Exception:
+                self.errors += 1
                 self._warn(log, f"[{self._node.name}] callback for '{self.topic}' raised:\n"
                                 f"{traceback.format_exc()}")
+
+    def stats(self) -> tuple[tuple[str, str, int, int, int, int, int], ...]:
+        """(topic, type, received, malformed, invalid, dropped, callback errors) for the node's stats."""
+        kind = getattr(self.msg_type, "_msg_name", "*")
+        return ((self.topic, kind, self.received, self.malformed, self.invalid, self.dropped, self.errors),)
 
     def latest(self) -> Any:
         """The newest message received, or None."""

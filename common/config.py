@@ -187,6 +187,9 @@ def read_yaml(path: str | Path) -> dict:
         text = p.read_text()
     except OSError as e:
         raise ConfigError(str(p), "<file>", f"cannot read: {e.strerror}") from e
+    except UnicodeDecodeError as e:
+        why = f"not a text (UTF-8) file: byte {e.start} is 0x{e.object[e.start]:02x}"
+        raise ConfigError(str(p), "<file>", why) from e
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as e:

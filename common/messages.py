@@ -20,7 +20,7 @@ __all__ = [
     "Costmap", "Path", "PoseStamped", "TransformStamped", "TFMessage", "GoalStatus", "MotorState",
     "BatteryState", "Clock", "PolygonStamped", "Text", "Empty", "Collision", "NodeState", "Scalar",
     "MoveBaseStatus", "PlanRequest", "PlanResult", "MoveBaseGoal", "ObservationSourceStatus", "CostmapSensors",
-    "CollisionMonitorState", "SpawnBox", "empty_f32",
+    "CollisionMonitorState", "SpawnBox", "TopicStats", "NodeStats", "empty_f32",
 ]
 
 
@@ -260,6 +260,31 @@ class NodeState:
     pid: int = 0
     restarts: int = 0
     detail: str = ""
+
+
+@register("TopicStats")
+@dataclass(frozen=True)
+class TopicStats:
+    """What one subscription of a node has seen since it started (every payload lands in one count)."""
+
+    topic: str = ""
+    msg_type: str = ""  # "*" = any type
+    received: int = 0  # valid messages
+    malformed: int = 0  # payloads that did not decode as the type (dropped)
+    invalid: int = 0  # decoded but unusable (NaN position, zero quaternion, empty map ...; dropped)
+    dropped: int = 0  # valid messages replaced by newer ones before the node used them
+    errors: int = 0  # messages whose callback raised (a bug: reported, the node goes on)
+
+
+@register("NodeStats")
+@dataclass(frozen=True)
+class NodeStats:
+    """Answer of the ``node_stats/<node>`` service every node serves."""
+
+    header: Header = Header()
+    node: str = ""
+    pid: int = 0
+    topics: tuple[TopicStats, ...] = ()
 
 
 # navigation messages live in their own module (kept importable from here)

@@ -23,6 +23,7 @@ from typing import Any
 from common.config import strip_frame
 from common.geometry import Quaternion, Transform, Vector3
 from common.messages import Header, TFMessage, TransformStamped
+from common.msg_check import problem
 from common.tf_buffer import (
     ConnectivityError,
     EdgeInfo,
@@ -168,6 +169,15 @@ class StaticTFBroadcaster:
         self._pub.close()
 
 
+def _frames_problem(msg: TFMessage) -> str | None:
+    """A transform the buffer would refuse (checked first so a message is applied whole or not at all)."""
+    for ts in msg.transforms:
+        parent, child = strip_frame(ts.header.frame_id), strip_frame(ts.child_frame_id)
+        if not parent or not child or parent == child:
+            return f"bad frames {ts.header.frame_id!r} -> {ts.child_frame_id!r}"
+    return None
+
+
 class TFListener:
     """Fills ``self.buffer`` from ``tf`` and ``tf_static`` of the node's robot.
 
@@ -183,8 +193,10 @@ class TFListener:
         self._zenoh, self._decode, self._decode_error = zenoh, decode, DecodeError
         self.buffer = buffer if buffer is not None else TFBuffer(cache_time, clock=node.clock)
         self._node, self._session = node, node.session
-        self.malformed = 0
+        self.malformed = 0  # payloads that are not a TFMessage
+        self.invalid = 0  # TFMessages refused whole: NaN, zero quaternion, far-future stamp, bad frames
         self.received = 0
+        node.stats_sources.append(self)
         self._key_tf, self._key_static = node.key("tf"), node.key("tf_static")
         self._handles: list[Any] = [
             self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False)),
@@ -216,14 +228,32 @@ class TFListener:
     def _ingest(self, data: bytes, attachment, static: bool) -> None:
         try:
             msg = self._decode(data, TFMessage)
-            who = attachment.to_bytes().decode(errors="replace") if attachment is not None else ""
+        except self._decode_error as e:
+            self.malformed += 1
+            self._dropped("malformed", self.malformed, e)
+            return
+        why = problem(msg, self._node.clock.now()) or _frames_problem(msg)
+        if why:
+            self.invalid += 1
+            self._dropped("invalid", self.invalid, why)
+            return
+        who = attachment.to_bytes().decode(errors="replace") if attachment is not None else ""
+        try:
             for ts in msg.transforms:
                 self.buffer.set_transform(ts, authority=who, static=static)
-            self.received += 1
-        except (self._decode_error, ValueError, TypeError, AttributeError) as e:
-            self.malformed += 1
-            if self.malformed == 1 or self.malformed % 100 == 0:
-                log.warning("[%s] dropped bad TF message (#%d): %s", self._node.name, self.malformed, e)
+        except (ValueError, TypeError) as e:  # checked above; kept so a new buffer rule cannot kill the thread
+            self.invalid += 1
+            self._dropped("invalid", self.invalid, e)
+            return
+        self.received += 1
+
+    def _dropped(self, kind: str, n: int, why) -> None:
+        if n == 1 or n % 100 == 0:
+            log.warning("[%s] dropped %s TF message (#%d): %s", self._node.name, kind, n, why)
+
+    def stats(self) -> tuple[tuple[str, str, int, int, int, int, int], ...]:
+        """Rows of the node's stats (see Subscription.stats): tf and tf_static together."""
+        return (("tf+tf_static", "TFMessage", self.received, self.malformed, self.invalid, 0, 0),)
 
     def close(self) -> None:
         for h in self._handles:

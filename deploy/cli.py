@@ -186,6 +186,12 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as e:  # bad robot / topic names and the like
         print(f"zenav: {e}", file=sys.stderr)
         return 2
+    except Exception as e:  # noqa: BLE001 - last safety net: one line, the traceback only with -v
+        if args.verbose:
+            raise
+        print(f"zenav {args.command}: unexpected {type(e).__name__}: {e} (run with -v for the traceback; "
+              "please report it)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

@@ -8,6 +8,8 @@ import os
 import sys
 import time
 
+from common.argtypes import nonneg_int, port, positive
+
 DESCRIPTION = """\
 Run the reference tutorial's scenario on this machine: the simulated Pioneer 3-AT (robot agent),
 navigation on the world's known map (master agent: map server, global + local costmaps, move_base
@@ -33,12 +35,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--amcl", action="store_true",
                    help="known map, localised with AMCL (master_side/config/p3at_amcl.yaml) instead of "
                         "the simulator's ground truth")
-    p.add_argument("--goals", type=int, default=0, help="at most this many goals per world (0 = all)")
-    p.add_argument("--speed", type=float, default=1.0, help="simulated time / real time")
-    p.add_argument("--goal-timeout", type=float, default=180.0, help="seconds allowed per goal")
+    p.add_argument("--goals", type=nonneg_int, default=0, help="at most this many goals per world (0 = all)")
+    p.add_argument("--speed", type=positive, default=1.0, help="simulated time / real time")
+    p.add_argument("--goal-timeout", type=positive, default=180.0, help="seconds allowed per goal")
     out = p.add_mutually_exclusive_group()
     out.add_argument("--spawn", action="store_true", help="open the native Rerun viewer")
-    out.add_argument("--serve-web", type=int, metavar="PORT", help="serve the web viewer on PORT")
+    out.add_argument("--serve-web", type=port, metavar="PORT", help="serve the web viewer on PORT")
     out.add_argument("--save", metavar="FILE", help="save the recording (default without a display)")
     out.add_argument("--no-monitor", action="store_true", help="run without the monitor")
     p.add_argument("--workdir", help="folder for logs and generated configs (default: a temp folder)")

@@ -16,6 +16,7 @@ import threading
 import time
 from collections import defaultdict
 
+from common.argtypes import positive
 from deploy import close_quietly, robot_pattern
 from deploy.hosts.doctor_checks import (
     OK_STATES,
@@ -35,13 +36,13 @@ def add_parser(subparsers):
         description=__doc__.split("\n\n")[1].replace("\n", " "))
     p.add_argument("--expect-topics", default="scan,odom,tf", metavar="T1,T2",
                    help="topics that must be flowing (default scan,odom,tf; '' = none)")
-    p.add_argument("--timeout", type=float, default=5.0, metavar="S",
+    p.add_argument("--timeout", type=positive, default=5.0, metavar="S",
                    help="how long to listen for nodes and topics (default 5 s)")
     p.add_argument("--serial", default="", metavar="DEV", help="on the robot: check this serial port "
                    "(e.g. /dev/pioneer) exists and is read/writable")
-    p.add_argument("--max-skew", type=float, default=0.05, metavar="S",
+    p.add_argument("--max-skew", type=positive, default=0.05, metavar="S",
                    help="clock offset above which to warn (default 0.05 s)")
-    p.add_argument("--tf-max-age", type=float, default=1.0, metavar="S",
+    p.add_argument("--tf-max-age", type=positive, default=1.0, metavar="S",
                    help="odom→base_link must have arrived within S s (default 1)")
     p.set_defaults(func=run)
     return p

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import threading
 import time
 import uuid
+
+from common.argtypes import finite, positive
 
 DESCRIPTION = """\
 Send a goal to move_base (like publishing on move_base_simple/goal in ROS), print its progress and
@@ -17,24 +18,6 @@ where the robot is now. Ctrl-C cancels the goal.
 exit status: 0 goal reached, 1 aborted / rejected / cancelled, 2 no answer from move_base (within
 --wait seconds of the start, or no result within --timeout)
 """
-
-
-def finite(text: str) -> float:
-    """argparse type: a finite number (nan / inf would reach move_base as a goal at infinity)."""
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not math.isfinite(v):
-        raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
-    return v
-
-
-def positive(text: str) -> float:
-    v = finite(text)
-    if v <= 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be > 0")
-    return v
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from common.argtypes import positive
+
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("map", help="save the current map (like map_saver)",
@@ -12,7 +14,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("action", choices=("save",))
     p.add_argument("-f", "--file", default="map", help="output base name (default: map)")
     p.add_argument("--topic", default="map")
-    p.add_argument("--timeout", type=float, default=30.0, help="seconds to wait for a map")
+    p.add_argument("--timeout", type=positive, default=30.0, help="seconds to wait for a map")
     p.set_defaults(func=run)
     return p
 

@@ -9,6 +9,8 @@ import sys
 import threading
 import time
 
+from common.argtypes import nonneg, port
+
 DESCRIPTION = """\
 Join the bus as a Zenoh peer (on any machine: robot, master or a laptop) and log one robot's
 topics to Rerun: map, costmap layers, footprint, global/local plan, goal, laser scan, depth image
@@ -32,13 +34,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     out = p.add_mutually_exclusive_group()
     out.add_argument("--spawn", action="store_true", help="spawn the native Rerun viewer")
     out.add_argument("--connect-viewer", metavar="URL", help="connect to a running viewer")
-    out.add_argument("--serve-web", type=int, metavar="PORT", help="serve the web viewer on PORT")
+    out.add_argument("--serve-web", type=port, metavar="PORT", help="serve the web viewer on PORT")
     out.add_argument("--save", metavar="FILE", help="save a .rrd recording")
-    p.add_argument("--grpc-port", type=int, default=9876, help="gRPC port used with --serve-web")
+    p.add_argument("--grpc-port", type=port, default=9876, help="gRPC port used with --serve-web")
     p.add_argument("--rate", action="append", default=[], metavar="TYPE=HZ",
                    help="max logging rate per entity for a message type or a topic, e.g. --rate Costmap=1 "
                         "--rate camera/depth/points=0.5 (0 = every message; repeatable or comma list)")
-    p.add_argument("--duration", type=float, default=0.0, help="stop after this many seconds (0 = Ctrl-C)")
+    p.add_argument("--duration", type=nonneg, default=0.0, help="stop after this many seconds (0 = Ctrl-C)")
     p.add_argument("--memory-limit", default="2GiB",
                    help="memory limit of the spawned viewer / of the web server's buffer; the oldest data "
                         "is dropped beyond it (spawn, serve-web)")
@@ -64,7 +66,13 @@ def open_recording(args, robot: str):
     rec = rr.RecordingStream(f"zenav_{robot}")
     bp = blueprint()
     if args.save:
-        rec.save(args.save, default_blueprint=bp)
+        parent = os.path.dirname(os.path.abspath(args.save))
+        if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
+            raise ValueError(f"cannot write the recording {args.save}: {parent} is not a writable folder")
+        try:
+            rec.save(args.save, default_blueprint=bp)
+        except RuntimeError as e:  # rerun reports file errors as RuntimeError
+            raise ValueError(f"cannot write the recording {args.save}: {e}") from None
         return rec, f"saving to {args.save} (open with: rerun {args.save})"
     if args.serve_web:
         uri = rec.serve_grpc(grpc_port=args.grpc_port, default_blueprint=bp,

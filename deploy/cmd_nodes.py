@@ -7,6 +7,7 @@ import threading
 import time
 from collections import defaultdict
 
+from common.argtypes import positive
 from deploy import close_quietly, open_session, robot_pattern, wait
 
 
@@ -28,12 +29,12 @@ def add_parser(subparsers):
     )
     p.add_argument(
         "--wait",
-        type=float,
+        type=positive,
         default=1.0,
         metavar="S",
         help="how long to collect tokens before printing the list (default 1 s)",
     )
-    p.add_argument("--duration", type=float, default=None, metavar="S", help="--watch: exit after S seconds")
+    p.add_argument("--duration", type=positive, default=None, metavar="S", help="--watch: exit after S seconds")
     p.set_defaults(func=run)
     return p
 

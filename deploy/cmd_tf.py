@@ -12,6 +12,7 @@ import os
 import sys
 import time
 
+from common.argtypes import nonneg_int, positive
 from common.tf_buffer import EdgeInfo
 
 
@@ -26,15 +27,15 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "latest stamp, age and whether it is static.")
     t.add_argument("--dot", default="frames.dot", metavar="FILE",
                    help="Graphviz file to write (default frames.dot; '' = none). Render: dot -Tpdf FILE")
-    t.add_argument("--duration", type=float, default=3.0, metavar="S", help="seconds to listen (default 3)")
+    t.add_argument("--duration", type=positive, default=3.0, metavar="S", help="seconds to listen (default 3)")
     t.set_defaults(func=run_tree)
     e = sp.add_parser("echo", help="print the transform TARGET <- SOURCE periodically (like tf_echo)",
                       description="Print the latest transform that maps SOURCE coordinates into TARGET: "
                                   "translation, quaternion and roll/pitch/yaw.")
     e.add_argument("target", help="target frame (e.g. map)")
     e.add_argument("source", help="source frame (e.g. base_link)")
-    e.add_argument("--rate", type=float, default=1.0, help="prints per second (default 1)")
-    e.add_argument("-n", "--count", type=int, default=0, help="stop after N prints (default: until Ctrl-C)")
+    e.add_argument("--rate", type=positive, default=1.0, help="prints per second (default 1)")
+    e.add_argument("-n", "--count", type=nonneg_int, default=0, help="stop after N prints (default: until Ctrl-C)")
     e.set_defaults(func=run_echo)
     return p
 

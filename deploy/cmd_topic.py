@@ -11,6 +11,7 @@ from collections import defaultdict, deque
 
 import numpy as np
 
+from common.argtypes import nonneg_int, positive, positive_int
 from deploy import close_quietly, one_robot, open_session, robot_pattern, wait
 
 
@@ -27,7 +28,7 @@ def add_parser(subparsers):
         description="Topics from the publishers' liveliness tokens plus a short passive listen "
         "on zenav/<robot>/** (type and rate of what is flowing). --robot '*' = all.",
     )
-    ls.add_argument("--wait", type=float, default=1.0, metavar="S", help="listen this long (default 1 s)")
+    ls.add_argument("--wait", type=positive, default=1.0, metavar="S", help="listen this long (default 1 s)")
     ls.set_defaults(func=run_list)
     ec = sp.add_parser(
         "echo",
@@ -36,8 +37,8 @@ def add_parser(subparsers):
         "summary; arrays as dtype[shape] min..max.",
     )
     ec.add_argument("topic")
-    ec.add_argument("-n", type=int, default=0, metavar="N", help="exit after N messages")
-    ec.add_argument("--duration", type=float, default=None, metavar="S", help="exit after S seconds")
+    ec.add_argument("-n", type=nonneg_int, default=0, metavar="N", help="exit after N messages")
+    ec.add_argument("--duration", type=positive, default=None, metavar="S", help="exit after S seconds")
     ec.set_defaults(func=run_echo)
     hz = sp.add_parser(
         "hz",
@@ -47,9 +48,9 @@ def add_parser(subparsers):
     )
     hz.add_argument("topic")
     hz.add_argument(
-        "--window", type=int, default=100, metavar="N", help="messages in the window (default 100)"
+        "--window", type=positive_int, default=100, metavar="N", help="messages in the window (default 100)"
     )
-    hz.add_argument("--duration", type=float, default=None, metavar="S", help="exit after S seconds")
+    hz.add_argument("--duration", type=positive, default=None, metavar="S", help="exit after S seconds")
     hz.set_defaults(func=run_hz)
     return p
 

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import sys
 import threading
 
+from common.argtypes import positive, positive_int
 from deploy.hosts import zenohconf
 
 
@@ -36,7 +38,7 @@ def add_parser(subparsers):
     c.add_argument("--connect", action="append", default=[], metavar="ENDPOINT",
                    help="endpoint to connect to, e.g. tcp/10.0.0.2:7447 (repeatable)")
     c.add_argument("--no-multicast", action="store_true", help="disable multicast scouting")
-    c.add_argument("--lease-ms", type=int, default=1000, help="link lease (default 1000 ms: a lost "
+    c.add_argument("--lease-ms", type=positive_int, default=1000, help="link lease (default 1000 ms: a lost "
                    "machine is noticed in about a second)")
     c.add_argument("--user", default="", help="usrpwd user this side authenticates as")
     c.add_argument("--password-file", default="", metavar="F", help="file holding --user's password")
@@ -55,7 +57,7 @@ def add_parser(subparsers):
                       description="A Zenoh router (mode forced to router) from a config file, until Ctrl-C "
                       "/ SIGTERM. Prints 'router <zid> listening on ...' once up.")
     r.add_argument("--config", required=True, metavar="FILE", help="json5 from `zenav zenoh config router`")
-    r.add_argument("--duration", type=float, default=None, metavar="S", help="exit after S seconds")
+    r.add_argument("--duration", type=positive, default=None, metavar="S", help="exit after S seconds")
     r.set_defaults(func=run_router)
     return p
 
@@ -101,15 +103,27 @@ def _validate(conf: dict) -> None:
         raise zenohconf.ZenohConfError(f"zenoh rejects the generated config: {e}") from e
 
 
+def _plain(e: Exception) -> str:
+    """Zenoh's error without the Rust source location it appends (`... at .../lib.rs:1486.`)."""
+    return re.sub(r"\s+at \S+\.rs:\d+\.?\s*$", "", str(e)).strip()
+
+
 def run_router(args) -> int:
     import zenoh
 
+    if not os.path.isfile(args.config):
+        print(f"zenav zenoh router: {args.config}: no such file", file=sys.stderr)
+        return 2
     try:
         conf = zenoh.Config.from_file(args.config)
+    except Exception as e:  # noqa: BLE001 - zenoh raises ZError with the parser's message
+        print(f"zenav zenoh router: {args.config}: not a valid Zenoh config: {_plain(e)}", file=sys.stderr)
+        return 2
+    try:
         conf.insert_json5("mode", '"router"')
         session = zenoh.open(conf)
-    except Exception as e:  # noqa: BLE001 - report config / bind errors plainly
-        print(f"zenav zenoh router: cannot start with {args.config}: {e}", file=sys.stderr)
+    except Exception as e:  # noqa: BLE001 - report bind errors plainly
+        print(f"zenav zenoh router: cannot start with {args.config}: {_plain(e)}", file=sys.stderr)
         return 1
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())

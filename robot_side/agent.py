@@ -23,6 +23,7 @@ import argparse
 import os
 import sys
 
+from common.argtypes import finite, positive
 from common.config import ConfigError
 from common.launch import Launch, Section, load_launch, run_agent
 from common.node_check import format_config_error
@@ -64,9 +65,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", required=True, metavar="FILE",
                    help="robot YAML (platform / transforms / sensors), e.g. robot_side/config/p3at_sim.yaml")
     p.add_argument("--world", metavar="W", help="simulator world file (overrides the config)")
-    p.add_argument("--start", nargs=3, type=float, metavar=("X", "Y", "YAW"),
+    p.add_argument("--start", nargs=3, type=finite, metavar=("X", "Y", "YAW"),
                    help="simulator start pose in m, m, rad")
-    p.add_argument("--speed", type=float, metavar="N", help="simulated time N x real time")
+    p.add_argument("--speed", type=positive, metavar="N", help="simulated time N x real time")
     p.add_argument("--robot", metavar="NAME", default=argparse.SUPPRESS,
                    help="robot name (keys zenav/<robot>/...); "
                                                    "default $ZENAV_ROBOT, then the file's robot:")

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from common.argtypes import positive_int
 from common.config import ConfigError
 from master_side.slam import evaluate
 from master_side.slam.logs import LogError
@@ -20,8 +21,8 @@ def _run(argv: list[str]) -> int:
     ap.add_argument("--out", required=True, help="output folder (map.pgm, map.yaml, trajectory.txt)")
     ap.add_argument("--config", help="gmapping YAML (slam_gmapping parameter names)")
     ap.add_argument("--section", default="", help="YAML key holding the parameters")
-    ap.add_argument("--particles", type=int, help="number of particles (overrides the config)")
-    ap.add_argument("--max-scans", type=int, help="stop after this many scans")
+    ap.add_argument("--particles", type=positive_int, help="number of particles (overrides the config)")
+    ap.add_argument("--max-scans", type=positive_int, help="stop after this many scans")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override one parameter, e.g. --set maxUrange=30")
     a = ap.parse_args(argv)

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from common.argtypes import positive
 from common.geometry import Pose2D
 
 
@@ -38,23 +39,41 @@ class Metric:
                 "trans_median_m": float(np.median(t)), "relations": len(t)}
 
 
-def read_relations(path: str | Path) -> list[Relation]:
-    """``t1 t2 x y z roll pitch yaw`` per line (``#`` comments allowed)."""
-    out = []
-    for line in Path(path).read_text().splitlines():
+class InputError(ValueError):
+    """A relations or trajectory file that cannot be read: names the file and the line."""
+
+
+def _rows(path: str | Path, width: int, what: str) -> list[list[float]]:
+    """The first ``width`` numbers of every non-empty, non-comment line of ``path``."""
+    try:
+        text = Path(path).read_text()
+    except (OSError, UnicodeDecodeError) as e:
+        raise InputError(f"{path}: cannot read the {what}: {getattr(e, 'strerror', None) or e}") from None
+    rows = []
+    for n, line in enumerate(text.splitlines(), 1):
         f = line.split()
         if not f or f[0].startswith("#"):
             continue
-        v = list(map(float, f[:8]))
-        out.append(Relation(v[0], v[1], Pose2D(v[2], v[3], v[7])))
-    return out
+        try:
+            v = [float(x) for x in f[:width]]
+        except ValueError:
+            v = []
+        if len(v) < width or not all(np.isfinite(v)):
+            raise InputError(f"{path}:{n}: not a {what} line (needs {width} numbers): {line[:60]!r}")
+        rows.append(v)
+    if not rows:
+        raise InputError(f"{path}: no {what} lines")
+    return rows
+
+
+def read_relations(path: str | Path) -> list[Relation]:
+    """``t1 t2 x y z roll pitch yaw`` per line (``#`` comments allowed)."""
+    return [Relation(v[0], v[1], Pose2D(v[2], v[3], v[7])) for v in _rows(path, 8, "relations")]
 
 
 def read_trajectory(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """``timestamp x y theta`` lines -> (stamps (N,), poses (N, 3)) sorted by stamp."""
-    rows = [list(map(float, line.split()[:4])) for line in Path(path).read_text().splitlines()
-            if line.strip() and not line.startswith("#")]
-    a = np.array(rows, float).reshape(-1, 4)
+    a = np.array(_rows(path, 4, "trajectory"), float).reshape(-1, 4)
     a = a[np.argsort(a[:, 0], kind="stable")]
     return a[:, 0], a[:, 1:]
 
@@ -106,11 +125,16 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="zenav slam eval", description="Kümmerle relations metric")
     ap.add_argument("--relations", required=True, help="ground-truth relations file")
     ap.add_argument("trajectory", help="trajectory.txt (timestamp x y theta)")
-    ap.add_argument("--tolerance", type=float, default=1e-3, help="timestamp match tolerance (s)")
+    ap.add_argument("--tolerance", type=positive, default=1e-3, help="timestamp match tolerance (s)")
     a = ap.parse_args(argv)
-    stamps, poses = read_trajectory(a.trajectory)
     try:
-        m = evaluate(stamps, poses, read_relations(a.relations), a.tolerance)
+        stamps, poses = read_trajectory(a.trajectory)
+        relations = read_relations(a.relations)
+    except InputError as e:
+        print(f"zenav slam eval: {e}", file=sys.stderr)
+        return 2
+    try:
+        m = evaluate(stamps, poses, relations, a.tolerance)
     except ValueError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

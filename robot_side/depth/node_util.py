@@ -7,6 +7,7 @@ import dataclasses
 from typing import Any
 
 from common.config import load_params
+from common.log_util import RateLimitedLog
 
 
 def split_params(cfg: dict | None, source: str, *classes: type) -> list[Any]:
@@ -55,6 +56,7 @@ def convert_depth_stream(node, image_topic: str, info_topic: str, out_topic: str
     from common.messages import CameraInfo, DepthImage
 
     h = Handles()
+    warn = RateLimitedLog()
     pub = h.add(node.publisher(out_topic))
     info_sub = h.add(node.subscribe(info_topic, CameraInfo))
 
@@ -62,6 +64,10 @@ def convert_depth_stream(node, image_topic: str, info_topic: str, out_topic: str
         info = info_sub.latest()
         if info is None:
             log.debug("depth image before any camera_info: dropped")
+            return
+        if img.depth.shape != (info.height, info.width):
+            warn(log, f"depth image {img.depth.shape[1]}x{img.depth.shape[0]} does not match camera_info "
+                      f"{info.width}x{info.height}: dropped")
             return
         pub.publish(convert(img, info))
 

@@ -305,6 +305,12 @@ def _same(a: Transform, b: Transform, tol: float = 1e-6) -> bool:
     return math.dist(d.translation.as_array(), (0, 0, 0)) < tol and abs(abs(q.w) - 1.0) < tol
 
 
+def check(cfg: dict, source: str) -> list[str]:
+    """The agents' check before start: parameters, world file and sensors load (raises ConfigError)."""
+    load(cfg, source)
+    return []
+
+
 def start(node, cfg: dict, source: str) -> SimNode:
     p, sim, world = load(cfg, source)
     return SimNode(node, p, sim, world)

@@ -14,6 +14,7 @@ the Kinect's 0.45 m blind zone), so the monitor has nothing to add there.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import subprocess
@@ -58,9 +59,14 @@ class Stream:
     def events(self, kind: str, since: float = 0.0) -> list[list[str]]:
         return [w for w in list(self.lines) if len(w) > 1 and w[1] == kind and float(w[0]) >= since]
 
+    def interrupt(self) -> None:
+        if self.p.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(self.p.pid, 2)
+
     def stop(self) -> None:
         if self.p.poll() is None:
-            os.killpg(self.p.pid, 2)
+            self.interrupt()
             try:
                 self.p.wait(20)
             except subprocess.TimeoutExpired:
@@ -110,6 +116,8 @@ def stack(tmp_path_factory):
             raise AssertionError(f"not ready; last status: {' '.join(st[-1][2:]) if st else 'none'}") from None
         yield {"probe": probe, "link": link, "tmp": tmp}
     finally:
+        for s in procs:  # all at once: each agent takes its nodes' grace time to stop
+            s.interrupt()
         for s in reversed(procs):
             s.stop()
         for ns in (ns_m, ns_r):

@@ -1,0 +1,176 @@
+"""Semantic checks of decoded bus messages: what the codec cannot see.
+
+The codec guarantees types and shapes; this module refuses well-formed messages no consumer could use
+— NaN / Inf where a number is a position, a speed or a time (a scan's ranges and a depth image may
+hold them: REP 117 and "no data"), a quaternion of zeros, a map of size 0, a scan with a zero angle
+step, coordinates beyond ``MAX_COORD_M``, a transform stamped far in the future of the receiver's
+clock (one such TF would push every later transform out of the cache; other stamps are not checked:
+a goal from a wall-clock terminal to a simulated-time stack is fine). ``problem(msg, now)`` returns
+why, or None.
+``common.bus_topics.Subscription`` and ``common.tf.TFListener`` call it on every message and count
+the rejects as ``invalid``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import Any, Callable
+
+import numpy as np
+
+from common.geometry import Quaternion, Vector3
+from common.messages import (
+    BatteryState,
+    CameraInfo,
+    Clock,
+    Costmap,
+    DepthImage,
+    Header,
+    LaserScan,
+    OccupancyGrid,
+    Path,
+    PointCloud,
+    PolygonStamped,
+    Pose2D,
+    SpawnBox,
+)
+
+MAX_COORD_M = 1.0e6  # |x|, |y|, |z| of any position: 1000 km is no indoor robot's map
+MAX_FUTURE_S = 300.0  # a transform this far ahead of the receiver's clock is refused (clock offsets are smaller)
+MAX_CELLS = 100_000_000  # occupancy grids / costmaps
+MAX_BEAMS = 100_000
+
+# (type, field) whose floats may be NaN / Inf
+_NONFINITE_OK = {
+    (LaserScan, "ranges"), (LaserScan, "intensities"), (DepthImage, "depth"), (PointCloud, "points"),
+    (BatteryState, "percentage"),
+}
+_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _fields(cls: type) -> tuple[str, ...]:
+    names = _FIELDS.get(cls)
+    if names is None:
+        names = _FIELDS[cls] = tuple(f.name for f in dataclasses.fields(cls))
+    return names
+
+
+def _walk(obj: Any, path: str) -> str | None:
+    """Non-finite floats (outside ``_NONFINITE_OK``) and the per-type rules, depth first."""
+    cls = type(obj)
+    for name in _fields(cls):
+        v = getattr(obj, name)
+        if isinstance(v, float):
+            if not math.isfinite(v) and (cls, name) not in _NONFINITE_OK:
+                return f"{path}.{name} is {v}"
+        elif isinstance(v, np.ndarray):
+            if v.dtype.kind == "f" and (cls, name) not in _NONFINITE_OK and v.size and not np.isfinite(v).all():
+                return f"{path}.{name} holds NaN / Inf"
+        elif dataclasses.is_dataclass(v):
+            why = _walk(v, f"{path}.{name}")
+            if why:
+                return why
+        elif isinstance(v, tuple):
+            for i, x in enumerate(v):
+                if dataclasses.is_dataclass(x):
+                    why = _walk(x, f"{path}.{name}[{i}]")
+                    if why:
+                        return why
+    rule = _RULES.get(cls)
+    return rule(obj, path) if rule is not None else None
+
+
+def _grid(m, path: str) -> str | None:
+    if not m.resolution > 0.0:
+        return f"{path}.resolution {m.resolution} must be > 0"
+    if m.data.shape[0] == 0 or m.data.shape[1] == 0:
+        return f"{path} is a map of size {m.data.shape[1]}x{m.data.shape[0]}"
+    if m.data.size > MAX_CELLS:
+        return f"{path} has {m.data.size} cells (at most {MAX_CELLS})"
+    return None
+
+
+def _scan(s: LaserScan, path: str) -> str | None:
+    n = len(s.ranges)
+    if not 0 < n <= MAX_BEAMS:
+        return f"{path} has {n} ranges (1..{MAX_BEAMS})"
+    if s.angle_increment == 0.0:
+        return f"{path}.angle_increment is 0"
+    if len(s.intensities) not in (0, n):
+        return f"{path} has {len(s.intensities)} intensities for {n} ranges"
+    if not (0.0 <= s.range_min < s.range_max):
+        return f"{path}: range_min {s.range_min}, range_max {s.range_max} (need 0 <= min < max)"
+    return None
+
+
+def _quaternion(q: Quaternion, path: str) -> str | None:
+    if q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w < 1e-12:
+        return f"{path} is a quaternion of zeros"
+    return None
+
+
+def _position(p, path: str) -> str | None:
+    if max(abs(p.x), abs(p.y), abs(getattr(p, "z", 0.0))) > MAX_COORD_M:
+        return f"{path} = ({p.x:g}, {p.y:g}) is beyond {MAX_COORD_M:g} m"
+    return None
+
+
+def _positive(*names: str) -> Callable[[Any, str], str | None]:
+    def rule(m, path: str) -> str | None:
+        for n in names:
+            if not getattr(m, n) > 0:
+                return f"{path}.{n} = {getattr(m, n)} must be > 0"
+        return None
+    return rule
+
+
+def _points(cols: int, attr: str = "points") -> Callable[[Any, str], str | None]:
+    def rule(m, path: str) -> str | None:
+        a = getattr(m, attr)
+        if a.shape[1] != cols:
+            return f"{path}.{attr} has {a.shape[1]} columns, not {cols}"
+        if a.dtype.kind == "f" and a.size and np.nanmax(np.abs(a[:, :min(cols, 3)]), initial=0.0) > MAX_COORD_M:
+            return f"{path}.{attr} has a point beyond {MAX_COORD_M:g} m"
+        return None
+    return rule
+
+
+def _depth(d: DepthImage, path: str) -> str | None:
+    return f"{path} is an image of size 0" if d.depth.size == 0 else None
+
+
+_RULES: dict[type, Callable[[Any, str], str | None]] = {
+    Header: lambda h, path: f"{path}.stamp {h.stamp} is negative" if h.stamp < 0.0 else None,
+    Clock: lambda c, path: f"{path}.clock {c.clock} is negative" if c.clock < 0.0 else None,
+    Quaternion: _quaternion,
+    Vector3: _position,
+    Pose2D: _position,
+    LaserScan: _scan,
+    OccupancyGrid: _grid,
+    Costmap: _grid,
+    DepthImage: _depth,
+    CameraInfo: _positive("width", "height", "fx", "fy"),
+    SpawnBox: _positive("size_x", "size_y", "height"),
+    PointCloud: _points(3),
+    PolygonStamped: _points(2),
+    Path: _points(3, "poses"),
+}
+
+
+def problem(msg: Any, now: float = 0.0) -> str | None:
+    """Why ``msg`` is unusable, or None. ``now``: the receiver's clock (0 = unknown, no future check)."""
+    if not dataclasses.is_dataclass(msg):
+        return None
+    why = _walk(msg, type(msg).__name__)
+    if why or now <= 0.0:
+        return why
+    for stamp in _stamps(msg):
+        if stamp > now + MAX_FUTURE_S:
+            return f"stamp {stamp:.3f} is {stamp - now:.0f} s ahead of this node's clock"
+    return None
+
+
+def _stamps(msg: Any):
+    for ts in getattr(msg, "transforms", ()):
+        yield ts.header.stamp
