@@ -129,7 +129,7 @@ def bench(a, port: int, child: subprocess.Popen) -> int:
             if time.monotonic() > deadline:
                 raise
             time.sleep(0.2)
-    scan_pub, depth_pub, ctl = node.publisher("scan"), node.publisher("depth"), node.publisher("ctl")
+    scan_pub, depth_pub, ctl = node.publisher("scan"), node.publisher("depth"), node.publisher("ctl", reliable=True)
     node.subscribe("ready", Text).wait_first(timeout=60)
     for p in (scan_pub, depth_pub, ctl):
         while not p._pub.matching_status.matching:

@@ -79,7 +79,13 @@ class Node:
         return topic_key(self.robot, topic)
 
     # -- pub / sub -----------------------------------------------------------------------------
-    def publisher(self, topic: str, latched: bool = False, reliable: bool = True) -> Publisher:
+    def publisher(self, topic: str, latched: bool = False, reliable: bool | None = None) -> Publisher:
+        """``reliable``: block the caller while Zenoh's send queue toward a peer is full (True) or drop
+        the message then (False). Default: block only for latched topics (maps, static TF), like
+        rmw_zenoh's default: a stream publisher must never stall its node — a base driver whose odom
+        publish waited on a cut Wi-Fi link stopped running its own command timeout."""
+        if reliable is None:
+            reliable = latched
         pub = Publisher(self, topic, latched, reliable)
         self._entities.append(pub)
         return pub
@@ -167,7 +173,8 @@ class Node:
                 e.close() if hasattr(e, "close") else e.undeclare()
         self._pool.shutdown(wait=False, cancel_futures=True)
         if self._owns_session:
-            self.session.close()
+            with contextlib.suppress(zenoh.ZError):  # "close operation timed out" over a dead link
+                self.session.close()
 
     def __enter__(self) -> Node:
         return self

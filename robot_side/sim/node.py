@@ -107,7 +107,7 @@ class SimNode:
         self.pub_motor = pub("motor_state", latched=True)
         self.pub_battery = pub("battery_state")
         self.pub_scan = pub(sim.laser.p.topic) if sim.laser else None
-        self.pub_depth = pub("camera/depth/image", reliable=False) if sim.camera else None
+        self.pub_depth = pub("camera/depth/image") if sim.camera else None
         self.pub_info = pub("camera/depth/camera_info") if sim.camera else None
         self._odom_tick, self._gt_tick = _Tick(p.odom_rate), _Tick(p.ground_truth_rate)
         self._motor_tick, self._battery_tick = _Tick(p.motor_state_rate), _Tick(p.battery_rate)

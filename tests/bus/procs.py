@@ -84,7 +84,7 @@ def scan_sub(a) -> int:
 def scan_pub(a) -> int:
     """Waits until the subscriber is matched and ready, then publishes N scans reliably."""
     node = Node("scan_pub")
-    pub = node.publisher("scan")
+    pub = node.publisher("scan", reliable=True)  # a lossless burst: block while the queue is full
     bye = node.publisher("bye", latched=True)
     node.subscribe("ready", Text).wait_first(timeout=a.timeout)
     deadline = time.monotonic() + a.timeout

@@ -1,15 +1,17 @@
 """Issue 15: navigation over a bad link. Master and robot in two network namespaces joined by a user-space
 link (linkem.py: this kernel has no netem), real processes on both sides, default Zenoh config (peer,
 multicast scouting). The tutorial's robot (simulated Pioneer 3-AT, Kinect scan) with its collision
-monitor, and the tutorial's known-map DWA master. The tests share one stack and run in order.
+monitor, and the tutorial's known-map DWA master. The robot is the tutorial's Pioneer LX with its
+SICK S300 (robot_side/config/pioneer_lx_sim.yaml; a Kinect cannot see the last 0.45 m in front of it,
+where (c) happens), plus a camera_link frame at the laser's mount because the tutorial's costmap file names
+camera_link as the sensor frame. The tests share one stack and run in order.
 
 (a) 100 ms delay each way + 5 % packet loss: the goal is still reached, no collision.
 (b) a 3 s partition while driving: the robot stops within cmd_vel_timeout + braking of the last command;
     after the link heals the same goal completes, nothing restarted.
-The robot's own collision monitor stopping it while the master keeps commanding into an obstacle (a master
-that cannot see it) is tests/sim_e2e/test_sim_e2e_agent.py; with this robot a box that appears as the
-link is cut is passed by the command expiry first (0.25 s + braking covers ~0.12 m at 0.3 m/s, less than
-the Kinect's 0.45 m blind zone), so the monitor has nothing to add there.
+(c) a box appears 0.1 m in front of the bumper as the link is cut while driving at 0.25 m/s or more:
+    command expiry alone would carry the robot 0.25 s + braking, further than that; the robot's own
+    collision monitor acts on its next scan and the robot stops short of the box.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ import uuid
 from pathlib import Path
 
 import pytest
+import yaml
 
 from tests.support import wait_until
 
@@ -32,7 +35,7 @@ pytestmark = pytest.mark.netns
 
 REPO = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).parent
-ROBOT = REPO / "robot_side/config/p3at_sim.yaml"
+ROBOT = REPO / "robot_side/config/pioneer_lx_sim.yaml"
 MASTER = REPO / "master_side/config/p3at_known_map.yaml"
 TIMEOUT, DECEL = 0.25, 1.0  # the robot config's cmd_vel_timeout and braking (m/s^2)
 SUCCEEDED, ACTIVE = 3, 1
@@ -103,7 +106,10 @@ def stack(tmp_path_factory):
         procs.append(link)
         wait_until(lambda: link.lines, 30, "the link")
         zenav = [sys.executable, "-m", "deploy.cli"]
-        start(ns_r, [*zenav, "robot", "--config", str(ROBOT), "--robot", robot], "robot.log")
+        cfg = yaml.safe_load(ROBOT.read_text())
+        cfg["transforms"]["laser_as_camera_link"] = {"args": "0.1 0 0.35 0 0 0 base_link camera_link 100"}
+        (tmp / "robot.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
+        start(ns_r, [*zenav, "robot", "--config", str(tmp / "robot.yaml"), "--robot", robot], "robot.log")
         start(ns_m, [*zenav, "master", "--config", str(MASTER)], "master.log")
         probe = start(ns_r, [sys.executable, str(HERE / "probe.py")])
         def ready():
@@ -187,3 +193,45 @@ def test_b_a_partition_stops_the_robot_and_the_goal_completes_after_it(stack):
                 and abs(float(w[5])) > 1e-3], "moved again while partitioned"
     _reached(probe, t0, what="the same goal after the link healed")
     assert not probe.events("COLL", t0)
+
+
+def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(stack):
+    probe = stack["probe"]
+    t0 = _goal(probe, -2.2, 1.9, math.pi / 2)  # 1.9 m straight north along the west wall, 0.85 m from it
+
+    def cruising():
+        return [w for w in probe.events("GT", t0) if float(w[5]) >= 0.25 and abs(float(w[4]) - math.pi / 2) < 0.15]
+    try:
+        wait_until(cruising, 120, "driving north at 0.25 m/s or more")
+    except AssertionError:
+        gt = probe.events("GT", t0)
+        raise AssertionError(f"never cruising; top speed {max((float(w[5]) for w in gt), default=0):.2f} m/s, "
+                             f"last {gt[-1][2:] if gt else None}, status {probe.events('ST', t0)[-1:]}") from None
+    v = float(probe.events("GT", t0)[-1][5])
+    # the box is placed inside what command expiry alone would cover (the last command for cmd_vel_timeout,
+    # then braking) but beyond what braking after 0.2 s of reaction needs: only a robot-side reaction stops
+    gap = max(0.10, v * 0.2 + v**2 / (2 * DECEL))
+    expiry_only = v * TIMEOUT + v**2 / (2 * DECEL)
+    _link(stack, "partition")
+    t_cut = time.time()
+    try:
+        probe.send(f"box {0.3302 + gap + 0.1} 0.0 0.2 0.6")  # bumper 0.33 m ahead of base_link; near face at gap
+        sent = wait_until(lambda: probe.events("SENT", t_cut), 10, "box spawned")
+        t_box = float(sent[0][0])
+        start = [w for w in probe.events("GT", t0) if float(w[0]) <= t_box][-1]
+        try:
+            wait_until(lambda: [w for w in probe.events("GT", t_box + 0.1) if abs(float(w[5])) < 1e-3], 10, "stop")
+        except AssertionError:
+            trace = [" ".join(w) for w in probe.lines if len(w) > 1 and float(w[0]) >= t_cut - 0.2][:60]
+            raise AssertionError("never stopped:\n" + "\n".join(trace)) from None
+        stop = [w for w in probe.events("GT", t_box + 0.1) if abs(float(w[5])) < 1e-3][0]
+        travelled = math.dist(map(float, start[2:4]), map(float, stop[2:4]))
+        acted = [w[2] for w in probe.events("MON", t_cut) if w[2] in ("stop", "slowdown", "approach", "limit")]
+        print(f"at {v:.2f} m/s: box {gap:.3f} m ahead, travelled {travelled:.3f} m to the stop (command expiry "
+              f"alone: {expiry_only:.3f} m); monitor: {acted[:4]}")
+        assert expiry_only > gap
+        assert acted, "the collision monitor never acted"
+        assert travelled < gap
+        assert not probe.events("COLL", t0), "collision"
+    finally:
+        _link(stack, "heal")
