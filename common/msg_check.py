@@ -125,12 +125,14 @@ def _positive(*names: str) -> Callable[[Any, str], str | None]:
     return rule
 
 
-def _points(cols: int, attr: str = "points") -> Callable[[Any, str], str | None]:
+def _points(cols: int, attr: str = "points", bound: bool = True) -> Callable[[Any, str], str | None]:
+    """Shape check; ``bound``: also refuse coordinates beyond MAX_COORD_M (not for clouds: a VGA cloud
+    would cost milliseconds, and the costmap layers cut clouds at their obstacle range anyway)."""
     def rule(m, path: str) -> str | None:
         a = getattr(m, attr)
         if a.shape[1] != cols:
             return f"{path}.{attr} has {a.shape[1]} columns, not {cols}"
-        if a.dtype.kind == "f" and a.size and np.nanmax(np.abs(a[:, :min(cols, 3)]), initial=0.0) > MAX_COORD_M:
+        if bound and a.size and float(np.abs(a[:, :min(cols, 2)]).max()) > MAX_COORD_M:
             return f"{path}.{attr} has a point beyond {MAX_COORD_M:g} m"
         return None
     return rule
@@ -152,7 +154,7 @@ _RULES: dict[type, Callable[[Any, str], str | None]] = {
     DepthImage: _depth,
     CameraInfo: _positive("width", "height", "fx", "fy"),
     SpawnBox: _positive("size_x", "size_y", "height"),
-    PointCloud: _points(3),
+    PointCloud: _points(3, bound=False),
     PolygonStamped: _points(2),
     Path: _points(3, "poses"),
 }

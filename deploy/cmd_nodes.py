@@ -28,6 +28,10 @@ def add_parser(subparsers):
         "-l", "--long", action="store_true", help="also list each node's publications and services"
     )
     p.add_argument(
+        "--stats", action="store_true",
+        help="ask every node for its subscriptions' counters: received, malformed (not the type), invalid "
+        "(NaN, zero quaternion, empty map...), dropped (replaced before use), callback errors")
+    p.add_argument(
         "--wait",
         type=positive,
         default=1.0,
@@ -76,7 +80,10 @@ def run(args) -> int:
         sub = session.liveliness().declare_subscriber(key, on_token, history=True)
         wait(threading.Event(), args.wait)
         with lock:
-            _print_list(live, args.long)
+            if args.stats:
+                _print_stats(session, sorted({(r, n) for r, k, n, _ in live if k == "node"}))
+            else:
+                _print_list(live, args.long)
             ready.set()
         if args.watch:
             wait(threading.Event(), args.duration)
@@ -98,3 +105,34 @@ def _print_list(live: set, long: bool) -> None:
         if long and details[(r, n)]:
             line += "  " + " ".join(details[(r, n)])
         print(line, flush=True)
+
+
+def _print_stats(session, nodes: list[tuple[str, str]]) -> None:
+    """One line per node and subscription, from each node's ``node_stats/<node>`` service."""
+    import zenoh
+
+    from common.codec import DecodeError, decode, encode
+    from common.messages import Empty, NodeStats
+
+    if not nodes:
+        print("no nodes", file=sys.stderr, flush=True)
+        return
+    print(f"{'robot':12} {'node':22} {'topic':30} {'type':22} {'received':>9} {'malformed':>9} {'invalid':>8} "
+          f"{'dropped':>8} {'errors':>6}")
+    for robot, name in nodes:
+        stats = None
+        for reply in session.get(f"zenav/{robot}/srv/node_stats/{name}", payload=encode(Empty()), timeout=2.0,
+                                 target=zenoh.QueryTarget.BEST_MATCHING):
+            if reply.ok is not None:
+                try:
+                    stats = decode(reply.ok.payload.to_bytes(), NodeStats)
+                except DecodeError:
+                    stats = None
+        if stats is None:
+            print(f"{robot:12} {name:22} (no answer)", flush=True)
+            continue
+        for t in stats.topics or ():
+            print(f"{robot:12} {name:22} {t.topic:30} {t.msg_type:22} {t.received:9d} {t.malformed:9d} "
+                  f"{t.invalid:8d} {t.dropped:8d} {t.errors:6d}", flush=True)
+        if not stats.topics:
+            print(f"{robot:12} {name:22} (no subscriptions)", flush=True)

@@ -216,6 +216,12 @@ class Monitor:
         elif isinstance(msg, m.BatteryState):
             sub("plots/battery_voltage", topic, kind, stamp,
                 lambda: rec.log("plots/battery_voltage", rr.Scalars(msg.voltage)))
+        elif isinstance(msg, m.CollisionMonitorState):  # the robot's own safety: why it overrides cmd_vel
+            sub("plots/collision_monitor/ratio", topic, kind, stamp,
+                lambda: rec.log("plots/collision_monitor/ratio", rr.Scalars(msg.ratio)))
+            text = msg.action + (f" ({msg.polygon})" if msg.polygon else "") + (f": {msg.reason}" if msg.reason else "")
+            self._text_on_change("log/collision_monitor", stamp, text, "INFO" if msg.action in ("none", "") else "WARN",
+                                 change=f"{msg.action}|{msg.polygon}")
         elif isinstance(msg, m.MotorState):
             self._text_on_change("log/motors", stamp, f"motors {'enabled' if msg.enabled else 'disabled'}")
 

@@ -13,6 +13,7 @@ import pytest
 from bushelp import REPO, child_env
 from procs import make_scan
 
+from common.codec import encode
 from common.messages import Header, OccupancyGrid
 
 ZENAV = [sys.executable, "-m", "deploy.cli"]
@@ -110,3 +111,24 @@ def test_streaming_commands_exit_cleanly_on_ctrl_c(live_robot, cmd):
     finally:
         if p.poll() is None:
             p.kill()
+
+
+def test_nodes_stats_shows_each_subscriptions_counters(live_robot, node_pair, robot_name):
+    from bushelp import wait_for
+
+    from common.messages import LaserScan
+    listener = node_pair("listener")
+    sub = listener.subscribe("scan", LaserScan)
+    wait_for(lambda: sub.received >= 3, 30, "scans at the listener")
+    raw = node_pair("rogue").session.declare_publisher(f"zenav/{robot_name}/scan")
+    for _ in range(3):
+        raw.put(b"not msgpack at all")
+    bad = make_scan(1, 720, 1.0)
+    raw.put(encode(LaserScan(bad.header, bad.angle_min, bad.angle_max, 0.0, 0.0, 0.0, 0.1, 10.0, bad.ranges)))
+    wait_for(lambda: sub.malformed == 3 and sub.invalid == 1, 30, "the rogue payloads counted")
+    out = _run(["nodes", "--stats"], live_robot).stdout
+    line = re.search(rf"^{robot_name}\s+listener\s+scan\s+LaserScan\s+(\d+)\s+(\d+)\s+(\d+)\s+(\d+)\s+(\d+)$",
+                     out, re.M)
+    assert line, out
+    received, malformed, invalid, _, errors = map(int, line.groups())
+    assert received >= 3 and (malformed, invalid, errors) == (3, 1, 0), out

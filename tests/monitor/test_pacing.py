@@ -174,3 +174,26 @@ def test_costmap_sensor_status_is_one_event_per_change_and_an_age_plot(rig):
     assert [lv[0] for lv in values(rows, "TextLog:level")] == ["WARN", "INFO"]
     ages = [v[0] for v in values(rec["/plots/sensors/local_costmap/obstacle_layer/scan"], "Scalars:scalars")]
     assert ages[-3:] == pytest.approx([2.2, 3.2, 0.1])
+
+
+def test_collision_monitor_state_is_one_event_per_change_and_a_ratio_plot(rig):
+    node, make, close = rig
+    mon, path = make()
+    pub = node.publisher("collision_monitor/state")
+
+    def state(action: str, ratio: float, reason: str = "") -> m.CollisionMonitorState:
+        return m.CollisionMonitorState(m.Header(time.time(), "base_link"), action, "approach" if reason else "",
+                                       reason, ratio, 12 if reason else 0, 0.4, 0.0)
+    wait_for(lambda: (pub.publish(state("none", 1.0)), mon.stats.received > 0)[1], what="monitor connected")
+    for r in (0.6, 0.3):  # same action, new numbers: one event
+        pub.publish(state("approach", r, f"collision in {r:.1f} s"))
+    pub.publish(state("none", 1.0))
+    wait_for(lambda: mon.stats.by_entity.get("log/collision_monitor", 0) >= 3, what="the three events")
+    close(mon)
+    rec = read_rrd(path)
+    rows = rec["/log/collision_monitor"]
+    texts = [t[0] for t in values(rows, "TextLog:text")]
+    assert texts == ["none", "approach (approach): collision in 0.6 s", "none"]
+    assert [lv[0] for lv in values(rows, "TextLog:level")] == ["INFO", "WARN", "INFO"]
+    ratios = [v[0] for v in values(rec["/plots/collision_monitor/ratio"], "Scalars:scalars")]
+    assert 0.3 in ratios and 0.6 in ratios

@@ -4,7 +4,7 @@ Prints one line per event, wall time first (the robot PC's clock)::
 
     GT t x y yaw v          ground truth, 50 Hz        SAFE t v w     what the base is told
     CMD t v w               cmd_vel from the master    COLL t count   a collision
-    MON t action            collision monitor state    ST t status state reason   move_base/status
+    MON t action            collision monitor state    ST t status goal_id state reason   move_base/status
 
 stdin: ``goal X Y YAW`` (map frame), ``box DX DY SX SY`` (a box appears relative to the robot).
 """
@@ -48,7 +48,8 @@ def main() -> None:
     node.subscribe("collision_monitor/state", CollisionMonitorState, mode="queue",
                    callback=lambda m: say("MON", m.action))
     node.subscribe("move_base/status", MoveBaseStatus, mode="queue",
-                   callback=lambda m: say("ST", m.status, m.state or "-", (m.reason or "-").replace("\n", " ")))
+                   callback=lambda m: say("ST", m.status, m.goal_id or "-", m.state or "-",
+                                          (m.reason or "-").replace("\n", " ")))
     goal = node.publisher("move_base_simple/goal")
     box = node.publisher("sim/spawn_box")
     say("READY")
