@@ -71,9 +71,12 @@ def test_speed_5_runs_ten_sim_seconds_in_about_two_wall_seconds(bus, sim, tmp_pa
     grid = set(np.round(clocks, 6))
     assert all(round(t, 6) in grid for t in odoms[odoms <= clocks[-1]])
     assert all(round(t, 6) in grid for t in scans[scans <= clocks[-1]])
-    assert np.allclose(np.diff(clocks), 0.01, atol=1e-6), "a clock step was skipped"
-    assert np.allclose(np.diff(odoms), 0.02, atol=1e-6)
-    assert np.allclose(np.diff(scans), 0.04, atol=1e-6)
+    # Stream topics use Zenoh's drop congestion control (README, Reliability): on a loaded machine a
+    # message may be dropped on the way, but the simulator itself never skips a step of its grid.
+    for name, s, step in (("clock", clocks, 0.01), ("odom", odoms, 0.02), ("scan", scans, 0.04)):
+        k = np.diff(s) / step
+        assert np.allclose(k, np.round(k), atol=1e-3) and np.all(np.round(k) >= 1), f"{name} off its grid"
+        assert np.mean(np.round(k) == 1) >= 0.9, f"{name}: over 10 % of the messages lost"
 
 
 def test_disabled_motors_ignore_cmd_vel(bus, sim, tmp_path):
