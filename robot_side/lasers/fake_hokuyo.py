@@ -1,0 +1,354 @@
+"""A simulated Hokuyo SCIP 2.0 *device* on a pty (like a URG-04LX on USB) or a TCP port (like a UST-10LX),
+written from the SCIP 2.0 specification independently of the driver's codec (robot_side/lasers/scip.py):
+
+    python -m robot_side.lasers.fake_hokuyo --pty /tmp/ttyHOKUYO          # serial_port: /tmp/ttyHOKUYO
+    python -m robot_side.lasers.fake_hokuyo --tcp 127.0.0.1:10940         # ip_address / ip_port
+
+It answers VV, PP, II, BM, QT, RS, TM0/1/2, MD/MS/ME (continuous) and GD/GS/GE (single) with echo, status
+and per-line sums, timestamps from a 24-bit millisecond counter (``time_base_ms`` sets where it starts,
+to test the wrap), and ranges of a synthetic room (``range_mm``). Faults: ``inject("checksum")``,
+``inject("status", code="50")``, ``inject("garbage", data=b"...")`` (each on the next scan), ``unplug()``
+(closes the pty / socket), ``fail={"BM": "01"}`` (a command answered with an error status).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import select
+import signal
+import socket
+import threading
+import time
+import tty
+
+import numpy as np
+
+MODELS = {  # PP values (DMIN DMAX mm, ARES, AMIN, AMAX, AFRT steps, SCAN rpm), intensity support
+    "URG-04LX": dict(dmin=20, dmax=5600, ares=1024, amin=44, amax=725, afrt=384, rpm=600, intensity=False),
+    "UST-10LX": dict(dmin=20, dmax=30000, ares=1440, amin=0, amax=1080, afrt=540, rpm=2400, intensity=True),
+}
+ROOM = (-1.5, 2.5, -1.2, 1.8)  # walls x = -1.5, x = 2.5, y = -1.2, y = 1.8 around the sensor (m)
+DOORWAY_X = (0.5, 1.0)  # an open door in the y = 1.8 wall: no echo (error code 1)
+GLASS_Y = (-0.2, 0.2)  # a glass pane in the x = 2.5 wall: reads beyond DMAX
+
+
+def _sum(payload: bytes) -> bytes:
+    return bytes([(sum(payload) & 0x3F) + 0x30])
+
+
+def _enc(value: int, n: int) -> bytes:
+    return bytes(((value >> (6 * (n - 1 - k))) & 0x3F) + 0x30 for k in range(n))
+
+
+def _enc_all(values, n: int) -> bytes:
+    v = np.asarray(values, np.int64)[:, None] >> (6 * np.arange(n - 1, -1, -1))
+    return ((v & 0x3F) + 0x30).astype(np.uint8).tobytes()
+
+
+def _line(payload: bytes) -> bytes:
+    return payload + _sum(payload) + b"\n"
+
+
+class FakeHokuyo:
+    def __init__(self, model: str = "URG-04LX", scan_period: float | None = None, time_base_ms: int = 0,
+                 fail: dict[str, str] | None = None) -> None:
+        self.model, self.m = model, MODELS[model]
+        self.scan_period = scan_period or 60.0 / self.m["rpm"]
+        self.time_base_ms, self.fail = time_base_ms, dict(fail or {})
+        self.laser_on = self.tm_mode = False
+        self.stream: dict | None = None  # the running MD/MS/ME: echo fields, remaining scans, next time
+        self.commands: list[str] = []
+        self.scans_sent = 0
+        self.unplugged = threading.Event()
+        self._faults: list[tuple[str, dict]] = []
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._t0 = time.monotonic()
+        self._rx = b""
+        self._fd = self._slave = self._server = self._conn = None
+        self._link: str | None = None
+        self._thread: threading.Thread | None = None
+
+    # ------------------------------------------------------------------ transports
+    @classmethod
+    def on_pty(cls, link: str | None = None, **kw) -> tuple[FakeHokuyo, str]:
+        """A device on a new pty pair (not started); returns it and the path for the driver."""
+        fake = cls(**kw)
+        fake._fd, fake._slave = os.openpty()
+        tty.setraw(fake._slave)
+        path = os.ttyname(fake._slave)
+        if link:
+            if os.path.lexists(link):
+                os.unlink(link)
+            os.symlink(path, link)
+            fake._link = link
+        return fake, path
+
+    @classmethod
+    def on_tcp(cls, host: str = "127.0.0.1", port: int = 0, **kw) -> tuple[FakeHokuyo, tuple[str, int]]:
+        """A device listening on TCP (one client at a time); returns it and (host, port)."""
+        fake = cls(**kw)
+        fake._server = socket.create_server((host, port))  # SO_REUSEADDR: a new fake can take the port
+        return fake, fake._server.getsockname()[:2]
+
+    def _recv(self, timeout: float) -> bytes:
+        if self._server is not None and self._conn is None:
+            r, _, _ = select.select([self._server], [], [], timeout)
+            if r:
+                self._conn, _ = self._server.accept()
+                self._rx = b""
+            return b""
+        fd = self._conn if self._conn is not None else self._fd
+        r, _, _ = select.select([fd], [], [], timeout)
+        if not r:
+            return b""
+        try:
+            data = self._conn.recv(4096) if self._conn is not None else os.read(self._fd, 4096)
+        except OSError:
+            data = b""
+        if not data and self._conn is not None:  # the client went away: wait for the next one
+            self._conn.close()
+            self._conn, self.stream, self.laser_on = None, None, False
+        elif not data:
+            time.sleep(timeout)
+        return data
+
+    def _send(self, data: bytes) -> None:
+        try:
+            if self._conn is not None:
+                self._conn.sendall(data)
+            elif self._server is None:
+                os.write(self._fd, data)
+        except OSError:
+            pass
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> FakeHokuyo:
+        self._thread = threading.Thread(target=self._run, name="fake-hokuyo", daemon=True)
+        self._thread.start()
+        return self
+
+    def unplug(self) -> None:
+        """The cable is pulled: the pty / socket is closed, nothing answers any more."""
+        self.unplugged.set()
+        self.close()
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(2.0)
+        for s in (self._conn, self._server):
+            if s is not None:
+                s.close()
+        for fd in (self._fd, self._slave):
+            if fd is not None:
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+        self._conn = self._server = self._fd = self._slave = None
+        if self._link and os.path.islink(self._link):
+            os.unlink(self._link)
+
+    def inject(self, kind: str, **kw) -> None:
+        """A fault on the next scan without one: "checksum", "status" (code=...), "garbage" (data=...)."""
+        if kind not in ("checksum", "status", "garbage"):
+            raise ValueError(kind)
+        with self._lock:
+            self._faults.append((kind, kw))
+
+    def now_ms(self) -> int:
+        return (self.time_base_ms + int((time.monotonic() - self._t0) * 1000.0)) & 0xFFFFFF
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            self._rx += self._recv(0.002)
+            while True:
+                cut = [i for i in (self._rx.find(b"\n"), self._rx.find(b"\r")) if i >= 0]
+                if not cut:
+                    break
+                line, self._rx = self._rx[:min(cut)], self._rx[min(cut) + 1:]
+                if line:
+                    self._command(line.decode("ascii", "replace"))
+            s = self.stream
+            if s is not None and time.monotonic() >= s["next"]:
+                s["next"] += self.scan_period * (s["skip"] + 1)
+                self._send_scan(s)
+
+    # ------------------------------------------------------------------ the room
+    def angle(self, step: np.ndarray) -> np.ndarray:
+        return (np.asarray(step) - self.m["afrt"]) * 2.0 * math.pi / self.m["ares"]
+
+    def range_mm(self, step) -> np.ndarray:
+        """Distance (mm) or error code at each step: the walls of ROOM, the doorway, the glass pane."""
+        a = self.angle(step)
+        c, s = np.cos(a), np.sin(a)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tx = np.where(c > 1e-12, ROOM[1] / c, np.where(c < -1e-12, ROOM[0] / c, np.inf))
+            ty = np.where(s > 1e-12, ROOM[3] / s, np.where(s < -1e-12, ROOM[2] / s, np.inf))
+        t = np.minimum(tx, ty)
+        mm = np.round(t * 1000.0).astype(np.int64)
+        hit_y, hit_x = t * c, t * s
+        mm[(ty <= tx) & (s > 0) & (hit_y >= DOORWAY_X[0]) & (hit_y <= DOORWAY_X[1])] = 1
+        mm[(tx < ty) & (c > 0) & (hit_x >= GLASS_Y[0]) & (hit_x <= GLASS_Y[1])] = self.m["dmax"] + 500
+        return mm
+
+    def intensity(self, step) -> np.ndarray:
+        return 1000 + (np.asarray(step) % 97) * 7
+
+    def values(self, start: int, end: int, cluster: int) -> tuple[np.ndarray, np.ndarray]:
+        """(range mm, intensity) per cluster: the nearest valid step of each (its first when none is)."""
+        groups = (end - start) // cluster + 1
+        steps = start + np.arange(groups * cluster)
+        r = self.range_mm(steps)
+        r[steps > end] = 0
+        never = np.iinfo(np.int64).max
+        big = np.where(r >= 20, r, never).reshape(groups, cluster)
+        k = np.where(big.min(axis=1) < never, big.argmin(axis=1), 0)
+        pick = np.arange(groups) * cluster + k
+        return r[pick], self.intensity(steps[pick])
+
+    # ------------------------------------------------------------------ protocol
+    def _reply(self, echo: str, status: str, lines: tuple[bytes, ...] = ()) -> None:
+        out = echo.encode() + b"\n" + _line(status.encode()) + b"".join(lines) + b"\n"
+        self._send(out)
+
+    def _info(self, pairs) -> tuple[bytes, ...]:
+        # "KEY:value;" + sum of "KEY:value" (the ';' is not summed)
+        return tuple(f"{k}:{v}".encode() + b";" + _sum(f"{k}:{v}".encode()) + b"\n" for k, v in pairs)
+
+    def _command(self, line: str) -> None:
+        self.commands.append(line)
+        sym, params = line[:2], line[2:].split(";")[0]
+        if sym in self.fail:
+            return self._reply(line, self.fail[sym])
+        m = self.m
+        if sym == "VV":
+            return self._reply(line, "00", self._info([
+                ("VEND", "Hokuyo Automatic Co.,Ltd."), ("PROD", f"SOKUIKI Sensor {self.model} (zenav fake)"),
+                ("FIRM", "3.4.03(17/Dec./2012)"), ("PROT", "SCIP 2.0"), ("SERI", "H0000042")]))
+        if sym == "PP":
+            return self._reply(line, "00", self._info([
+                ("MODL", f"{self.model}(Hokuyo Automatic Co.,Ltd.)"), ("DMIN", m["dmin"]), ("DMAX", m["dmax"]),
+                ("ARES", m["ares"]), ("AMIN", m["amin"]), ("AMAX", m["amax"]), ("AFRT", m["afrt"]),
+                ("SCAN", m["rpm"])]))
+        if sym == "II":
+            return self._reply(line, "00", self._info([
+                ("MODL", self.model), ("LASR", "ON" if self.laser_on else "OFF"), ("SCSP", f"{m['rpm']}[rpm]"),
+                ("MESM", "Measuring" if self.stream else "Idle"), ("SBPS", "USB only"),
+                ("TIME", f"{self.now_ms():06X}"), ("STAT", "Sensor works well.")]))
+        if sym == "BM":
+            was, self.laser_on = self.laser_on, True
+            return self._reply(line, "02" if was else "00")
+        if sym in ("QT", "RS"):
+            self.laser_on, self.stream, self.tm_mode = False, None, False
+            if sym == "RS":
+                self._t0, self.time_base_ms = time.monotonic(), 0
+            return self._reply(line, "00")
+        if sym == "TM":
+            return self._tm(line, params)
+        if sym in ("MD", "MS", "ME", "GD", "GS", "GE"):
+            return self._capture(line, sym, params)
+        return self._reply(line, "0E")
+
+    def _tm(self, line: str, code: str) -> None:
+        if code == "0":
+            was, self.tm_mode, self.laser_on, self.stream = self.tm_mode, True, False, None
+            return self._reply(line, "02" if was else "00")
+        if code == "1":
+            if not self.tm_mode:
+                return self._reply(line, "04")
+            return self._reply(line, "00", (_line(_enc(self.now_ms(), 4)),))
+        if code == "2":
+            was, self.tm_mode = self.tm_mode, False
+            return self._reply(line, "00" if was else "03")
+        return self._reply(line, "01")
+
+    def _capture(self, line: str, sym: str, params: str) -> None:
+        if sym[1] == "E" and not self.m["intensity"]:
+            return self._reply(line, "0E")
+        cont = sym[0] == "M"
+        fields = [params[0:4], params[4:8], params[8:10]] + ([params[10:11], params[11:13]] if cont else [])
+        for code, f in zip(("01", "02", "03", "06", "07"), fields):
+            if len(f) == 0 or not f.isdigit():
+                return self._reply(line, code)
+        start, end, cluster = int(fields[0]), int(fields[1]), max(1, int(fields[2]))
+        if end > self.m["amax"]:
+            return self._reply(line, "04")
+        if end < start:
+            return self._reply(line, "05")
+        if not cont:
+            if not self.laser_on:
+                return self._reply(line, "10")
+            return self._send(self._scan_block(sym, line, "00", start, end, cluster))
+        self.laser_on = True
+        self._reply(line, "00")
+        self.stream = dict(sym=sym, params=params, tag=line[2 + len(params):], start=start, end=end,
+                           cluster=cluster, skip=int(fields[3]), scans=int(fields[4]),
+                           remaining=int(fields[4]), next=time.monotonic())
+        return None
+
+    def _scan_block(self, sym: str, echo: str, status: str, start: int, end: int, cluster: int) -> bytes:
+        r, inten = self.values(start, end, cluster)
+        if sym[1] == "S":
+            data = _enc_all(np.minimum(r, 4095), 2)
+        elif sym[1] == "E":
+            data = _enc_all(np.column_stack([r, inten]).ravel(), 3)
+        else:
+            data = _enc_all(r, 3)
+        blocks = b"".join(_line(data[i:i + 64]) for i in range(0, len(data), 64))
+        return echo.encode() + b"\n" + _line(status.encode()) + _line(_enc(self.now_ms(), 4)) + blocks + b"\n"
+
+    def _send_scan(self, s: dict) -> None:
+        p = s["params"]
+        if s["scans"]:
+            s["remaining"] -= 1
+            p = p[:11] + f"{s['remaining']:02d}"
+        echo = s["sym"] + p + s["tag"]
+        with self._lock:  # one fault per scan, in the order injected
+            faults = [self._faults.pop(0)] if self._faults else []
+        block = self._scan_block(s["sym"], echo, "99", s["start"], s["end"], s["cluster"])
+        for kind, kw in faults:
+            if kind == "garbage":
+                block = kw.get("data", b"\x00\xffjunk\n") + block
+            elif kind == "status":
+                block = echo.encode() + b"\n" + _line(kw.get("code", "50").encode()) + b"\n"
+            elif kind == "checksum":  # one data character changed, its line's sum left as it was
+                i = len(block) - 4  # the last data character (then its sum, LF, LF)
+                block = block[:i] + bytes([0x30 + ((block[i] - 0x30 + 1) & 0x3F)]) + block[i + 1:]
+        self._send(block)
+        self.scans_sent += 1
+        if s["scans"] and s["remaining"] <= 0:
+            self.stream, self.laser_on = None, False
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    ap = argparse.ArgumentParser(prog="python -m robot_side.lasers.fake_hokuyo", description=__doc__.split("\n")[0])
+    where = ap.add_mutually_exclusive_group(required=True)
+    where.add_argument("--pty", metavar="LINK", help="a pty; LINK becomes a symlink to it (/tmp/ttyHOKUYO)")
+    where.add_argument("--tcp", metavar="HOST:PORT", help="listen on TCP (127.0.0.1:10940)")
+    ap.add_argument("--model", default=None, choices=sorted(MODELS), help="default URG-04LX (pty), UST-10LX (tcp)")
+    args = ap.parse_args(argv)
+    if args.pty:
+        fake, path = FakeHokuyo.on_pty(args.pty, model=args.model or "URG-04LX")
+        print(f"{args.pty} -> {path}", flush=True)
+    else:
+        host, _, port = args.tcp.rpartition(":")
+        fake, addr = FakeHokuyo.on_tcp(host or "127.0.0.1", int(port), model=args.model or "UST-10LX")
+        print(f"listening on {addr[0]}:{addr[1]}", flush=True)
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    fake.start()
+    try:
+        while not stop.wait(0.5):
+            pass
+    finally:
+        fake.close()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
