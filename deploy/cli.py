@@ -35,6 +35,8 @@ COMMANDS = [
     "deploy.cmd_goal",
     "deploy.cmd_demo",
     "deploy.cmd_slam",
+    "deploy.cmd_play",
+    "deploy.cmd_record",
     "deploy.cmd_map",
     "deploy.cmd_zenoh",
     "deploy.cmd_doctor",

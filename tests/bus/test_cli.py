@@ -121,6 +121,7 @@ def test_nodes_stats_shows_each_subscriptions_counters(live_robot, node_pair, ro
     sub = listener.subscribe("scan", LaserScan)
     wait_for(lambda: sub.received >= 3, 30, "scans at the listener")
     raw = node_pair("rogue").session.declare_publisher(f"zenav/{robot_name}/scan")
+    wait_for(lambda: raw.matching_status.matching, 30, "the listener's subscription seen by the rogue")
     for _ in range(3):
         raw.put(b"not msgpack at all")
     bad = make_scan(1, 720, 1.0)

@@ -1,0 +1,170 @@
+"""Issue 12 acceptance: the simulated P3-AT (`zenav robot` + `zenav master`) drives one short goal
+(`zenav goal`) while `zenav record` and `zenav monitor --save A.rrd` run; then `zenav play` of the
+recording is watched by `zenav monitor --save B.rrd`. Both Rerun recordings show the same map, scans,
+global plan and costmaps, with comparable counts and equal contents at equal stamps."""
+
+from __future__ import annotations
+
+import os
+import signal
+import uuid
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from common.bus import Node
+from common.messages import Costmap, MoveBaseStatus
+from common.zenoh_config import BusConfig
+from deploy.logs.mcap_io import read_info
+from tests.monitor.monhelp import has_footer, read_rrd
+from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
+from tests.support import free_port, wait_until
+
+REPO = Path(__file__).resolve().parents[2]
+GOAL = ("-1.3", "0.4", "0.0")  # ~1 m from the room's start (-2.2, 0, 0), clear of the crate
+ENTITIES = ("/world/map", "/world/scan", "/world/move_base/global_plan", "/world/global_costmap/costmap",
+            "/world/local_costmap/costmap")
+
+
+def _env(robot: str, listen: int | None, connect: list[int]) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
+    env.update(ZENAV_ROBOT=robot, ZENAV_MULTICAST="0", ZENAV_MODE="peer", PYTHONPATH=str(REPO),
+               PYTHONUNBUFFERED="1")
+    if listen:
+        env["ZENAV_LISTEN"] = f"tcp/127.0.0.1:{listen}"
+    if connect:
+        env["ZENAV_CONNECT"] = ",".join(f"tcp/127.0.0.1:{p}" for p in connect)
+    return env
+
+
+class Procs:
+    def __init__(self, tmp: Path) -> None:
+        self.tmp, self.procs = tmp, {}
+
+    def start(self, name: str, args: list[str], env: dict) -> NavProc:
+        p = self.procs[name] = NavProc(self.tmp / f"{name}.log", [*_zenav(), *args], env)
+        return p
+
+    def dead(self) -> str:
+        return next((f"{n} exited ({p.proc.returncode}):\n{p.log()}" for n, p in self.procs.items()
+                     if not p.alive() and n not in ("goal", "play")), "")
+
+    def signal_and_wait(self, names: list[str], sig=signal.SIGINT, timeout: float = 60.0) -> None:
+        for n in names:
+            self.procs[n].proc.send_signal(sig)
+        for n in names:
+            assert self.procs[n].proc.wait(timeout) == 0, f"{n}:\n{self.procs[n].log()}"
+
+    def stop_all(self) -> None:
+        for p in reversed(list(self.procs.values())):
+            p.stop(timeout=10)
+
+
+def _grids(rec, entity):
+    """stamp -> (cell size, format, data) of every GridMap row."""
+    out = {}
+    for r in rec[entity]:
+        if r.get("GridMap:data") is not None:
+            out[r.get("stamp")] = (r["GridMap:cell_size"][0], r["GridMap:format"][0], np.array(r["GridMap:data"][0]))
+    return out
+
+
+@pytest.mark.slow
+def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
+    robot = f"rec{uuid.uuid4().hex[:8]}"
+    test_port, robot_port, master_port = free_port(), free_port(), free_port()
+    everyone = [test_port, robot_port, master_port]
+    node = Node("rec_test", config=BusConfig(robot=robot, listen=(f"tcp/127.0.0.1:{test_port}",), multicast=False),
+                use_sim_time=False)
+    procs = Procs(tmp_path)
+    mcap, rrd_a, rrd_b = tmp_path / "run.mcap", tmp_path / "A.rrd", tmp_path / "B.rrd"
+    try:
+        status = node.subscribe("move_base/status", MoveBaseStatus)
+        costmaps = [node.subscribe(f"{n}/costmap", Costmap) for n in ("global_costmap", "local_costmap")]
+        procs.start("robot", ["robot", "--config", str(ROBOT_CONFIG)], _env(robot, robot_port, [test_port]))
+        procs.start("master", ["master", "--config", str(MASTER_DIR / "p3at_known_map.yaml")],
+                    _env(robot, master_port, [test_port, robot_port]))
+        procs.start("monitor", ["monitor", "--save", str(rrd_a)], _env(robot, None, everyone))
+        procs.start("record", ["record", str(mcap), "--progress", "1"], _env(robot, None, everyone))
+        wait_until(lambda: (s := status.latest()) is not None and s.reason == "no goal"
+                   and all(c.latest() is not None for c in costmaps), 120, "move_base and both costmaps",
+                   alive=procs.dead)
+        wait_until(lambda: "scan=" in procs.procs["record"].log() and "map=" in procs.procs["record"].log(),
+                   60, "the recorder to receive scans and the map", alive=procs.dead)
+        goal = procs.start("goal", ["goal", *GOAL, "--timeout", "60"], _env(robot, None, everyone))
+        assert goal.proc.wait(90) == 0, goal.log()
+        procs.signal_and_wait(["record"], signal.SIGINT)
+        procs.signal_and_wait(["monitor"], signal.SIGTERM)
+        procs.procs.pop("master").stop()
+        procs.procs.pop("robot").stop()
+        node.close()
+        node = None
+
+        start, end, counts = read_info(mcap)
+        for topic in ("scan", "odom", "tf", "tf_static", "map", "cmd_vel", "move_base/global_plan",
+                      "global_costmap/costmap", "local_costmap/costmap"):
+            assert counts.get(topic), f"nothing recorded on {topic}: {counts}"
+        assert 2.0 < end - start < 120, (start, end)  # simulated seconds of the drive
+
+        play_port = free_port()
+        procs.start("monitor_b", ["monitor", "--save", str(rrd_b)], _env(robot, play_port, []))
+        play = procs.start("play", ["play", str(mcap), "--wait-for", "scan", "--quiet"],
+                           _env(robot, None, [play_port]))
+        assert play.proc.wait(180) == 0, play.log()
+        procs.signal_and_wait(["monitor_b"], signal.SIGTERM)
+    finally:
+        procs.stop_all()
+        if node is not None:
+            node.close()
+
+    assert has_footer(rrd_a) and has_footer(rrd_b)
+    a, b = read_rrd(rrd_a), read_rrd(rrd_b)
+    for e in ENTITIES:
+        assert a.get(e) and b.get(e), f"{e}: A {len(a.get(e, []))} rows, B {len(b.get(e, []))} rows"
+    span = (int(start * 1e9) - 1, int(end * 1e9) + 1)
+
+    def in_span(rows, component):
+        return [r for r in rows if r.get(component) is not None and r.get("stamp") is not None
+                and span[0] <= r["stamp"] <= span[1]]
+
+    # Same map, exactly.
+    map_a, map_b = _grids(a, "/world/map"), _grids(b, "/world/map")
+    (res_a, fmt_a, data_a), (res_b, fmt_b, data_b) = list(map_a.values())[-1], list(map_b.values())[-1]
+    assert (res_a, fmt_a) == (res_b, fmt_b) and np.array_equal(data_a, data_b)
+
+    # Scans: comparable counts over the recorded span, equal points at equal stamps.
+    sa = {r["stamp"]: r["Points3D:positions"] for r in in_span(a["/world/scan"], "Points3D:positions")}
+    sb = {r["stamp"]: r["Points3D:positions"] for r in in_span(b["/world/scan"], "Points3D:positions")}
+    assert 0.6 * len(sa) - 3 <= len(sb) <= 1.4 * len(sa) + 3, (len(sa), len(sb))
+    common = sorted(set(sa) & set(sb))
+    assert len(common) >= min(len(sa), len(sb)) // 4, (len(sa), len(sb), len(common))
+    for s in common:
+        assert np.allclose(sa[s], sb[s], atol=1e-6), s
+
+    # Global plans: the monitor shows the same strips for the same plan stamps.
+    pa = {r["stamp"]: r["LineStrips3D:strips"] for r in in_span(a["/world/move_base/global_plan"],
+                                                                "LineStrips3D:strips")}
+    pb = {r["stamp"]: r["LineStrips3D:strips"] for r in in_span(b["/world/move_base/global_plan"],
+                                                                "LineStrips3D:strips")}
+    shared = set(pa) & set(pb)
+    assert shared, (sorted(pa), sorted(pb))
+    for s in shared:
+        assert np.allclose(np.array(pa[s][0]), np.array(pb[s][0]), atol=1e-9)
+
+    print(f"recorded {end - start:.1f} s: {counts}; monitor scans A={len(sa)} B={len(sb)} common={len(common)}, "
+          f"plans A={len(pa)} B={len(pb)} common={len(shared)}")
+
+    # Costmaps: same geometry; costs equal up to costmap_2d's OccupancyGrid table (<= 1, special values exact).
+    for e in ("/world/global_costmap/costmap", "/world/local_costmap/costmap"):
+        ga, gb = _grids(a, e), _grids(b, e)
+        assert gb, e
+        if e == "/world/global_costmap/costmap":  # published slowly: both monitors log every one
+            assert set(ga) & set(gb), (e, sorted(ga), sorted(gb))
+        print(f"{e}: A={len(ga)} B={len(gb)} common={len(set(ga) & set(gb))}")
+        for s in set(ga) & set(gb):
+            (ra, fa, da), (rb, fb, db) = ga[s], gb[s]
+            assert (ra, fa) == (rb, fb), e
+            assert np.abs(da.astype(int) - db.astype(int)).max() <= 1, e
+            special = np.isin(da, (0, 253, 254, 255))
+            assert np.array_equal(da[special], db[special]), e
