@@ -69,10 +69,12 @@ def open_log(path: str | Path, laser_pose: tuple[float, float, float] | None = N
     if suffix in (".clf", ".log"):
         return _open_carmen(p, laser_pose)
     if suffix == ".mcap":
-        from deploy.logs.mcap_io import read_records  # written alongside: imported only when needed
+        from deploy.logs.mcap_io import McapReadError, read_records  # imported only when needed
 
         try:
             return iter(read_records(str(p))), LogInfo(str(p), "mcap")
+        except McapReadError as e:  # names the file and what is wrong already
+            raise LogError(str(e)) from None
         except (OSError, ValueError) as e:
             raise LogError(f"{path}: not a readable MCAP file ({e})") from None
     raise LogError(f"{path}: unknown log type {suffix or '(no suffix)'!r} (expected {', '.join(SUFFIXES)})")
