@@ -39,7 +39,8 @@ def main() -> int:
     bad = [r for r in rows if not r.ok]
     sent = sum(r.sent for r in rows)
     print(f"fuzz_nodes={len({(r.group, r.node) for r in rows})} fuzz_subscriptions={len(rows)} "
-          f"fuzz_payloads={sent} fuzz_miscounted={len(bad)} fuzz_callback_errors={sum(r.got['errors'] for r in rows)} "
+          f"fuzz_payloads={sent} fuzz_lost={sum(r.lost for r in rows)} "
+          f"fuzz_miscounted={len(bad)} fuzz_callback_errors={sum(r.got['errors'] for r in rows)} "
           f"fuzz_problems={len(problems)} fuzz_wall_s={time.monotonic() - t0:.0f}")
     return 1 if bad or problems else 0
 
