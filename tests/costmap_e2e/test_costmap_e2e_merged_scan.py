@@ -56,9 +56,10 @@ def test_virtualizer_config_publishes_one_merged_scan_per_camera_frame(cme_bus, 
     # one merged scan per camera frame, stamped with that frame's stamp: not one per virtual plane
     assert len(np.unique(merged)) == len(merged), "several merged scans for one camera frame"
     assert np.abs(merged[:, None] - cam[None, :]).min(axis=1).max() < 1e-4, "merged stamps not frame stamps"
-    # the best-effort depth image may lose a frame on a loaded machine; the virtualizer -> merger does not
+    # stream topics use the drop congestion policy (README, Reliability): on a loaded machine a depth image
+    # or one of a set's eight virtual scans may be lost on the way, and that set gives no merged scan
     assert len(merged) >= 0.9 * len(cam), f"{len(merged)} merged scans for {len(cam)} camera frames"
-    assert len(merged) >= len(virtual) - 1, f"{len(merged)} merged scans for {len(virtual)} virtual scan sets"
+    assert len(merged) >= 0.9 * len(virtual), f"{len(merged)} merged scans for {len(virtual)} virtual scan sets"
     assert scan_hz == pytest.approx(cam_hz, rel=0.1)
 
     # exactly one publisher of scan: the merger
