@@ -30,8 +30,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--world", action="append", choices=("room", "corridor"),
                    help="world(s) to run (repeatable; default: room then corridor)")
     p.add_argument("--planner", choices=("dwa", "trajectory"), default="dwa", help="local planner")
-    p.add_argument("--slam", action="store_true",
-                   help="no known map: map the world with SLAM while navigating (tutorial section 3.6)")
+    p.add_argument("--slam", nargs="?", const="gmapping", choices=("gmapping", "hector"),
+                   help="no known map: map the world with SLAM while navigating (tutorial section 3.6); "
+                        "gmapping (default) or hector (hector_mapping: the scan alone, no odometry; experimental: "
+                        "the Kinect's 57-degree scan is too narrow for it, see the README)")
     p.add_argument("--amcl", action="store_true",
                    help="known map, localised with AMCL (master_side/config/p3at_amcl.yaml) instead of "
                         "the simulator's ground truth")
@@ -65,7 +67,7 @@ def run(args) -> int:
     worlds = tuple(args.world or ("room", "corridor"))
     opts = DemoOptions(worlds=worlds, planner=args.planner, max_goals=args.goals, speed=args.speed,
                        goal_timeout=args.goal_timeout, monitor_args=monitor_args(args),
-                       workdir=args.workdir or "", slam=args.slam, amcl=args.amcl)
+                       workdir=args.workdir or "", slam=args.slam or "", amcl=args.amcl)
     t0 = time.monotonic()
     demo = Demo(opts, echo=lambda s: print(s, flush=True))
     print(f"[demo] logs and generated configs in {demo.work}", flush=True)

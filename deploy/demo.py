@@ -59,7 +59,7 @@ class DemoOptions:
     monitor_args: tuple[str, ...] = ()  # e.g. ("--save", "demo.rrd"); () = no monitor
     robot: str = "demo"
     workdir: str = ""
-    slam: bool = False  # map the world with SLAM while navigating (no known map)
+    slam: bool | str = False  # map the world with SLAM while navigating: "gmapping" (or True), "hector"
     amcl: bool = False  # known map, localised with AMCL instead of the simulator's ground truth
     results: list[GoalResult] = field(default_factory=list)
 
@@ -73,13 +73,23 @@ def amcl_node(world: str) -> dict:
     return node
 
 
-def master_config(world: str, planner: str, out_dir: Path, slam: bool = False, amcl: bool = False) -> Path:
+def slam_method(slam: bool | str) -> str:
+    """``DemoOptions.slam`` as a method name: "" (no SLAM), "gmapping" (also True) or "hector"."""
+    return "gmapping" if slam is True else (slam or "")
+
+
+def master_config(world: str, planner: str, out_dir: Path, slam: bool | str = False, amcl: bool = False) -> Path:
     """A master YAML for ``world``: on its known map (map server + fake localisation, or AMCL), or
-    mapping it with SLAM as in the tutorial's section 3.6; absolute paths into the package."""
+    mapping it with SLAM (gmapping as in the tutorial's section 3.6, or hector_mapping);
+    absolute paths into the package."""
     mb, lp = PLANNERS[planner]
     common = str(MASTER_DIR / "p3at" / "costmap_common_params.yaml")
     local = str(MASTER_DIR / "local_costmap_padded.yaml")
-    if slam:
+    if slam_method(slam) == "hector":
+        first = {"hector_mapping": {"module": "master_side.hector.node", "respawn": True,
+                                    "params": {"hector": str(MASTER_DIR / "p3at_hector_mapping.yaml")}}}
+        global_specific = str(MASTER_DIR / "p3at" / "global_costmap_params.yaml")
+    elif slam:
         first = {"slam_gmapping": {"module": "master_side.slam.node", "respawn": True,
                                    "params": {"gmapping": str(MASTER_DIR / "p3at" / "gmapping.yaml"),
                                               "particles": 30}}}
@@ -143,7 +153,8 @@ class Demo:
         for world in self.o.worlds:
             spec = yaml.safe_load(world_path(world).read_text())
             goals = list(spec.get("goals", {}).items())[: self.o.max_goals or None]
-            mode = "SLAM, unknown map" if self.o.slam else "known map" + (", AMCL" if self.o.amcl else "")
+            mode = (f"SLAM ({slam_method(self.o.slam)}), unknown map" if self.o.slam
+                    else "known map" + (", AMCL" if self.o.amcl else ""))
             self.echo(f"[demo] world '{world}': starting the robot agent (simulated P3-AT) and the master "
                       f"agent ({self.o.planner} local planner, {mode}) ...")
             start = parse_pose(spec.get("start", [0.0, 0.0, 0.0]))

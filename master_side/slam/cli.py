@@ -19,7 +19,11 @@ def _run(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="zenav slam run", description="gmapping-style SLAM over a log")
     ap.add_argument("log", help="CARMEN .clf/.log or ROS1 .bag (/scan, /odom)")
     ap.add_argument("--out", required=True, help="output folder (map.pgm, map.yaml, trajectory.txt)")
-    ap.add_argument("--config", help="gmapping YAML (slam_gmapping parameter names)")
+    ap.add_argument("--method", choices=("gmapping", "hector"), default="gmapping",
+                    help="gmapping (particle filter with odometry) or hector (scan matching only: the log's "
+                         "odometry is ignored)")
+    ap.add_argument("--config", help="gmapping YAML (slam_gmapping parameter names) or, with --method hector, "
+                                     "hector_mapping YAML")
     ap.add_argument("--section", default="", help="YAML key holding the parameters")
     ap.add_argument("--particles", type=positive_int, help="number of particles (overrides the config)")
     ap.add_argument("--max-scans", type=positive_int, help="stop after this many scans")
@@ -30,10 +34,15 @@ def _run(argv: list[str]) -> int:
     for kv in a.set:
         k, _, v = kv.partition("=")
         overrides[k] = float(v) if any(c in v for c in ".e") else int(v)
-    if a.particles is not None:
-        overrides["particles"] = a.particles
+    if a.method == "hector":
+        from master_side.hector.offline import run, write_outputs
+        from master_side.hector.params import load_hector as load
+    else:
+        load = load_gmapping
+        if a.particles is not None:
+            overrides["particles"] = a.particles
     try:
-        params = load_gmapping(a.config, a.section, **overrides)
+        params = load(a.config, a.section, **overrides)
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
@@ -42,7 +51,7 @@ def _run(argv: list[str]) -> int:
         return 2
     try:
         res = run(a.log, params, a.max_scans)
-    except (LogError, OSError) as e:
+    except (LogError, OSError, ValueError) as e:
         print(f"zenav slam run: {e}", file=sys.stderr)
         return 2
     try:

@@ -1,0 +1,1 @@
+"""hector_mapping-style SLAM without odometry: multi-resolution log-odds grids, Gauss-Newton scan matching."""

@@ -1,0 +1,43 @@
+"""hector_mapping's parameter files, the master config and `zenav demo --slam [hector]`."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pytest
+import yaml
+
+from common.config import ConfigError, read_yaml
+from deploy import cmd_demo
+from deploy.demo import master_config
+from master_side.hector import node
+
+CONFIG = Path(__file__).resolve().parents[2] / "master_side" / "config"
+
+
+def test_the_p3at_master_config_loads_hector_with_its_parameter_file():
+    src = CONFIG / "p3at_hector.yaml"
+    cfg = read_yaml(src)["nodes"]["hector_mapping"]
+    assert cfg["module"] == "master_side.hector.node"
+    notes = [str(n) for n in node.check(cfg["params"], str(src))]
+    assert any("laser_z_min_value" in n for n in notes)  # accepted, reported as without effect
+
+
+def test_hector_rejects_unknown_and_out_of_range_parameters_at_once():
+    with pytest.raises(ConfigError) as e:
+        node.check({"map_resolutoin": 0.05, "update_factor_free": 0.7}, "x.yaml")
+    text = str(e.value)
+    assert "map_resolution" in text and "update_factor_free" in text  # did-you-mean + range
+
+
+def test_demo_slam_flag_defaults_to_gmapping_and_accepts_hector(tmp_path):
+    p = argparse.ArgumentParser()
+    cmd_demo.add_parser(p.add_subparsers())
+    assert p.parse_args(["demo", "--slam"]).slam == "gmapping"
+    assert p.parse_args(["demo", "--slam", "hector"]).slam == "hector"
+    assert p.parse_args(["demo"]).slam is None
+    nodes = yaml.safe_load(master_config("room", "dwa", tmp_path, slam="hector").read_text())["nodes"]
+    assert "hector_mapping" in nodes and "slam_gmapping" not in nodes and "map_server" not in nodes
+    nodes = yaml.safe_load(master_config("room", "dwa", tmp_path, slam=True).read_text())["nodes"]
+    assert "slam_gmapping" in nodes
