@@ -87,7 +87,7 @@ def master_config(world: str, planner: str, out_dir: Path, slam: bool | str = Fa
     local = str(MASTER_DIR / "local_costmap_padded.yaml")
     if slam_method(slam) == "hector":
         first = {"hector_mapping": {"module": "master_side.hector.node", "respawn": True,
-                                    "params": {"hector": str(MASTER_DIR / "p3at_hector_mapping.yaml")}}}
+                                    "params": {"hector": str(MASTER_DIR / "hector_p3at.yaml")}}}
         global_specific = str(MASTER_DIR / "p3at" / "global_costmap_params.yaml")
     elif slam:
         first = {"slam_gmapping": {"module": "master_side.slam.node", "respawn": True,
