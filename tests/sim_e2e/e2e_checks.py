@@ -24,7 +24,7 @@ class Rig:
         self.odom = Recorder(node, "odom", Odometry)
         self.gt = Recorder(node, "ground_truth", Odometry)
         self.collision = Recorder(node, "collision", Collision)
-        self.cmd = node.publisher(cmd_topic)
+        self.cmd = node.publisher(cmd_topic, reliable=True)  # a test command must not be dropped under load
         wait_until(lambda: len(self.odom) and len(self.gt) or not proc.alive(), timeout,
                    "odom + ground_truth")
         assert proc.alive(), proc.log()
