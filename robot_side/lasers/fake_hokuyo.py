@@ -17,13 +17,14 @@ import contextlib
 import math
 import os
 import select
-import signal
 import socket
 import threading
 import time
 import tty
 
 import numpy as np
+
+from robot_side.fake_device import serve_until_signal
 
 MODELS = {  # PP values (DMIN DMAX mm, ARES, AMIN, AMAX, AFRT steps, SCAN rpm), intensity support
     "URG-04LX": dict(dmin=20, dmax=5600, ares=1024, amin=44, amax=725, afrt=384, rpm=600, intensity=False),
@@ -338,16 +339,7 @@ def main(argv: list[str] | None = None) -> int:
         host, _, port = args.tcp.rpartition(":")
         fake, addr = FakeHokuyo.on_tcp(host or "127.0.0.1", int(port), model=args.model or "UST-10LX")
         print(f"listening on {addr[0]}:{addr[1]}", flush=True)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    fake.start()
-    try:
-        while not stop.wait(0.5):
-            pass
-    finally:
-        fake.close()
-    return 0
+    return serve_until_signal(fake)
 
 
 if __name__ == "__main__":

@@ -17,12 +17,13 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import signal
 import threading
 import time
 import tty
 
 import numpy as np
+
+from robot_side.fake_device import serve_until_signal
 
 NO_RETURN_CM = 0x1FFF  # this fake's value for "nothing within max_range" (13 bits all set)
 LAYOUTS = ("old", "new", "new_nofield")  # 1.02; 1.03 with a measurement field; 1.03 without one
@@ -199,16 +200,7 @@ def main(argv: list[str] | None = None) -> int:
     fake, path = FakeS300.on_pty(args.pty, layout=args.layout, period=args.period, address=args.address,
                                  room=tuple(args.room))
     print(f"{args.pty} -> {path}" if args.pty else path, flush=True)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    fake.start()
-    try:
-        while not stop.wait(0.5):
-            pass
-    finally:
-        fake.close()
-    return 0
+    return serve_until_signal(fake)
 
 
 if __name__ == "__main__":

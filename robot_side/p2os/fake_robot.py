@@ -15,12 +15,12 @@ from __future__ import annotations
 import math
 import os
 import select
-import signal
 import threading
 import time
 import tty
 from typing import Any
 
+from robot_side.fake_device import serve_until_signal
 from robot_side.p2os import protocol as P
 from robot_side.p2os.sip import MODELS, Sip, encode_sip, theta_to_raw
 
@@ -232,16 +232,7 @@ def main(argv: list[str] | None = None) -> int:
     robot, path = FakeP2OSRobot.on_pty(args.pty, subclass=args.subclass, sip_period=args.sip_period,
                                        battery_v=args.battery)
     print(f"{args.pty} -> {path}" if args.pty else path, flush=True)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
-    robot.start()
-    try:
-        while not stop.wait(0.5):
-            pass
-    finally:
-        robot.close()
-    return 0
+    return serve_until_signal(robot)
 
 
 if __name__ == "__main__":
