@@ -33,6 +33,7 @@ from common.config import ConfigError
 from common.geometry import Transform
 from common.messages import Header, TransformStamped
 from common.tf import StaticTFBroadcaster
+from robot_side.device_node import EXIT_DEVICE_LOST, DeviceNode  # noqa: F401 - EXIT_DEVICE_LOST re-exported
 from robot_side.kinect.freenect import (
     DEBIAN_PACKAGE,
     FreenectError,
@@ -47,7 +48,7 @@ from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
 
 log = logging.getLogger("zenav.kinect")
 
-EXIT_DEVICE_LOST = 1
+
 # rgbd_launch kinect_frames.launch: camera_link -> depth (0, -0.02, 0), -> rgb (0, -0.045, 0)
 DEPTH_TO_RGB = Transform.from_xyz_rpy(0.0, -0.025, 0.0, 0.0, 0.0, 0.0)
 
@@ -77,11 +78,10 @@ def static_transforms(p: KinectParams, stamp: float = 0.0) -> list[TransformStam
     return out
 
 
-class KinectNode:
+class KinectNode(DeviceNode):
     def __init__(self, node, p: KinectParams, source: str, lib: FreenectSync) -> None:
-        self.node, self.p, self.lib = node, p, lib
-        self.finished = threading.Event()
-        self.exit_code = EXIT_DEVICE_LOST
+        super().__init__(node)
+        self.p, self.lib = p, lib
         self.frames = 0
         self.error: str | None = None
         self._stop = threading.Event()
@@ -107,7 +107,7 @@ class KinectNode:
         node.log.info("kinect: device %d via %s, %s depth %dx%d in %s, %g Hz (data_skip %d) on %s/image",
                       p.device_id, p.library, "registered" if p.depth_registration else "unregistered",
                       640 // p.step, 480 // p.step, p.frame_id, p.publish_rate, p.data_skip, prefix)
-        self._health = node.timer(min(0.5, p.frame_timeout / 2), self._check)
+        self.watch(min(0.5, p.frame_timeout / 2), self._check)
 
     def _run(self) -> None:
         p, every = self.p, self.p.data_skip + 1
@@ -139,14 +139,12 @@ class KinectNode:
             why = f"no depth frame for {silent:.1f} s"
         else:
             return
-        self.node.log.error("kinect: device %d lost (%s; unplugged?); exiting so the agent can restart the "
-                            "driver", self.p.device_id, why)
-        self.finished.set()  # common.runner ends the process with exit_code
+        self.device_lost("kinect: device %d lost (%s; unplugged?); exiting so the agent can restart the driver",
+                         self.p.device_id, why)
 
     def close(self) -> None:
         self._stop.set()
-        if hasattr(self, "_health"):
-            self._health.cancel()
+        self.unwatch()
         self._thread.join(1.0)
         if not self._thread.is_alive():   # a reader blocked in the library (device gone) must not race
             self.lib.stop()               # freenect_sync_stop freeing its buffers; the exit ends it

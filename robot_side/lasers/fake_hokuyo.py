@@ -14,7 +14,6 @@ to test the wrap), and ranges of a synthetic room (``range_mm``). Faults: ``inje
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import select
 import socket
@@ -25,31 +24,16 @@ import tty
 import numpy as np
 
 from robot_side.fake_device import serve_until_signal
-
-MODELS = {  # PP values (DMIN DMAX mm, ARES, AMIN, AMAX, AFRT steps, SCAN rpm), intensity support
-    "URG-04LX": dict(dmin=20, dmax=5600, ares=1024, amin=44, amax=725, afrt=384, rpm=600, intensity=False),
-    "UST-10LX": dict(dmin=20, dmax=30000, ares=1440, amin=0, amax=1080, afrt=540, rpm=2400, intensity=True),
-}
-ROOM = (-1.5, 2.5, -1.2, 1.8)  # walls x = -1.5, x = 2.5, y = -1.2, y = 1.8 around the sensor (m)
-DOORWAY_X = (0.5, 1.0)  # an open door in the y = 1.8 wall: no echo (error code 1)
-GLASS_Y = (-0.2, 0.2)  # a glass pane in the x = 2.5 wall: reads beyond DMAX
-
-
-def _sum(payload: bytes) -> bytes:
-    return bytes([(sum(payload) & 0x3F) + 0x30])
-
-
-def _enc(value: int, n: int) -> bytes:
-    return bytes(((value >> (6 * (n - 1 - k))) & 0x3F) + 0x30 for k in range(n))
-
-
-def _enc_all(values, n: int) -> bytes:
-    v = np.asarray(values, np.int64)[:, None] >> (6 * np.arange(n - 1, -1, -1))
-    return ((v & 0x3F) + 0x30).astype(np.uint8).tobytes()
-
-
-def _line(payload: bytes) -> bytes:
-    return payload + _sum(payload) + b"\n"
+from robot_side.lasers.fake_hokuyo_room import (
+    MODELS,
+    cluster_values,
+    encode,
+    encode_all,
+    room_range_mm,
+    step_angle,
+    sum_char,
+    sum_line,
+)
 
 
 class FakeHokuyo:
@@ -176,47 +160,24 @@ class FakeHokuyo:
                 s["next"] += self.scan_period * (s["skip"] + 1)
                 self._send_scan(s)
 
-    # ------------------------------------------------------------------ the room
-    def angle(self, step: np.ndarray) -> np.ndarray:
-        return (np.asarray(step) - self.m["afrt"]) * 2.0 * math.pi / self.m["ares"]
+    # ------------------------------------------------------------------ the room (fake_hokuyo_room)
+    def angle(self, step) -> np.ndarray:
+        return step_angle(self.m, step)
 
     def range_mm(self, step) -> np.ndarray:
-        """Distance (mm) or error code at each step: the walls of ROOM, the doorway, the glass pane."""
-        a = self.angle(step)
-        c, s = np.cos(a), np.sin(a)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            tx = np.where(c > 1e-12, ROOM[1] / c, np.where(c < -1e-12, ROOM[0] / c, np.inf))
-            ty = np.where(s > 1e-12, ROOM[3] / s, np.where(s < -1e-12, ROOM[2] / s, np.inf))
-        t = np.minimum(tx, ty)
-        mm = np.round(t * 1000.0).astype(np.int64)
-        hit_y, hit_x = t * c, t * s
-        mm[(ty <= tx) & (s > 0) & (hit_y >= DOORWAY_X[0]) & (hit_y <= DOORWAY_X[1])] = 1
-        mm[(tx < ty) & (c > 0) & (hit_x >= GLASS_Y[0]) & (hit_x <= GLASS_Y[1])] = self.m["dmax"] + 500
-        return mm
-
-    def intensity(self, step) -> np.ndarray:
-        return 1000 + (np.asarray(step) % 97) * 7
+        return room_range_mm(self.m, step)
 
     def values(self, start: int, end: int, cluster: int) -> tuple[np.ndarray, np.ndarray]:
-        """(range mm, intensity) per cluster: the nearest valid step of each (its first when none is)."""
-        groups = (end - start) // cluster + 1
-        steps = start + np.arange(groups * cluster)
-        r = self.range_mm(steps)
-        r[steps > end] = 0
-        never = np.iinfo(np.int64).max
-        big = np.where(r >= 20, r, never).reshape(groups, cluster)
-        k = np.where(big.min(axis=1) < never, big.argmin(axis=1), 0)
-        pick = np.arange(groups) * cluster + k
-        return r[pick], self.intensity(steps[pick])
+        return cluster_values(self.m, start, end, cluster)
 
     # ------------------------------------------------------------------ protocol
     def _reply(self, echo: str, status: str, lines: tuple[bytes, ...] = ()) -> None:
-        out = echo.encode() + b"\n" + _line(status.encode()) + b"".join(lines) + b"\n"
+        out = echo.encode() + b"\n" + sum_line(status.encode()) + b"".join(lines) + b"\n"
         self._send(out)
 
     def _info(self, pairs) -> tuple[bytes, ...]:
         # "KEY:value;" + sum of "KEY:value" (the ';' is not summed)
-        return tuple(f"{k}:{v}".encode() + b";" + _sum(f"{k}:{v}".encode()) + b"\n" for k, v in pairs)
+        return tuple(f"{k}:{v}".encode() + b";" + sum_char(f"{k}:{v}".encode()) + b"\n" for k, v in pairs)
 
     def _command(self, line: str) -> None:
         self.commands.append(line)
@@ -259,7 +220,7 @@ class FakeHokuyo:
         if code == "1":
             if not self.tm_mode:
                 return self._reply(line, "04")
-            return self._reply(line, "00", (_line(_enc(self.now_ms(), 4)),))
+            return self._reply(line, "00", (sum_line(encode(self.now_ms(), 4)),))
         if code == "2":
             was, self.tm_mode = self.tm_mode, False
             return self._reply(line, "00" if was else "03")
@@ -292,13 +253,13 @@ class FakeHokuyo:
     def _scan_block(self, sym: str, echo: str, status: str, start: int, end: int, cluster: int) -> bytes:
         r, inten = self.values(start, end, cluster)
         if sym[1] == "S":
-            data = _enc_all(np.minimum(r, 4095), 2)
+            data = encode_all(np.minimum(r, 4095), 2)
         elif sym[1] == "E":
-            data = _enc_all(np.column_stack([r, inten]).ravel(), 3)
+            data = encode_all(np.column_stack([r, inten]).ravel(), 3)
         else:
-            data = _enc_all(r, 3)
-        blocks = b"".join(_line(data[i:i + 64]) for i in range(0, len(data), 64))
-        return echo.encode() + b"\n" + _line(status.encode()) + _line(_enc(self.now_ms(), 4)) + blocks + b"\n"
+            data = encode_all(r, 3)
+        blocks = b"".join(sum_line(data[i:i + 64]) for i in range(0, len(data), 64))
+        return echo.encode() + b"\n" + sum_line(status.encode()) + sum_line(encode(self.now_ms(), 4)) + blocks + b"\n"
 
     def _send_scan(self, s: dict) -> None:
         p = s["params"]
@@ -313,7 +274,7 @@ class FakeHokuyo:
             if kind == "garbage":
                 block = kw.get("data", b"\x00\xffjunk\n") + block
             elif kind == "status":
-                block = echo.encode() + b"\n" + _line(kw.get("code", "50").encode()) + b"\n"
+                block = echo.encode() + b"\n" + sum_line(kw.get("code", "50").encode()) + b"\n"
             elif kind == "checksum":  # one data character changed, its line's sum left as it was
                 i = len(block) - 4  # the last data character (then its sum, LF, LF)
                 block = block[:i] + bytes([0x30 + ((block[i] - 0x30 + 1) & 0x3F)]) + block[i + 1:]

@@ -19,9 +19,9 @@ status 1 (``finished`` / ``exit_code``) so the agent's respawn reconnects.
 from __future__ import annotations
 
 import logging
-import threading
 
 from common.config import ConfigError, load_params
+from robot_side.device_node import DeviceNode, start_or_exit
 from robot_side.lasers.hokuyo import HokuyoDriver, HokuyoError, HokuyoParams, open_transport, port_name
 
 log = logging.getLogger("zenav.hokuyo")
@@ -43,13 +43,11 @@ def check(cfg: dict, source: str) -> list[str]:
     return []
 
 
-class HokuyoNode:
+class HokuyoNode(DeviceNode):
     def __init__(self, node, p: HokuyoParams, port=None) -> None:
-        self.node, self.p = node, p
+        super().__init__(node)
+        self.p = p
         self.pub = node.publisher(p.topic)
-        self.finished = threading.Event()
-        self.exit_code = 1
-        self._reported = False
         self.driver = HokuyoDriver(port if port is not None else open_transport(p), p,
                                    on_scan=self.pub.publish, clock=node.clock.now)
         try:
@@ -66,28 +64,23 @@ class HokuyoNode:
                       1.0 / (s.scan_period * (p.skip + 1)),
                       f"clock offset {self.driver.sync.offset:.3f} s" if p.calibrate_time else "receipt stamps",
                       p.topic, p.frame_id)
-        self._health = node.timer(0.2, self._check)
+        self.watch(0.2, self._check)
 
     def _check(self) -> None:
         d = self.driver
-        if d.error is not None and not self._reported:
-            self._reported = True
+        if d.error is not None:
             st = d.stats
-            self.node.log.error("hokuyo: %s (%d scans, %d checksum errors, %d error statuses); exiting so the "
-                                "agent can reconnect", d.error, st.scans, st.bad_checksum, st.error_status)
-            self.finished.set()  # common.runner ends the process with exit_code
+            self.device_lost("hokuyo: %s (%d scans, %d checksum errors, %d error statuses); exiting so the "
+                             "agent can reconnect", d.error, st.scans, st.bad_checksum, st.error_status)
 
     def close(self) -> None:
-        self._health.cancel()
+        self.unwatch()
         self.driver.close()  # QT: laser off
 
 
 def start(node, cfg: dict, source: str) -> HokuyoNode:
     p = load(cfg, source)
-    try:
-        return HokuyoNode(node, p)
-    except HokuyoError as e:
-        raise SystemExit(f"zenav hokuyo: {e}") from None
+    return start_or_exit("hokuyo", lambda: HokuyoNode(node, p), HokuyoError)
 
 
 if __name__ == "__main__":

@@ -19,9 +19,9 @@ it; a silent scanner (no telegram for ``communication_timeout``) is reported and
 from __future__ import annotations
 
 import logging
-import threading
 
 from common.messages import LaserScan
+from robot_side.device_node import DeviceNode, start_or_exit
 from robot_side.lasers.s300 import S300Params, load
 from robot_side.lasers.s300_driver import S300ConnectionError, S300Driver, open_port
 
@@ -29,13 +29,11 @@ log = logging.getLogger("zenav.s300")
 __all__ = ["S300Node", "start", "check", "load"]
 
 
-class S300Node:
+class S300Node(DeviceNode):
     def __init__(self, node, p: S300Params, port=None) -> None:
-        self.node, self.p = node, p
+        super().__init__(node)
+        self.p = p
         self.pub = node.publisher(p.topic)
-        self.finished = threading.Event()
-        self.exit_code = 1
-        self._error_reported = False
         self._silent = False
         self._reported_crc = 0
         self.driver = S300Driver(port if port is not None else open_port(p.port, p.baud), p,
@@ -46,7 +44,7 @@ class S300Node:
                       p.port, p.baud, p.scan_id, p.frame_id, p.topic, p.range_min, p.range_max, fields,
                       ", inverted" if p.inverted else "")
         self.driver.start()
-        self._health = node.timer(0.25, self._check)
+        self.watch(0.25, self._check)
 
     def _on_scan(self, scan: LaserScan) -> None:
         self.pub.publish(scan)
@@ -54,11 +52,8 @@ class S300Node:
     def _check(self) -> None:
         d, p = self.driver, self.p
         if d.error is not None:
-            if not self._error_reported:
-                self._error_reported = True
-                self.node.log.error("s300: serial I/O on %s failed (%s) after %s; exiting so the agent can "
-                                    "reopen the port", p.port, d.error, _counts(d.stats()))
-                self.finished.set()  # common.runner ends the process with exit_code
+            self.device_lost("s300: serial I/O on %s failed (%s) after %s; exiting so the agent can reopen the "
+                             "port", p.port, d.error, _counts(d.stats()))
             return
         silent = d.silent_for()
         if silent > p.communication_timeout and not self._silent:
@@ -74,7 +69,7 @@ class S300Node:
             self.node.log.warning("s300: %s", _counts(d.stats()))
 
     def close(self) -> None:
-        self._health.cancel()
+        self.unwatch()
         self.driver.close()
         if self.driver.error is None:
             log.info("s300: %s", _counts(self.driver.stats()))
@@ -92,10 +87,7 @@ def check(cfg: dict, source: str) -> list[str]:
 
 def start(node, cfg: dict, source: str) -> S300Node:
     p = load(cfg, source)
-    try:
-        return S300Node(node, p)
-    except S300ConnectionError as e:
-        raise SystemExit(f"zenav s300: {e}") from None
+    return start_or_exit("s300", lambda: S300Node(node, p), S300ConnectionError)
 
 
 if __name__ == "__main__":

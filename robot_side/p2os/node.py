@@ -27,6 +27,7 @@ import threading
 from common.config import ConfigError, load_params
 from common.messages import BatteryState, Header, MotorState, Odometry, TransformStamped, Twist
 from common.tf import TFBroadcaster
+from robot_side.device_node import DeviceNode, start_or_exit
 from robot_side.p2os.driver import BaseState, P2OSConnectionError, P2OSDriver, P2OSParams, open_port
 
 log = logging.getLogger("zenav.p2os")
@@ -39,9 +40,10 @@ def load(cfg: dict | None, source: str) -> P2OSParams:
     return p
 
 
-class P2OSNode:
+class P2OSNode(DeviceNode):
     def __init__(self, node, p: P2OSParams, port=None) -> None:
-        self.node, self.p = node, p
+        super().__init__(node)
+        self.p = p
         self.pub_odom = node.publisher("odom")
         self.tf = TFBroadcaster(node)
         self.pub_motor = node.publisher("motor_state", latched=True)
@@ -49,9 +51,6 @@ class P2OSNode:
         self._lock = threading.Lock()
         self._motors_sent: bool | None = None
         self._motor_t = self._battery_t = -1e9
-        self._error_reported = False
-        self.finished = threading.Event()
-        self.exit_code = 1
         self.driver = P2OSDriver(port if port is not None else open_port(p.port, p.baud), p,
                                  on_state=self._on_state)
         try:
@@ -65,7 +64,7 @@ class P2OSNode:
         self.subs = [node.subscribe(p.cmd_vel_topic, Twist, callback=self._on_cmd_vel),
                      node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state)]
         self.driver.start()
-        self._health = node.timer(1.0, self._check)
+        self.watch(1.0, self._check)
 
     def _on_cmd_vel(self, t: Twist) -> None:
         self.driver.set_cmd_vel(t.linear.x, t.angular.z)
@@ -98,15 +97,13 @@ class P2OSNode:
 
     def _check(self) -> None:
         d = self.driver
-        if d.error is not None and not self._error_reported:
-            self._error_reported = True
-            self.node.log.error("p2os: serial I/O on %s failed (%s); the base is no longer driven; "
-                                "exiting so the agent can restart the driver", self.p.port, d.error)
+        if d.error is not None and not self.lost:
             self.pub_motor.publish(MotorState(Header(self.node.clock.now(), self.p.base_frame_id), False))
-            self.finished.set()  # common.runner ends the process with exit_code
+            self.device_lost("p2os: serial I/O on %s failed (%s); the base is no longer driven; "
+                             "exiting so the agent can restart the driver", self.p.port, d.error)
 
     def close(self) -> None:
-        self._health.cancel()
+        self.unwatch()
         for s in self.subs:
             s.close()
         self.driver.close()  # motors stopped, then CLOSE
@@ -114,10 +111,7 @@ class P2OSNode:
 
 def start(node, cfg: dict, source: str) -> P2OSNode:
     p = load(cfg, source)
-    try:
-        return P2OSNode(node, p)
-    except P2OSConnectionError as e:
-        raise SystemExit(f"zenav p2os: {e}") from None
+    return start_or_exit("p2os", lambda: P2OSNode(node, p), P2OSConnectionError)
 
 
 if __name__ == "__main__":
