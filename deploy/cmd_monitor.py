@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import sys
@@ -23,7 +24,11 @@ time, a timestamp under wall time).
 Outputs (pick one; default: --spawn when a display is available, else --save):
   --spawn              start the native viewer on this machine
   --connect-viewer URL stream to a running viewer (rerun+http://HOST:9876/proxy)
-  --serve-web PORT     serve the web viewer at http://localhost:PORT (gRPC on --grpc-port)
+  --serve-web PORT     serve our page at http://BIND:PORT (--bind, default 127.0.0.1): the Rerun web viewer
+                       (from the rerun-sdk wheel; the recording on gRPC --grpc-port) and a top-down map with
+                       rviz's "2D Nav Goal" / "2D Pose Estimate" tools, cancel, the move_base state and the
+                       "why not moving" line; --token T guards the control endpoints (open the page with
+                       ?token=T)
   --save FILE.rrd      write a recording; open later with `rerun FILE.rrd`
 """
 
@@ -37,6 +42,16 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     out.add_argument("--serve-web", type=port, metavar="PORT", help="serve the web viewer on PORT")
     out.add_argument("--save", metavar="FILE", help="save a .rrd recording")
     p.add_argument("--grpc-port", type=port, default=9876, help="gRPC port used with --serve-web")
+    p.add_argument("--bind", default="127.0.0.1", metavar="ADDR",
+                   help="address the page listens on with --serve-web (default 127.0.0.1: this machine only; "
+                        "0.0.0.0: every interface)")
+    p.add_argument("--token", default=os.environ.get("ZENAV_MONITOR_TOKEN") or None,
+                   help="with --serve-web: goal / initial pose / cancel need this token (header X-Zenav-Token; "
+                        "open the page as http://HOST:PORT/?token=T); default $ZENAV_MONITOR_TOKEN")
+    p.add_argument("--follow", action="store_true",
+                   help="the map and local views track the robot (Rerun's tracking eye; experimental in "
+                        "Rerun 0.41, whose web viewer puts the eye onto the robot); default: the whole map "
+                        "seen from above")
     p.add_argument("--rate", action="append", default=[], metavar="TYPE=HZ",
                    help="max logging rate per entity for a message type or a topic, e.g. --rate Costmap=1 "
                         "--rate camera/depth/points=0.5 (0 = every message; repeatable or comma list)")
@@ -64,7 +79,7 @@ def open_recording(args, robot: str):
     from deploy.monitor.layout import blueprint
 
     rec = rr.RecordingStream(f"zenav_{robot}")
-    bp = blueprint()
+    bp = blueprint(follow=getattr(args, "follow", False))
     if args.save:
         parent = os.path.dirname(os.path.abspath(args.save))
         if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
@@ -77,13 +92,43 @@ def open_recording(args, robot: str):
     if args.serve_web:
         uri = rec.serve_grpc(grpc_port=args.grpc_port, default_blueprint=bp,
                              server_memory_limit=args.memory_limit)
-        rr.serve_web_viewer(web_port=args.serve_web, open_browser=False, connect_to=uri)
-        return rec, f"web viewer at http://localhost:{args.serve_web}/?url={uri}"
+        host = args.bind if args.bind not in ("0.0.0.0", "::") else "localhost"
+        return rec, f"page at http://{host}:{args.serve_web}/ (recording {uri})"
     if args.connect_viewer:
         rec.connect_grpc(args.connect_viewer, default_blueprint=bp)
         return rec, f"streaming to {args.connect_viewer}"
     rec.spawn(memory_limit=args.memory_limit, default_blueprint=bp)
     return rec, "spawned the Rerun viewer"
+
+
+def fit_view_to_map(rec, args):
+    """An observer that sends the blueprint again, the map view fitted to the map, when it first arrives."""
+    from common.messages import OccupancyGrid
+    from deploy.monitor.layout import blueprint, fit_height
+
+    done = []
+
+    def observe(topic: str, msg) -> None:
+        if done or topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
+            return
+        done.append(True)
+        w, h = msg.width * msg.resolution, msg.height * msg.resolution
+        centre = (msg.origin.x + w / 2, msg.origin.y + h / 2)  # (map origins are not rotated in practice)
+        rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre,
+                                     height=fit_height(w, h)), make_active=True)
+
+    return observe
+
+
+def bus_publisher(session, robot: str):
+    """``publish(topic, msg)`` on the robot's bus (what the page's tools send)."""
+    from common.bus_topics import topic_key
+    from common.codec import encode
+
+    def publish(topic: str, msg) -> None:
+        session.put(topic_key(robot, topic), encode(msg), attachment=b"zenav_monitor_web")
+
+    return publish
 
 
 def run(args) -> int:
@@ -106,9 +151,31 @@ def run(args) -> int:
     one_robot(args)
     cfg = BusConfig.from_env()
     robot = cfg.robot
+    web_state = web = None
+    state_subs: list = []
+    if args.serve_web:
+        from deploy.monitor.web_assets import ensure_assets
+        from deploy.monitor.webstate import WebState
+
+        assets = ensure_assets()  # before any server starts: a clear error when the wheel lacks them
+        web_state = WebState(robot)
     rec, where = open_recording(args, robot)
     session = zenoh.open(cfg.to_zenoh())
-    mon = Monitor(session, robot, rec, rates)
+    observers = [fit_view_to_map(rec, args)]
+    if web_state is not None:  # the latched map arrives through the monitor's query, the rest directly
+        observers.append(lambda topic, msg: web_state.observe(topic, msg) if topic == "map" else None)
+    mon = Monitor(session, robot, rec, rates, observers=observers)
+    if web_state is not None:
+        from deploy.monitor.webserver import WebServer, subscribe_state
+
+        state_subs = subscribe_state(session, robot, web_state)
+        try:
+            web = WebServer(web_state, bus_publisher(session, robot), args.serve_web, args.grpc_port, args.bind,
+                            args.token, args.memory_limit, assets)
+        except OSError as e:
+            mon.close()
+            session.close()
+            raise SystemExit(f"zenav monitor: cannot serve the page on {args.bind}:{args.serve_web}: {e}") from None
     print(f"zenav monitor: robot '{robot}', {where}. Ctrl-C to stop.", file=sys.stderr, flush=True)
     deadline = time.monotonic() + args.duration if args.duration > 0 else None
     while not stop.is_set():
@@ -116,6 +183,11 @@ def run(args) -> int:
         if left <= 0:
             break
         stop.wait(min(left, 1.0))
+    if web is not None:
+        web.close()
+    for h in state_subs:
+        with contextlib.suppress(zenoh.ZError):
+            h.undeclare()
     mon.close()  # logs what the throttle still held
     session.close()
     rec.flush()

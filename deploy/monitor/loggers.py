@@ -101,6 +101,37 @@ def log_pose(rec, path: str, msg: m.PoseStamped, color=(255, 0, 200), length: fl
                                                   colors=[color], radii=0.03))
 
 
+def log_robot_marker(rec, path: str, base_frame: str = "base_link") -> None:
+    """A small marker at the robot's base frame (static): the map view's camera follows this entity."""
+    rec.log(path, rr.CoordinateFrame(base_frame), rr.Points3D([[0.0, 0.0, 0.05]], radii=0.04,
+                                                              colors=[[60, 120, 255]]), static=True)
+
+
+def ellipse_strip(centre, axes, angle: float, n: int = 48) -> np.ndarray:
+    t = np.linspace(0, 2 * np.pi, n + 1)
+    c, s = np.cos(angle), np.sin(angle)
+    ex, ey = axes[0] * np.cos(t), axes[1] * np.sin(t)
+    return np.column_stack((centre[0] + c * ex - s * ey, centre[1] + s * ex + c * ey, np.full(n + 1, 0.04)))
+
+
+def log_particles(rec, path: str, msg: m.Path, max_arrows: int = 400) -> None:
+    """AMCL's particle cloud (``Path`` rows x, y, yaw) as short arrows, and the 2-sigma covariance
+    ellipse of their positions at ``path/covariance``."""
+    from deploy.monitor.webstate import covariance_ellipse
+
+    p = np.asarray(msg.poses, np.float64)
+    if len(p) > max_arrows:
+        p = p[:: int(np.ceil(len(p) / max_arrows))]
+    origins = np.column_stack((p[:, 0], p[:, 1], np.full(len(p), 0.03))) if len(p) else np.zeros((0, 3))
+    vecs = np.column_stack((0.15 * np.cos(p[:, 2]), 0.15 * np.sin(p[:, 2]), np.zeros(len(p)))) if len(p) \
+        else np.zeros((0, 3))
+    rec.log(path, _frame(msg.header), rr.Arrows3D(origins=origins, vectors=vecs, colors=[[255, 60, 60]],
+                                                  radii=0.008))
+    ell = covariance_ellipse(np.asarray(msg.poses, np.float64)[:, :2]) if len(msg.poses) > 1 else None
+    strips = [] if ell is None else [ellipse_strip(*ell)]
+    rec.log(f"{path}/covariance", _frame(msg.header), rr.LineStrips3D(strips, colors=[[255, 140, 0]], radii=0.02))
+
+
 def log_transform(rec, path: str, ts: m.TransformStamped, static: bool = False) -> None:
     """One TF edge. Rerun's default relation is ROS's: the pose of ``child_frame`` in ``parent_frame``
     (maps child coordinates into the parent). Each child frame must always be logged at the same entity,

@@ -51,8 +51,11 @@ class MonitorStats:
 
 class Monitor:
     def __init__(self, session: zenoh.Session, robot: str, rec: rr.RecordingStream,
-                 rates: dict[str, float] | None = None, flush_period: float = 0.05) -> None:
+                 rates: dict[str, float] | None = None, flush_period: float = 0.05,
+                 observers: list[Callable[[str, object], None]] | None = None,
+                 base_frame: str = "base_link") -> None:
         self.robot, self.rec, self.session = robot, rec, session
+        self.observers = list(observers or [])  # e.g. the web page's state: every decoded message
         self.throttle = Throttle(rates)
         self.timeline = StampTimeline()
         self.stats = MonitorStats()
@@ -62,6 +65,7 @@ class Monitor:
         self._prefix = f"zenav/{robot}/"
         self._queried: set[str] = set()
         self._stop = threading.Event()
+        L.log_robot_marker(rec, "world/robot", base_frame)  # what the map view follows
         self._handles = [
             session.declare_subscriber(f"zenav/{robot}/**", self._on_sample),
             session.liveliness().declare_subscriber(f"zenavlive/{robot}/pub/**", self._on_publisher,
@@ -107,6 +111,8 @@ class Monitor:
         with self._lock:
             self.stats.received += 1
             try:
+                for observe in self.observers:
+                    observe(topic, msg)
                 self.handle(topic, msg)
             except Exception as e:  # noqa: BLE001 - a bad message or logging bug must not kill the monitor
                 self.stats.errors += 1
@@ -178,6 +184,8 @@ class Monitor:
         if type(msg) in spatial:
             entity = "world/" + topic
             sub(entity, topic, kind, stamp, lambda: spatial[type(msg)](rec, entity, msg))
+        elif isinstance(msg, m.Path) and topic.endswith("particlecloud"):  # AMCL's particles (x, y, yaw)
+            sub("world/" + topic, topic, "ParticleCloud", stamp, lambda: L.log_particles(rec, "world/" + topic, msg))
         elif isinstance(msg, m.Path):
             color = PLAN_COLORS.get(topic.rsplit("/", 1)[-1], (40, 200, 40))
             sub("world/" + topic, topic, kind, stamp, lambda: L.log_path(rec, "world/" + topic, msg, color))

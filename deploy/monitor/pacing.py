@@ -15,6 +15,7 @@ DEFAULT_RATES: dict[str, float] = {
     "OccupancyGrid": 0.5, "Costmap": 2.0, "PointCloud": 2.0, "DepthImage": 2.0, "LaserScan": 10.0,
     "Odometry": 10.0, "Twist": 20.0, "Path": 5.0, "PolygonStamped": 5.0, "TFMessage": 20.0,
     "Scalar": 10.0, "MoveBaseStatus": 5.0, "PoseStamped": 5.0, "BatteryState": 1.0,
+    "ParticleCloud": 2.0,  # AMCL's particlecloud (a Path of poses): the heaviest per-update stream
 }
 
 # Stamps below this are simulated seconds since start (a wall stamp is > 1.6e9).
@@ -34,7 +35,7 @@ def parse_rates(items: list[str]) -> dict[str, float]:
                 value = -1.0
             if not sep or not name or value < 0:
                 raise ValueError(f"--rate expects TYPE=HZ or TOPIC=HZ with HZ >= 0, got {part!r}")
-            if name[0].isupper() and name not in REGISTRY:
+            if name[0].isupper() and name not in REGISTRY and name not in DEFAULT_RATES:
                 known = ", ".join(sorted(REGISTRY))
                 raise ValueError(f"--rate: unknown message type {name!r} (known: {known})")
             rates[name] = value

@@ -14,7 +14,7 @@ import threading
 
 from common.config import Problems, load_params, merge_included, strip_frame
 from common.geometry import Pose2D
-from common.messages import Empty, Header, LaserScan, OccupancyGrid, PoseStamped, TransformStamped
+from common.messages import Empty, Header, LaserScan, OccupancyGrid, Path, PoseStamped, TransformStamped
 from master_side.localization.amcl import Amcl
 from master_side.localization.params import UNUSED, AmclParams
 
@@ -58,6 +58,7 @@ class AmclNode:
         self.tf = TFListener(node)
         self.tf_out = TFBroadcaster(node)
         self.pose_pub = node.publisher("amcl_pose")
+        self.cloud_pub = node.publisher("particlecloud")  # ROS amcl's particlecloud: rows x, y, yaw (map)
         self.subs = [
             node.subscribe("map", OccupancyGrid, callback=self._on_map, mode="latest"),
             node.subscribe("scan", LaserScan, callback=self._on_scan, mode="latest"),
@@ -95,8 +96,10 @@ class AmclNode:
             if f is None or not f.update(odom, scan, laser.transform.to_pose2d()):
                 return
             corr, (mean, _) = f.map_to_odom(), f.estimate()
+            cloud = f.poses.copy()
         self._corr = corr
         self.pose_pub.publish(PoseStamped(Header(t, self.map_frame), mean.to_transform()))
+        self.cloud_pub.publish(Path(Header(t, self.map_frame), cloud))
 
     def _on_initial_pose(self, msg: PoseStamped) -> None:
         frame = strip_frame(msg.header.frame_id) or self.map_frame
@@ -112,6 +115,8 @@ class AmclNode:
                 log.warning("initialpose before any map: ignored")
                 return
             self.filter.init_pose(pose, (self.p.initial_cov_xx, self.p.initial_cov_yy, self.p.initial_cov_aa))
+            cloud = self.filter.poses.copy()
+        self.cloud_pub.publish(Path(Header(msg.header.stamp, self.map_frame), cloud))
         log.info("initial pose set to (%.2f, %.2f, %.2f)", pose.x, pose.y, pose.theta)
 
     def _on_global_localization(self, _req: Empty) -> Empty:

@@ -1,0 +1,120 @@
+"""`zenav monitor --serve-web`: the page's tools drive a simulated robot, in headless Chromium.
+
+One browser session against one simulated stack (P3-AT in the room, map server + AMCL + move_base, the
+monitor), real mouse events over the DevTools protocol:
+  1. AMCL starts 0.8 m off the truth; "2D Pose Estimate" at the true pose: the estimate jumps there;
+  2. "2D Nav Goal" at a free point: the simulated robot reaches it (ground truth);
+  3. a screenshot: the map fills most of our map panel and of Rerun's map view.
+``ZENAV_DOCS_SHOTS=1`` also writes the screenshot to docs/monitor-web.png (the README's picture).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+import urllib.error
+import urllib.request
+
+import pytest
+
+from deploy.check_web_viewer import find_chromium
+from tests.monitor.webrig import REPO, WebRig, map_fraction, rgb
+
+START = (-2.2, 0.0, 0.0)  # robot_side/worlds/room.yaml
+AMCL_WRONG = (-1.5, 0.5, 0.4)
+GOAL = (-1.0, 1.3, math.pi / 2)  # free: left of the crate at (0, 0)
+
+
+def _post(port: int, path: str, token: str | None, body: dict, ctype: str = "application/json") -> int:
+    headers = {"Content-Type": ctype}
+    if token is not None:
+        headers["X-Zenav-Token"] = token
+    req = urllib.request.Request(f"http://127.0.0.1:{port}{path}", json.dumps(body).encode(), headers)
+    try:
+        with urllib.request.urlopen(req, timeout=5) as r:
+            return r.status
+    except urllib.error.HTTPError as e:
+        return e.code
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(find_chromium() is None, reason="chromium not installed (deploy/install.sh --test)")
+def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
+    t0 = time.monotonic()
+    rig = WebRig(tmp_path, AMCL_WRONG, token="s3cret")
+    try:
+        rig.open_page(viewer=False)  # the tools alone first: the viewer's wasm is heavy on this machine
+        # the control endpoints: no / wrong token -> 403; a form post -> 415 (nothing published)
+        assert _post(rig.web, "/api/goal", None, {"x": 0, "y": 0, "yaw": 0}) == 403
+        assert _post(rig.web, "/api/goal", "wrong", {"x": 0, "y": 0, "yaw": 0}) == 403
+        assert _post(rig.web, "/api/cancel", "s3cret", {}, "application/x-www-form-urlencoded") == 415
+        rig.wait(lambda: rig.js("!!(window.zenav && zenav.map && zenav.state && zenav.state.pose "
+                                 "&& zenav.state.move_base)"),
+                 120.0, "the page showing the map, the robot and move_base")
+        rig.wait(lambda: rig.amcl.latest() is not None, 30.0, "amcl_pose")
+        before = rig.amcl.latest().pose.to_pose2d()
+        assert math.hypot(before.x - START[0], before.y - START[1]) > 0.4, before
+        t_setup = time.monotonic() - t0
+
+        # 1. 2D Pose Estimate at the truth: AMCL's estimate jumps to the clicked pose
+        truth = rig.gt.latest().pose2d
+        rig.use_tool("initialpose", truth.x, truth.y, truth.theta)
+        sent = rig.wait(lambda: rig.js("zenav.sent.length ? JSON.stringify(zenav.sent[0]) : ''"), 10.0,
+                        "the page sending the initial pose")
+        sent = json.loads(sent)
+        assert sent["tool"] == "initialpose"
+        assert math.hypot(sent["x"] - truth.x, sent["y"] - truth.y) < 0.05, (sent, truth)
+        assert abs(math.remainder(sent["yaw"] - truth.theta, 2 * math.pi)) < 0.1, (sent, truth)
+
+        def jumped():
+            p = rig.amcl.latest().pose.to_pose2d()
+            return (math.hypot(p.x - sent["x"], p.y - sent["y"]) < 0.15
+                    and abs(math.remainder(p.theta - sent["yaw"], 2 * math.pi)) < 0.15) and p
+        est = rig.wait(jumped, 20.0, "amcl_pose at the clicked initial pose")
+        t_pose = time.monotonic() - t0
+
+        # 2. 2D Nav Goal at a free point: the robot gets there (ground truth)
+        rig.use_tool("goal", *GOAL)
+        rig.wait(lambda: rig.js("zenav.sent.length > 1"), 10.0, "the page sending the goal")
+        goal = json.loads(rig.js("JSON.stringify(zenav.sent[1])"))
+        assert goal["tool"] == "goal" and math.hypot(goal["x"] - GOAL[0], goal["y"] - GOAL[1]) < 0.05, goal
+        rig.wait(lambda: (s := rig.status.latest()) is not None and s.status == 3 and s.state == "IDLE"
+                 and s.goal.pose.to_pose2d().x == pytest.approx(goal["x"], abs=1e-6), 90.0,
+                 "move_base reporting the page's goal SUCCEEDED")
+        end = rig.gt.latest().pose2d
+        reach = math.hypot(end.x - goal["x"], end.y - goal["y"])
+        assert reach < 0.3, (end, goal)
+        t_goal = time.monotonic() - t0
+        state = json.loads(rig.js("JSON.stringify(zenav.state.move_base)"))
+        assert state["status"] in ("SUCCEEDED", "ACTIVE", "PENDING"), state
+
+        # 3. the screenshot (same browser, the page reloaded with the viewer): our map panel and Rerun's
+        # map view are mostly map
+        rig.open_page(viewer=True)  # the whole page: our panel and the Rerun viewer
+        rig.wait(lambda: rig.js("!!(window.zenav && zenav.map && zenav.state "
+                                "&& zenav.rerun !== 'starting')"), 150.0, "the page with the Rerun viewer")
+        assert rig.js("zenav.rerun") == "started", rig.js("zenav.rerun")
+        time.sleep(10.0)  # the recording streams in, the views settle
+        png = rig.screenshot()
+        (tmp_path / "monitor-web.png").write_bytes(png)
+        if os.environ.get("ZENAV_DOCS_SHOTS"):
+            (REPO / "docs" / "monitor-web.png").write_bytes(png)
+        img = rgb(png)
+        # the page's geometry (style.css: 41 px bar, map panel 44 % wide); no script evaluation here: the
+        # running viewer can keep the page's main thread busy for long on a loaded machine
+        h, w = img.shape[:2]
+        split = int(0.44 * w)
+        o = (4, 45, split - 4, h - 30)
+        # Rerun's map view: the left 3/5 of its canvas, below its top bar and view title, above the time panel
+        r = (split + 10, 41 + 80, split + int(0.6 * (w - split)) - 10, h - 60)
+        f_ours, f_rerun = map_fraction(img, o), map_fraction(img, r)
+        print(f"\nweb tools: setup {t_setup:.0f} s, initial pose applied at {t_pose:.0f} s (amcl "
+              f"({est.x:.2f}, {est.y:.2f}, {est.theta:.2f})), goal reached at {t_goal:.0f} s ({reach:.2f} m "
+              f"off), map fills {100 * f_ours:.0f} % of our panel and {100 * f_rerun:.0f} % of Rerun's map view; "
+              f"screenshot {tmp_path / 'monitor-web.png'}")
+        assert f_ours > 0.6, f_ours
+        assert f_rerun > 0.6, f_rerun
+    finally:
+        rig.close()
