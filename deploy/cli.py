@@ -40,6 +40,7 @@ COMMANDS = [
     "deploy.cmd_map",
     "deploy.cmd_zenoh",
     "deploy.cmd_doctor",
+    "deploy.cmd_fleet",
 ]
 
 EPILOG = """\

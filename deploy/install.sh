@@ -12,6 +12,7 @@ command -v ip >/dev/null 2>&1 || apt_pkgs+=(iproute2)
 if (( want_test )); then
   command -v socat >/dev/null 2>&1 || apt_pkgs+=(socat)
   command -v chromium >/dev/null 2>&1 || apt_pkgs+=(chromium)  # web viewer check (tests/monitor)
+  [[ -x /usr/sbin/sshd ]] || apt_pkgs+=(openssh-server)  # zenav fleet's hosts (tests/fleet)
 fi
 if (( ${#apt_pkgs[@]} )); then
   if [[ $(id -u) -eq 0 ]] && command -v apt-get >/dev/null 2>&1; then

@@ -1,0 +1,153 @@
+"""Test hosts for ``zenav fleet``: network namespaces joined by a bridge, each running a real sshd
+(Debian's openssh-server) on port 22 of its own address, root login with a key made here.
+
+The bridge has an address in the root namespace, so the test (the "laptop") reaches every host over
+ssh. All hosts share this machine's filesystem: each gets its own install_dir and sysroot under the
+temp dir. No systemd runs here, so the hosts use the supervisor (service_manager: auto detects it).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+
+from tests.support import ip
+
+SSHD = "/usr/sbin/sshd"
+SSH_OPTS = ["StrictHostKeyChecking=no", "UserKnownHostsFile=/dev/null"]
+
+SSHD_CONFIG = """\
+Port 22
+ListenAddress {address}
+HostKey {host_key}
+PidFile {pidfile}
+AuthorizedKeysFile {authorized}
+PermitRootLogin prohibit-password
+PubkeyAuthentication yes
+PasswordAuthentication no
+KbdInteractiveAuthentication no
+UsePAM no
+StrictModes no
+X11Forwarding no
+PrintMotd no
+"""
+
+
+def _keygen(path: Path) -> None:
+    subprocess.run(["ssh-keygen", "-q", "-t", "ed25519", "-N", "", "-f", str(path)], check=True, timeout=30)
+
+
+def _ns_pids(ns: str) -> list[int]:
+    r = ip("netns", "pids", ns, check=False)
+    return [int(x) for x in r.stdout.split()]
+
+
+class FleetHosts:
+    """``names`` -> namespaces with sshd; ``address(name)``; ``key`` (client private key)."""
+
+    def __init__(self, tmp: Path, names: list[str]):
+        self.tmp, self.names = tmp, names
+        self.sfx = uuid.uuid4().hex[:5]
+        n = int(self.sfx, 16)
+        self.subnet = f"10.{100 + n % 100}.{n // 100 % 250}"
+        self.bridge = f"zfb{self.sfx}"
+        self.ns = {h: f"zf{self.sfx}{i}" for i, h in enumerate(names)}
+        self.sshd: dict[str, subprocess.Popen] = {}
+        self.key = tmp / "id_fleet"
+
+    def address(self, name: str) -> str:
+        return f"{self.subnet}.{self.names.index(name) + 1}"
+
+    def up(self) -> None:
+        ip("link", "add", self.bridge, "type", "bridge")
+        with contextlib.suppress(OSError):
+            Path(f"/sys/class/net/{self.bridge}/bridge/multicast_snooping").write_text("0")
+        ip("addr", "add", f"{self.subnet}.254/24", "dev", self.bridge)
+        ip("link", "set", self.bridge, "up")
+        for i, (h, ns) in enumerate(self.ns.items()):
+            outer, inner = f"zfo{self.sfx}{i}", f"zfi{self.sfx}{i}"
+            ip("netns", "add", ns)
+            ip("link", "add", outer, "type", "veth", "peer", "name", inner)
+            ip("link", "set", inner, "netns", ns)
+            ip("link", "set", outer, "master", self.bridge)
+            ip("link", "set", outer, "up")
+            ip("-n", ns, "addr", "add", f"{self.address(h)}/24", "dev", inner)
+            ip("-n", ns, "link", "set", inner, "up")
+            ip("-n", ns, "link", "set", "lo", "up")
+            ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", inner)
+        _keygen(self.key)
+        (self.tmp / "authorized_keys").write_text((self.tmp / "id_fleet.pub").read_text())
+        os.makedirs("/run/sshd", exist_ok=True)  # sshd's privilege separation directory
+        for h, ns in self.ns.items():
+            d = self.tmp / "sshd" / h
+            d.mkdir(parents=True)
+            _keygen(d / "host_key")
+            cfg = d / "sshd_config"
+            cfg.write_text(SSHD_CONFIG.format(address=self.address(h), host_key=d / "host_key",
+                                              pidfile=d / "sshd.pid", authorized=self.tmp / "authorized_keys"))
+            with open(d / "sshd.log", "wb") as log:
+                self.sshd[h] = subprocess.Popen(["ip", "netns", "exec", ns, SSHD, "-D", "-e", "-f", str(cfg)],
+                                                stdout=subprocess.DEVNULL, stderr=log)
+        for h in self.names:
+            self._wait_ssh(h)
+
+    def _wait_ssh(self, h: str, timeout: float = 30.0) -> None:
+        deadline = time.monotonic() + timeout
+        while True:
+            r = self.ssh(h, "true", check=False)
+            if r.returncode == 0:
+                return
+            if time.monotonic() > deadline or self.sshd[h].poll() is not None:
+                log = (self.tmp / "sshd" / h / "sshd.log").read_text()
+                raise AssertionError(f"sshd of {h} not reachable: {r.stderr.strip()} | {log[-500:]}")
+            time.sleep(0.2)
+
+    def ssh(self, h: str, command: str, check: bool = True, timeout: float = 60) -> subprocess.CompletedProcess:
+        argv = ["ssh", "-i", str(self.key), "-o", "BatchMode=yes", "-o", "LogLevel=ERROR",
+                *[x for o in SSH_OPTS for x in ("-o", o)], f"root@{self.address(h)}", command]
+        return subprocess.run(argv, capture_output=True, text=True, timeout=timeout, check=check)
+
+    def pids(self, h: str) -> list[int]:
+        return _ns_pids(self.ns[h])
+
+    def down(self) -> None:
+        """Kill what runs in the namespaces (started by this test), delete them and the bridge."""
+        for sig in (signal.SIGTERM, signal.SIGKILL):
+            for ns in self.ns.values():
+                for pid in _ns_pids(ns):
+                    with contextlib.suppress(ProcessLookupError):
+                        os.kill(pid, sig)
+            if sig == signal.SIGTERM:
+                deadline = time.monotonic() + 5
+                while time.monotonic() < deadline and any(_ns_pids(ns) for ns in self.ns.values()):
+                    time.sleep(0.1)
+        for p in self.sshd.values():
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                p.wait(timeout=5)
+        for ns in self.ns.values():
+            ip("netns", "del", ns, check=False)
+        ip("link", "del", self.bridge, check=False)
+
+
+def requirements() -> None:
+    if os.geteuid() != 0:
+        pytest.skip("needs root (network namespaces)")
+    for tool in ("ip", "ssh", "ssh-keygen"):
+        if shutil.which(tool) is None:
+            pytest.skip(f"needs {tool}")
+    if not os.path.exists(SSHD):
+        pytest.skip("needs Debian's openssh-server (/usr/sbin/sshd): bash deploy/install.sh --test")
+
+
+def python_for_hosts() -> str:
+    """The interpreter the hosts use for their venvs (this one: it has zenav's dependencies)."""
+    return os.path.realpath(sys.executable)
