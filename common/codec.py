@@ -14,7 +14,7 @@ import struct
 import sys
 import types
 import typing
-from typing import Any
+from typing import Any, Callable
 
 import msgpack
 import numpy as np
@@ -58,14 +58,15 @@ class EncodeError(ValueError):
 
 
 def _pack_array(a: np.ndarray) -> msgpack.ExtType:
-    a = np.ascontiguousarray(a)
     if a.ndim > _MAX_DIMS:
         raise EncodeError(f"array with {a.ndim} dims")
-    if a.dtype.name not in _ALLOWED_DTYPES:  # e.g. object arrays would send raw pointers
+    name = _DTYPE_NAMES.get(a.dtype)  # dtype.name is a slow Python property in numpy
+    if name is None:  # e.g. object arrays would send raw pointers
         raise EncodeError(f"array dtype {a.dtype.name!r} not allowed")
-    dt = a.dtype.newbyteorder("<") if a.dtype.byteorder == ">" else a.dtype
-    head = struct.pack("<BB", len(dt.name), a.ndim) + dt.name.encode() + struct.pack(f"<{a.ndim}Q", *a.shape)
-    return msgpack.ExtType(_EXT_NDARRAY, head + a.astype(dt, copy=False).tobytes())
+    if a.dtype.byteorder == ">":
+        a = a.astype(a.dtype.newbyteorder("<"))
+    head = struct.pack(f"<BB{len(name)}s{a.ndim}Q", len(name), a.ndim, name.encode(), *a.shape)
+    return msgpack.ExtType(_EXT_NDARRAY, head + a.tobytes())  # tobytes: C order, contiguous or not
 
 
 def _unpack_array(code: int, data: bytes) -> Any:
@@ -80,10 +81,10 @@ def _unpack_array(code: int, data: bytes) -> Any:
     if len(data) < off:
         raise DecodeError("truncated array header")
     name = data[2 : 2 + nlen].decode("ascii", errors="replace")
-    if name not in _ALLOWED_DTYPES:
+    dt = _DTYPES.get(name)
+    if dt is None:
         raise DecodeError(f"array dtype {name!r} not allowed")
     shape = struct.unpack(f"<{ndim}Q", data[2 + nlen : off])
-    dt = np.dtype(name).newbyteorder("<")
     count = 1
     for s in shape:
         count *= s
@@ -92,34 +93,52 @@ def _unpack_array(code: int, data: bytes) -> Any:
     return np.frombuffer(data, dtype=dt, offset=off, count=count).reshape(shape)
 
 
-_ARRAY_FIELDS: dict[str, dict[str, Arr]] = {}  # message name -> {array field: Arr}, built lazily
+_DTYPES = {n: np.dtype(n).newbyteorder("<") for n in _ALLOWED_DTYPES}
+_DTYPE_NAMES = {dt: n for n in _ALLOWED_DTYPES for dt in (np.dtype(n).newbyteorder(o) for o in "<>")}
+_SCALARS = frozenset({float, int, str, bool, bytes, type(None)})  # sent as they are
+# Encoders and decoders compiled once per message type / annotation: the generic walk over
+# dataclasses.fields() and typing.get_origin() per field cost more than Zenoh itself per scan.
+_ENCODERS: dict[type, Callable[[Any], dict]] = {}
+_DECODERS: dict[Any, Callable[[Any], Any]] = {}
 
 
-def _array_fields(name: str | None) -> dict[str, Arr]:
-    specs = _ARRAY_FIELDS.get(name)  # type: ignore[arg-type]
-    if specs is None:
-        schema = REGISTRY.get(name) if name is not None else None
-        specs = {}
-        for k, ann in (schema.fields.items() if schema is not None else ()):
-            if typing.get_origin(ann) is typing.Annotated:
-                spec = next((m for m in ann.__metadata__ if isinstance(m, Arr)), None)
-                if spec is not None:
-                    specs[k] = spec
-        _ARRAY_FIELDS[name] = specs  # type: ignore[index]
-    return specs
+def _array_spec(ann: Any) -> Arr | None:
+    if typing.get_origin(ann) is typing.Annotated:
+        return next((m for m in ann.__metadata__ if isinstance(m, Arr)), None)
+    return None
+
+
+def _make_encoder(cls: type) -> Callable[[Any], dict]:
+    name = getattr(cls, "_msg_name", None)
+    if name is None:
+        raise EncodeError(f"{cls.__name__} is not a registered message type")
+    schema = REGISTRY[name]
+    arrays = [(k, s.dtype, s.ndim) for k, ann in schema.fields.items() if (s := _array_spec(ann)) is not None]
+    names = tuple(f.name for f in dataclasses.fields(cls))
+
+    def enc(v: Any) -> dict:
+        for k, dtype, ndim in arrays:  # the receiver would reject it: fail here, loudly
+            a = getattr(v, k)
+            if not isinstance(a, np.ndarray) or _DTYPE_NAMES.get(a.dtype) != dtype or a.ndim != ndim:
+                got = f"{a.dtype.name}[{a.ndim}d]" if isinstance(a, np.ndarray) else type(a).__name__
+                raise EncodeError(f"{name}.{k}: expected {dtype}[{ndim}d] array, got {got}")
+        return {k: _to_wire(getattr(v, k)) for k in names}
+
+    return enc
 
 
 def _to_wire(v: Any) -> Any:
+    t = type(v)
+    if t in _SCALARS:
+        return v
+    enc = _ENCODERS.get(t)
+    if enc is not None:
+        return enc(v)
+    if t is np.ndarray:
+        return _pack_array(v)
     if dataclasses.is_dataclass(v):
-        name = getattr(type(v), "_msg_name", None)
-        if name is None:
-            raise EncodeError(f"{type(v).__name__} is not a registered message type")
-        for k, spec in _array_fields(name).items():  # the receiver would reject it: fail here, loudly
-            a = getattr(v, k)
-            if not isinstance(a, np.ndarray) or a.dtype.name != spec.dtype or a.ndim != spec.ndim:
-                got = f"{a.dtype.name}[{a.ndim}d]" if isinstance(a, np.ndarray) else type(a).__name__
-                raise EncodeError(f"{name}.{k}: expected {spec.dtype}[{spec.ndim}d] array, got {got}")
-        return {f.name: _to_wire(getattr(v, f.name)) for f in dataclasses.fields(v)}
+        enc = _ENCODERS[t] = _make_encoder(t)
+        return enc(v)
     if isinstance(v, np.ndarray):
         return _pack_array(v)
     if isinstance(v, (tuple, list)):
@@ -140,71 +159,111 @@ def encode(msg: Any) -> bytes:
         raise EncodeError(f"cannot encode {name}: {e}") from e
 
 
-def _from_wire(ann: Any, v: Any, path: str) -> Any:
-    """Build a field value of annotation ``ann`` from wire value ``v``, checking types."""
+# A decoder takes a wire value and returns the field value, or raises DecodeError whose text starts
+# with the path below it (": expected float", ".header.stamp: expected float"); callers prefix theirs.
+def _decoder(ann: Any) -> Callable[[Any], Any]:
+    fn = _DECODERS.get(ann)
+    if fn is None:
+        fn = _DECODERS[ann] = _make_decoder(ann)
+    return fn
+
+
+def _fail(text: str) -> Callable[[Any], Any]:
+    def dec(v: Any) -> Any:
+        raise DecodeError(text)
+    return dec
+
+
+def _make_decoder(ann: Any) -> Callable[[Any], Any]:  # noqa: C901 - one branch per kind of field
     origin = typing.get_origin(ann)
     if origin is typing.Annotated:
-        spec = next((m for m in ann.__metadata__ if isinstance(m, Arr)), None)
-        if spec is not None:
-            if not isinstance(v, np.ndarray):
-                raise DecodeError(f"{path}: expected array")
-            if v.dtype.name != spec.dtype or v.ndim != spec.ndim:
-                raise DecodeError(f"{path}: expected {spec.dtype}[{spec.ndim}d], got {v.dtype.name}[{v.ndim}d]")
+        spec = _array_spec(ann)
+        if spec is None:
+            return _decoder(typing.get_args(ann)[0])
+        dtype, ndim, want = spec.dtype, spec.ndim, _DTYPES.get(spec.dtype)
+
+        def arr(v: Any) -> Any:  # arrays on the wire are always little-endian (_unpack_array)
+            if type(v) is not np.ndarray:
+                raise DecodeError(": expected array")
+            if v.dtype != want or v.ndim != ndim:
+                raise DecodeError(f": expected {dtype}[{ndim}d], got {v.dtype.name}[{v.ndim}d]")
             return v
-        ann = typing.get_args(ann)[0]
-        origin = typing.get_origin(ann)
+        return arr
     if origin is tuple:
         args = typing.get_args(ann)
-        if not isinstance(v, list):
-            raise DecodeError(f"{path}: expected list")
-        if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_from_wire(args[0], x, f"{path}[{i}]") for i, x in enumerate(v))
-        if len(args) != len(v):
-            raise DecodeError(f"{path}: expected {len(args)} items")
-        return tuple(_from_wire(a, x, f"{path}[{i}]") for i, (a, x) in enumerate(zip(args, v)))
+        variadic = len(args) == 2 and args[1] is Ellipsis
+        items = [_decoder(a) for a in (args[:1] if variadic else args)]
+
+        def tup(v: Any) -> tuple:
+            if type(v) is not list:
+                raise DecodeError(": expected list")
+            if not variadic and len(v) != len(items):
+                raise DecodeError(f": expected {len(items)} items")
+            out = []
+            for i, x in enumerate(v):
+                try:
+                    out.append((items[0] if variadic else items[i])(x))
+                except DecodeError as e:
+                    raise DecodeError(f"[{i}]{e}") from None
+            return tuple(out)
+        return tup
     if origin in (typing.Union, types.UnionType):
-        for a in typing.get_args(ann):
-            try:
-                return _from_wire(a, v, path)
-            except DecodeError:
-                continue
-        raise DecodeError(f"{path}: no union member matches")
-    if ann is type(None):
-        if v is not None:
-            raise DecodeError(f"{path}: expected nil")
-        return None
+        members = [_decoder(a) for a in typing.get_args(ann)]
+
+        def union(v: Any) -> Any:
+            for m in members:
+                try:
+                    return m(v)
+                except DecodeError:
+                    continue
+            raise DecodeError(": no union member matches")
+        return union
     if ann is float:
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise DecodeError(f"{path}: expected float")
-        return float(v)
-    if ann is bool:
-        if not isinstance(v, bool):
-            raise DecodeError(f"{path}: expected bool")
-        return v
-    if ann is int:
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise DecodeError(f"{path}: expected int")
-        return v
-    if ann is str:
-        if not isinstance(v, str):
-            raise DecodeError(f"{path}: expected str")
-        return v
+        return lambda v: v if type(v) is float else float(v) if type(v) is int else _raise(": expected float")
+    if ann in (bool, int, str, type(None)):
+        want = "nil" if ann is type(None) else ann.__name__
+        return lambda v: v if type(v) is ann else _raise(f": expected {want}")
     name = getattr(ann, "_msg_name", None)
     if name is not None:
-        return _build(REGISTRY[name], v, path)
-    raise DecodeError(f"{path}: unsupported field type {ann!r}")
+        return _make_builder(REGISTRY[name])
+    return _fail(f": unsupported field type {ann!r}")
 
 
-def _build(schema, body: Any, path: str) -> Any:
-    if not isinstance(body, dict):
-        raise DecodeError(f"{path}: expected map")
-    if set(body) != set(schema.fields):
-        raise DecodeError(f"{path}: fields {sorted(map(str, body))} != {sorted(schema.fields)}")
-    kwargs = {k: _from_wire(ann, body[k], f"{path}.{k}") for k, ann in schema.fields.items()}
-    try:
-        return schema.cls(**kwargs)
-    except (TypeError, ValueError) as e:
-        raise DecodeError(f"{path}: {e}") from e
+def _raise(text: str) -> Any:
+    raise DecodeError(text)
+
+
+def _make_builder(schema) -> Callable[[Any], Any]:
+    keys = frozenset(schema.fields)
+    fields = [(k, _decoder(ann)) for k, ann in schema.fields.items()]
+    cls = schema.cls
+    new = object.__new__
+    # A plain dataclass (generated __init__, no __post_init__, no slots): fill its __dict__ directly, 10x
+    # cheaper than __init__'s object.__setattr__ per field of a frozen class; every field is given.
+    init = getattr(cls.__init__, "__code__", None)
+    plain = (init is not None and init.co_filename == "<string>" and not hasattr(cls, "__post_init__")
+             and "__slots__" not in cls.__dict__ and all(f.init for f in dataclasses.fields(cls)))
+
+    def build(body: Any) -> Any:
+        if type(body) is not dict:
+            raise DecodeError(": expected map")
+        if body.keys() != keys:
+            raise DecodeError(f": fields {sorted(map(str, body))} != {sorted(keys)}")
+        kwargs = {}
+        for k, dec in fields:
+            try:
+                kwargs[k] = dec(body[k])
+            except DecodeError as e:
+                raise DecodeError(f".{k}{e}") from None
+        if plain:
+            obj = new(cls)
+            obj.__dict__.update(kwargs)
+            return obj
+        try:
+            return cls(**kwargs)
+        except (TypeError, ValueError) as e:
+            raise DecodeError(f": {e}") from e
+    return build
 
 
 def decode(data: bytes | bytearray | memoryview, expected: type | None = None) -> Any:
@@ -229,8 +288,8 @@ def decode(data: bytes | bytearray | memoryview, expected: type | None = None) -
     if version != schema.version:
         raise DecodeError(f"{name}: schema version {version!r}, this build speaks {schema.version}")
     try:
-        return _build(schema, body, name)
-    except DecodeError:
-        raise
+        return _decoder(schema.cls)(body)
+    except DecodeError as e:
+        raise DecodeError(f"{name}{e}") from None
     except (RecursionError, MemoryError, TypeError, ValueError, KeyError) as e:
         raise DecodeError(f"{name}: {type(e).__name__}: {e}") from e

@@ -3,10 +3,11 @@
 Config (this node's YAML mapping): ``common`` and ``specific`` = paths of the ROS costmap files (relative
 to the config file), optional ``name`` (global_costmap / local_costmap), optional ``sensor_grace`` (s,
 default 1.0, see below). Topics: ``<name>/costmap``, ``<name>/costmap/<layer>``, ``<name>/footprint``,
-``<name>/status`` (Text), ``<name>/sensors`` (CostmapSensors); service ``<name>/clear``. The master grid
-goes out on ``<name>/costmap`` after every update (update_frequency): move_base reads it over the bus,
-where ROS's move_base reads its costmap in process; publish_frequency paces the per-layer and
-footprint topics (for display), and the master too when update_frequency is 0.
+``<name>/status`` (Text), ``<name>/sensors`` (CostmapSensors), ``<name>/costmap_trace`` (Scalar after
+each master grid: its header, value = the newest observation stamp it includes; bench/loop.py); service
+``<name>/clear``. The master grid goes out on ``<name>/costmap`` after every update (update_frequency):
+move_base reads it over the bus, where ROS's move_base reads its costmap in process; publish_frequency
+paces the per-layer and footprint topics (for display), and the master too when update_frequency is 0.
 
 An observation source subscribes to its ``topic`` under the robot's key prefix (``front/scan`` and
 ``/front/scan`` are both ``zenav/<robot>/front/scan``). Sensor health (``costmap.health``), checked
@@ -31,7 +32,7 @@ from pathlib import Path
 from common.bus import Node
 from common.clock import Timer, WallClock
 from common.config import ConfigError
-from common.messages import Empty, Header, LaserScan, OccupancyGrid, PointCloud, PolygonStamped, Text
+from common.messages import Empty, Header, LaserScan, OccupancyGrid, PointCloud, PolygonStamped, Scalar, Text
 from common.tf import TFListener
 from master_side.costmap.footprint import transform_footprint
 from master_side.costmap.health import GRACE_S, SensorWatch
@@ -53,6 +54,7 @@ class CostmapNode:
         self.lock = threading.Lock()
         self.pose = None  # last robot pose in the global frame
         self._updated: float | None = None  # time of the last update
+        self._newest_obs = 0.0  # newest observation stamp buffered (traceability: <name>/costmap_trace)
         self.tf = TFListener(node)
         self.frame = cfg.costmap.global_frame
         self.tol = cfg.costmap.transform_tolerance
@@ -61,6 +63,7 @@ class CostmapNode:
         self.fp_pub = node.publisher(f"{self.name}/footprint")
         self.status = node.publisher(f"{self.name}/status")
         self.sensors_pub = node.publisher(f"{self.name}/sensors")
+        self.trace_pub = node.publisher(f"{self.name}/costmap_trace")
         self.subs = []
         self.source_subs = {}  # (layer, source) -> Subscription
         for layer in self.lcm.layers:
@@ -111,6 +114,7 @@ class CostmapNode:
         origin = sensor_tf.transform.translation.as_array()
         with self.lock:  # ROS: last_updated is when the reading was buffered (is_current)
             buf.add(data_tf.transform.apply(pts), origin, msg.header.stamp, received=self.node.clock.now())
+            self._newest_obs = max(self._newest_obs, msg.header.stamp)
             self.watch.used(layer.name, src)
 
     def check_sensors(self) -> None:
@@ -157,7 +161,9 @@ class CostmapNode:
             # move_base reads this costmap over the bus: each update goes out at once (ROS's move_base
             # reads its in-process costmap), publish_frequency paces only the display topics
             self._updated = now
+            newest = self._newest_obs
             self.pub.publish(self.lcm.master.to_message(Header(now, self.frame)))
+        self.trace_pub.publish(Scalar(Header(now, self.frame), newest))
         if stale:
             self._say(f"sensor data is late: {', '.join(stale)} (expected_update_rate)")
 

@@ -12,7 +12,9 @@ an id), ``move_base/cancel`` (any message), ``odom``, ``global_costmap/costmap``
 ``local_costmap/costmap``, ``<costmap>/sensors`` (a silent or late sensor stops the robot and is named
 in the status), TF. Out ``cmd_vel``, ``move_base/status`` + ``move_base/result`` (MoveBaseStatus),
 ``move_base/global_plan``, ``move_base/local_plan`` (Path), ``move_base/current_goal`` (PoseStamped),
-``move_base/loop_time``. Service ``make_plan`` (PlanRequest -> PlanResult), as ROS move_base offers.
+``move_base/loop_time``, ``move_base/cmd_trace`` (Scalar after each cycle's cmd_vel: value = header stamp
+of the local costmap it was computed from, -1 without one; bench/loop.py). Service ``make_plan``
+(PlanRequest -> PlanResult), as ROS move_base offers.
 """
 
 from __future__ import annotations
@@ -97,6 +99,7 @@ class MoveBaseNode:
         self.lplan_pub = node.publisher("move_base/local_plan")
         self.goal_pub = node.publisher("move_base/current_goal", latched=True)
         self.loop_pub = node.publisher("move_base/loop_time")
+        self.trace_pub = node.publisher("move_base/cmd_trace")
         node.subscribe("move_base_simple/goal", PoseStamped, callback=self._on_goal, mode="queue")
         node.subscribe("move_base/goal", MoveBaseGoal, mode="queue",
                        callback=lambda g: self._on_goal(g.target_pose, g.goal_id))
@@ -246,6 +249,7 @@ class MoveBaseNode:
                 with self.cmd_lock:
                     if cancels == self._cancels:  # else a cancel came in during this cycle: stay stopped
                         self.cmd.publish(Twist.planar(d.cmd[0], d.cmd[2], d.cmd[1]))
+                        self.trace_pub.publish(Scalar(Header(now, ""), -1.0 if cm is None else cm.header.stamp))
             if d.event:
                 self._log_event(d.event, now)
             self._report(pose)
