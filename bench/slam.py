@@ -2,7 +2,9 @@
 Kümmerle relations metric.
 
 python bench/slam.py [--method gmapping|hector] [--quick] [--particles N] [--datasets intel aces] [--out DIR]
-Ends with one line: intel_trans_mean_m=… aces_trans_mean_m=… intel_realtime_factor=… …
+Ends with one line: intel_trans_mean_m=… aces_trans_mean_m=… intel_realtime_factor=… (data time /
+wall time) intel_cpu_realtime_factor=… (data time / CPU time: one core, whatever else runs) …
+slam_update_ms=… (CPU time of one filter update with all particles, over every update of the logs).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ def main(argv: list[str] | None = None) -> int:
         params = load_gmapping(None, **DATASET_PARAMS, particles=a.particles)
     published = PUBLISHED_SCANMATCH_M if hector else PUBLISHED_GMAPPING_M
     rows, summary = [], {}
+    updates = [0.0, 0]  # CPU s of the filter updates, their number
     for name in a.datasets:
         log, n = SHARED / f"{name}.recon.clf", 1500 if a.quick else None
         if hector:
@@ -63,22 +66,31 @@ def main(argv: list[str] | None = None) -> int:
         rel = [r for r in read_relations(SHARED / f"{name}.relations")
                if lo <= min(r.t1, r.t2) and max(r.t1, r.t2) <= hi]
         s = evaluate(res.stamps, res.poses, rel).summary()
+        upd = getattr(res, "update_cpu_s", 0.0)
+        cpu_rt = res.data_s / res.cpu_s if res.cpu_s > 0 else float("inf")
         rows.append((name, 0 if hector else a.particles, res.scans, res.processed, res.data_s, res.wall_s, res.cpu_s,
-                     res.realtime_factor, s))
+                     res.realtime_factor, cpu_rt, 1000 * upd / max(res.processed, 1), s))
+        updates[0] += upd
+        updates[1] += res.processed
         summary[f"{name}_trans_mean_m"] = f"{s['trans_mean_m']:.4f}"
         summary[f"{name}_realtime_factor"] = f"{res.realtime_factor:.2f}"
+        summary[f"{name}_cpu_realtime_factor"] = f"{cpu_rt:.2f}"
         print(f"{name}: done", file=sys.stderr, flush=True)
     print(f"{'dataset':8} {'part':>4} {'scans':>6} {'proc':>5} {'data s':>7} {'wall s':>7} "
-          f"{'cpu s':>7} {'x rt':>6} "
+          f"{'cpu s':>7} {'x rt':>6} {'x rt cpu':>8} {'ms/upd':>6} "
           f"{'trans m (mean±std)':>20} {'rot deg (mean±std)':>19} {'rel':>5} "
           f"{'scan-match m' if hector else 'gmapping m':>12}")
-    for name, n, scans, proc, data, wall, cpu, rt, s in rows:
-        print(f"{name:8} {n:4d} {scans:6d} {proc:5d} {data:7.1f} {wall:7.1f} {cpu:7.1f} {rt:6.2f} "
+    for name, n, scans, proc, data, wall, cpu, rt, cpu_rt, upd_ms, s in rows:
+        print(f"{name:8} {n:4d} {scans:6d} {proc:5d} {data:7.1f} {wall:7.1f} {cpu:7.1f} {rt:6.2f} {cpu_rt:8.2f} "
+              f"{upd_ms:6.1f} "
               f"{s['trans_mean_m']:9.4f}±{s['trans_std_m']:<9.4f} "
               f"{s['rot_mean_deg']:8.3f}±{s['rot_std_deg']:<8.3f} "
               f"{s['relations']:5d} {published[name]:12.3f}")
-    keys = [f"{d}_trans_mean_m" for d in a.datasets] + [f"{d}_realtime_factor" for d in a.datasets]
+    keys = ([f"{d}_trans_mean_m" for d in a.datasets] + [f"{d}_realtime_factor" for d in a.datasets]
+            + [f"{d}_cpu_realtime_factor" for d in a.datasets])
     tail = " method=hector" if hector else f" particles={a.particles}"
+    if not hector:
+        tail += f" slam_update_ms={1000 * updates[0] / max(updates[1], 1):.1f}"
     print(" ".join(f"{k}={summary[k]}" for k in keys) + tail)
     return 0
 

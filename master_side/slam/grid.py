@@ -7,6 +7,7 @@ Cell (ix, iy) covers [ix*res, (ix+1)*res) x [iy*res, (iy+1)*res) in the map fram
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -18,11 +19,22 @@ TILE = 64  # cells per tile side
 L_OCC, L_FREE, L_MIN, L_MAX = 0.9, -0.35, -3.0, 4.0  # log-odds increments and clamps
 
 
-class _Tile:
-    __slots__ = ("data", "owner")
+_STAMPS = itertools.count(1)
+HALO = 8  # default cells: the border strips of a tile that its neighbours' likelihood fields see
+_NEW = np.zeros(9, np.int64)
 
-    def __init__(self, data: np.ndarray, owner: object):
+
+class _Tile:
+    """``occ[3 * sy + sx]``: stamps of the tile's occupancy (data > 0) in nine parts — sy, sx = 0:
+    the HALO rows / columns at the low edge, 1: all of them, 2: the HALO at the high edge (occ[4] =
+    the whole tile). A stamp changes whenever its part's occupancy may have changed; copies keep
+    them, so likelihood fields can be cached per occupancy (``field_cache``)."""
+
+    __slots__ = ("data", "owner", "occ")
+
+    def __init__(self, data: np.ndarray, owner: object, occ: np.ndarray | None = None):
         self.data, self.owner = data, owner
+        self.occ = np.full(9, next(_STAMPS), np.int64) if occ is None else occ
 
 
 class Window:
@@ -39,15 +51,15 @@ class Window:
 
 
 class TiledGrid:
-    def __init__(self, resolution: float):
-        self.res = resolution
+    def __init__(self, resolution: float, halo: int = HALO):
+        self.res, self.halo = resolution, halo
         self.tiles: dict[tuple[int, int], _Tile] = {}
         self.token = object()
 
     def copy(self) -> TiledGrid:
         """A copy sharing all tiles; both grids clone a tile before their next write to it."""
         g = TiledGrid.__new__(TiledGrid)
-        g.res, g.tiles, g.token = self.res, dict(self.tiles), object()
+        g.res, g.halo, g.tiles, g.token = self.res, self.halo, dict(self.tiles), object()
         self.token = object()
         return g
 
@@ -69,20 +81,40 @@ class TiledGrid:
                     data[r:r + TILE, c:c + TILE] = t.data
         return Window(data, tx0, ty0, self.res)
 
-    def store(self, win: Window, touched: np.ndarray) -> None:
-        """Write back the tiles of ``win`` holding any of the ``touched`` flat cell indices."""
+    def store(self, win: Window, touched: np.ndarray, flipped: np.ndarray | None = None) -> None:
+        """Write back the tiles of ``win`` holding any of the ``touched`` flat cell indices;
+        ``flipped``: the cells whose occupancy changed (None: any may have)."""
         nx = win.data.shape[1]
         ntx = nx // TILE
         ids = (touched // nx // TILE) * ntx + (touched % nx) // TILE
         tiles = np.flatnonzero(np.bincount(ids, minlength=1))
+        parts = None if flipped is None else _flipped_parts(flipped, nx, self.halo)
         for j, i in zip(*np.divmod(tiles, ntx)):
             key = (win.tx0 + int(i), win.ty0 + int(j))
             block = win.data[j * TILE:(j + 1) * TILE, i * TILE:(i + 1) * TILE]
             t = self.tiles.get(key)
-            if t is not None and t.owner is self.token:
-                t.data[...] = block
-            else:
+            if t is None:
                 self.tiles[key] = _Tile(block.copy(), self.token)
+                continue
+            occ = t.occ
+            if parts is not None:
+                m = parts.get((int(j), int(i)))
+                if m is not None:
+                    occ = occ.copy()
+                    occ[m] = next(_STAMPS)
+            else:
+                occ = np.full(9, next(_STAMPS), np.int64)
+            if t.owner is self.token:
+                t.data[...] = block
+                t.occ = occ
+            else:
+                self.tiles[key] = _Tile(block.copy(), self.token, occ)
+
+    def stamps(self, tx0: int, ty0: int, tx1: int, ty1: int) -> np.ndarray:
+        """(ty1 - ty0, tx1 - tx0, 9) occupancy stamps of the tiles in the range (0: no tile)."""
+        get, zero = self.tiles.get, _NEW
+        return np.array([[t.occ if (t := get((tx, ty))) is not None else zero for tx in range(tx0, tx1)]
+                         for ty in range(ty0, ty1)], np.int64)
 
     def extent(self) -> tuple[int, int, int, int]:
         """Tile index range (tx0, ty0, tx1, ty1) holding data."""
@@ -113,6 +145,24 @@ class TiledGrid:
 
     def memory_bytes(self) -> int:
         return sum(t.data.nbytes for t in self.tiles.values())
+
+
+def _flipped_parts(cells: np.ndarray, nx: int, halo: int) -> dict[tuple[int, int], np.ndarray]:
+    """(tile row, tile col) -> mask (9,) of the tile parts holding any of the window cells."""
+    if cells.size == 0:
+        return {}
+    r, c = cells // nx, cells % nx
+    lr, lc = r % TILE, c % TILE
+    ys = (lr < halo, np.ones(r.shape, bool), lr >= TILE - halo)
+    xs = (lc < halo, np.ones(r.shape, bool), lc >= TILE - halo)
+    mask = np.stack([ys[a] & xs[b] for a in range(3) for b in range(3)], axis=1)
+    tid = (r // TILE) * (nx // TILE) + c // TILE
+    order = np.argsort(tid, kind="stable")
+    tid, mask = tid[order], mask[order]
+    starts = np.flatnonzero(np.r_[True, tid[1:] != tid[:-1]])
+    any_ = np.logical_or.reduceat(mask, starts, axis=0)
+    ntx = nx // TILE
+    return {(int(t) // ntx, int(t) % ntx): m for t, m in zip(tid[starts], any_)}
 
 
 def unique_tile_bytes(grids: list[TiledGrid]) -> int:

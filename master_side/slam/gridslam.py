@@ -15,11 +15,14 @@ import numpy as np
 
 from common.geometry import Pose2D
 from common.messages import LaserScan, OccupancyGrid
-from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TiledGrid, Window, unique_tile_bytes
+from master_side.slam.field_cache import FieldCache
+from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TILE, TiledGrid, Window, unique_tile_bytes
 from master_side.slam.motion_model import MotionModel, compose_many
 from master_side.slam.params import GMappingParams
 from master_side.slam.particle_filter import needs_resampling, neff, normalized_weights, systematic_resample
-from master_side.slam.scan_matcher import MotionPrior, ScanMatcher, make_field
+from master_side.slam.scan_matcher import MotionPrior, ScanMatcher
+
+CHUNK = 32  # particles matched together (memory of the batched search ~ CHUNK * window size)
 
 
 class TNode:
@@ -51,7 +54,8 @@ class Beams:
     origin: np.ndarray  # (2,) sensor position
 
 
-def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D) -> Beams:
+def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D, free: bool = True) -> Beams:
+    """``free=False``: no free-space points (a scan that is only matched, not integrated)."""
     r = np.asarray(scan.ranges, float)
     a = scan.angles()
     valid = np.isfinite(r) & (r > max(scan.range_min, 1e-3)) & (r < p.maxRange)
@@ -60,6 +64,10 @@ def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D) -> Beams:
     length = np.minimum(r, usable)[valid]
     ca, sa = np.cos(a[valid]), np.sin(a[valid])
     ends = np.column_stack((length * ca, length * sa))
+    if not free:
+        hits = np.column_stack((r[hit] * np.cos(a[hit]), r[hit] * np.sin(a[hit])))
+        m = laser.apply(hits[:: p.lskip + 1])
+        return Beams(m, m[:0], m[:0], laser.apply(ends), np.array([laser.x, laser.y]))
     step = p.delta * 0.9
     n = np.maximum(np.floor((length - p.delta) / step).astype(np.int64), 0)
     beam = np.repeat(np.arange(len(n)), n)
@@ -73,6 +81,11 @@ def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D) -> Beams:
 
 def integrate(win: Window, pose: np.ndarray, beams: Beams) -> np.ndarray:
     """Add the scan at ``pose`` to the window's log-odds; returns the touched flat cell indices."""
+    return integrate_flips(win, pose, beams)[0]
+
+
+def integrate_flips(win: Window, pose: np.ndarray, beams: Beams) -> tuple[np.ndarray, np.ndarray]:
+    """``integrate``, also returning the cells whose occupancy (log-odds > 0) changed."""
     ny, nx = win.data.shape
     idx, val = [], []
     for pts, value in ((beams.free, L_FREE), (beams.hits, L_OCC)):
@@ -89,8 +102,10 @@ def integrate(win: Window, pose: np.ndarray, beams: Beams) -> np.ndarray:
     cells = np.concatenate(idx)
     flat = win.data.ravel()
     # duplicates in ``cells`` all write the same value: each cell changes once per scan
-    flat[cells] = np.clip(flat[cells] + mark[cells], L_MIN, L_MAX)
-    return cells
+    old = flat[cells]
+    new = np.clip(old + mark[cells], L_MIN, L_MAX)
+    flat[cells] = new
+    return cells, cells[(old > 0) != (new > 0)]
 
 
 class GridSlam:
@@ -106,6 +121,8 @@ class GridSlam:
         self.rng = rng if rng is not None else np.random.default_rng(params.seed)
         self.motion = MotionModel(params.srr, params.srt, params.str_, params.stt)
         self.matcher = ScanMatcher(params)
+        self.fields = FieldCache(params)
+        self._track_field = None
         self.particles: list[Particle] = []
         self.last_odom: Pose2D | None = None  # odometry at the last processed scan
         self.prev_odom: Pose2D | None = None  # odometry at the last scan
@@ -145,16 +162,23 @@ class GridSlam:
         sig = self.motion.sigmas(delta)
         window = (min(max(p.search_linear, 3 * float(np.hypot(sig[0], sig[1]))), 2.0),
                   min(max(p.search_angular, 3 * float(sig[2])), 1.0))
-        windows = []
-        for q, pose, pred in zip(self.particles, poses, preds):
-            win = q.grid.window(*self._extent(pose, beams, window[0]))
-            fld = make_field(win, p)
-            matched, score = self.matcher.match(fld, pose, beams.match, window, prior=self._prior(pred, sig))
-            q.pose = matched if score >= p.minimumScore else pose
-            ll = self.matcher.log_likelihood(fld, q.pose, beams.match)
-            q.weight += ll
-            q.weight_sum += ll
-            windows.append(win)
+        grids = [q.grid for q in self.particles]
+        windows = [g.window(*self._extent(pose, beams, window[0])) for g, pose in zip(grids, poses)]
+        prior = self._priors(preds, sig)
+        final, ll = np.empty_like(poses), np.empty(len(poses))
+        for c in range(0, len(poses), CHUNK):  # bounded memory for many particles
+            sl = slice(c, c + CHUNK)
+            fs = self.fields.fieldset(grids[sl], [(w.tx0, w.ty0, w.tx0 + w.data.shape[1] // TILE,
+                                                   w.ty0 + w.data.shape[0] // TILE) for w in windows[sl]],
+                                      windows[sl])
+            matched, score = self.matcher.match_many(fs, poses[sl], beams.match, window,
+                                                     ScanMatcher.sub_prior(prior, sl))
+            final[sl] = np.where((score >= p.minimumScore)[:, None], matched, poses[sl])
+            ll[sl] = self.matcher.log_likelihoods(fs, final[sl], beams.match)
+        for q, pose, w in zip(self.particles, final, ll.tolist()):
+            q.pose = pose.copy()
+            q.weight += w
+            q.weight_sum += w
         self._resample_and_integrate(windows, beams, index)
         self.last_odom, self.last_stamp, self.last_index = odom, stamp, index
         self.lin_acc = self.ang_acc = 0.0
@@ -167,13 +191,17 @@ class GridSlam:
         q = self.particles[self.best_index()]
         delta = self.last_odom.between(odom)
         pred = Pose2D(*map(float, q.pose)).compose(delta).as_array()
-        beams = prepare_beams(scan, self.p, self.laser)
+        beams = prepare_beams(scan, self.p, self.laser, free=False)
         if len(beams.match) < 10:
             return
         sig = self.motion.sigmas(delta.as_array())
         window = (min(max(self.p.search_linear, 3 * float(np.hypot(sig[0], sig[1]))), 2.0),
                   min(max(self.p.search_angular, 3 * float(sig[2])), 1.0))
-        fld = make_field(q.grid.window(*self._extent(pred, beams, window[0])), self.p)
+        rng = q.grid.tile_range(*self._extent(pred, beams, window[0]))
+        key = (self.processed, id(q.grid), rng)  # the maps change only when a scan is processed
+        if self._track_field is None or self._track_field[0] != key:
+            self._track_field = (key, self.fields.fieldset([q.grid], [rng]))
+        fld = self._track_field[1]
         # no motion prior here: this offline refinement starts from the best particle's pose and
         # odometry, and a prior measurably hurt the intel benchmark (its odometry is poor)
         pose, score = self.matcher.match(fld, pred, beams.match, window)
@@ -181,19 +209,21 @@ class GridSlam:
             rel = Pose2D(*map(float, q.pose)).between(Pose2D(*map(float, pose)))
             self.between[index] = (self.last_index, rel.as_array())
 
-    def _prior(self, pred: np.ndarray, sig: np.ndarray) -> MotionPrior | None:
-        """The odometry prediction as a Gaussian prior: weight / variance, the variance being the
-        motion model's for this increment plus a floor (exact odometry would pin the pose)."""
+    def _priors(self, preds: np.ndarray, sig: np.ndarray) -> MotionPrior | None:
+        """Each particle's odometry prediction (P, 3) as a Gaussian prior: weight / variance, the
+        variance being the motion model's for this increment plus a floor (exact odometry would pin
+        the pose)."""
         p = self.p
         if p.prior_weight <= 0:
             return None
         var_t = float(sig[0] ** 2 + sig[1] ** 2) + p.prior_sigma_xy**2
         var_r = float(sig[2] ** 2) + p.prior_sigma_theta**2
-        return MotionPrior(pred, p.prior_weight / var_t, p.prior_weight / var_r)
+        n = len(preds)
+        return MotionPrior(preds, np.full(n, p.prior_weight / var_t), np.full(n, p.prior_weight / var_r))
 
     def _initialise(self, index: int, odom: Pose2D, scan: LaserScan, stamp: float) -> None:
         pose = odom.as_array()
-        grid = TiledGrid(self.p.delta)
+        grid = TiledGrid(self.p.delta, halo=self.p.field_radius)
         beams = prepare_beams(scan, self.p, self.laser)
         win = grid.window(*self._extent(pose, beams))
         grid.store(win, integrate(win, pose, beams))
@@ -236,7 +266,7 @@ class GridSlam:
                 self._integrate_particle(q, win, beams, index)
 
     def _integrate_particle(self, q: Particle, win: Window, beams: Beams, index: int) -> None:
-        q.grid.store(win, integrate(win, q.pose, beams))
+        q.grid.store(win, *integrate_flips(win, q.pose, beams))
         q.node = TNode(q.pose.copy(), index, q.node)
 
     # -- outputs ---------------------------------------------------------------------------

@@ -27,6 +27,17 @@ class RunResult:
     wall_s: float
     slam: GridSlam
     cpu_s: float = 0.0  # process CPU time (wall time suffers on a shared machine)
+    update_cpu_s: float = 0.0  # CPU time of the filter updates (the scans the particles integrated)
+
+    @property
+    def update_ms(self) -> float:
+        """Mean CPU time of one filter update (all particles), ms."""
+        return 1000.0 * self.update_cpu_s / self.processed if self.processed else 0.0
+
+    @property
+    def cpu_realtime_factor(self) -> float:
+        """Data time / process CPU time (one core, whatever else runs on the machine)."""
+        return self.data_s / self.cpu_s if self.cpu_s > 0 else float("inf")
 
     @property
     def realtime_factor(self) -> float:
@@ -66,12 +77,15 @@ def run(log: str | Path, params: GMappingParams, max_scans: int | None = None,
     t0 = time.perf_counter()
     c0 = time.process_time()
     last = t0
+    update_cpu = 0.0
     for rec in read_log(log):
         if max_scans is not None and len(stamps) >= max_scans:
             break
         stamps.append(rec.stamp)
         odoms.append(rec.odom)
-        slam.process(rec.stamp, rec.odom, rec.scan)
+        u0 = time.process_time()
+        if slam.process(rec.stamp, rec.odom, rec.scan):
+            update_cpu += time.process_time() - u0
         now = time.perf_counter()
         if progress is not None and now - last >= every_s:
             last = now
@@ -85,11 +99,11 @@ def run(log: str | Path, params: GMappingParams, max_scans: int | None = None,
         raise ValueError(f"{log}: no scans")
     poses = full_trajectory(odoms, slam.trajectory(), slam.between)
     res = RunResult(np.array(stamps), poses, len(stamps), slam.processed, stamps[-1] - stamps[0], wall, slam,
-                    time.process_time() - c0)
+                    time.process_time() - c0, update_cpu)
     if progress is not None:
         progress.write(f"\rscans {res.scans} processed {res.processed} data {res.data_s:.1f} s wall "
                        f"{wall:.1f} s (cpu {res.cpu_s:.1f} s)  x{res.realtime_factor:.2f} real time  "
-                       f"resamples {slam.resamples}\n")
+                       f"{res.update_ms:.1f} ms/update  resamples {slam.resamples}\n")
     return res
 
 

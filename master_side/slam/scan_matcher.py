@@ -1,10 +1,15 @@
 """Scan-to-map matching: coarse-to-fine correlative search, then gmapping's hill climb.
 
 The per-particle map window is turned into a likelihood field F = max over occupied cells of
-exp(-d^2 / (2 match_sigma^2)) (support ``field_radius`` cells; separable because the Gaussian
-factorises). A scan's score is the sum of F at its endpoints (as gmapping's score, with a kernel
-about one cell wide so that the optimum is sharp); the weight uses gmapping's lsigma:
-log p = sum(max(-d^2 / lsigma, floor)) with d recovered from F.
+exp(-d^2 / (2 match_sigma^2)) (support ``field_radius`` cells; see ``field.py``). A scan's score is
+the sum of F at its endpoints (as gmapping's score, with a kernel about one cell wide so that the
+optimum is sharp); the weight uses gmapping's lsigma: log p = sum(max(-d^2 / lsigma, floor)) with d
+recovered from F.
+
+Every step is vectorised across particles (one ``FieldSet`` holds all their fields in one flat
+buffer) and across candidate poses and beams: the hill climbs of all particles run in lockstep,
+each with its own step sizes and stop condition, so a filter update costs a few dozen numpy calls
+whatever the particle count.
 """
 
 from __future__ import annotations
@@ -14,145 +19,120 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from master_side.slam.grid import Window
+from master_side.slam.field import COARSE, PAD_C, PAD_F, Field, FieldSet, make_field
 from master_side.slam.params import GMappingParams
 
-COARSE = 4  # coarse level cell = COARSE fine cells
-
-
-@dataclass
-class Field:
-    fine: np.ndarray  # (ny, nx) uint8 squared cell distance to the nearest hit (FAR: none, borders)
-    coarse: np.ndarray  # (ny/COARSE, nx/COARSE) min-pooled fine field
-    ix0: int
-    iy0: int
-    res: float
-    table: np.ndarray  # (256,) float32 kernel value of a squared cell distance
+__all__ = ["COARSE", "Field", "FieldSet", "MotionPrior", "ScanMatcher", "make_field"]
+FINE_HALF = COARSE // 2 + 1  # fine search half-width in cells
+MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
 
 
 @dataclass(frozen=True)
 class MotionPrior:
     """The odometry prediction a match is pulled towards; weights in score per beam per m^2 / rad^2."""
 
-    mean: np.ndarray  # (3,) x, y, theta
-    translation_weight: float
-    rotation_weight: float
-
-
-FAR = 200  # "no occupied cell within the radius" in squared cells (uint8, no overflow when adding)
-
-
-def squared_distance_field(occ: np.ndarray, radius: int) -> np.ndarray:
-    """Squared cell distance to the nearest occupied cell (uint8), FAR beyond ``radius`` cells.
-
-    Separable (squared distances add): a row pass then a column pass of shifted minima.
-    """
-    sq = np.arange(radius + 1, dtype=np.uint8) ** 2
-    f = np.where(occ, np.uint8(0), np.uint8(FAR))
-    g = f.copy()
-    for d in range(1, radius + 1):
-        np.minimum(g[:, d:], f[:, :-d] + sq[d], out=g[:, d:])
-        np.minimum(g[:, :-d], f[:, d:] + sq[d], out=g[:, :-d])
-    np.minimum(g, FAR, out=g)
-    h = g.copy()
-    for d in range(1, radius + 1):
-        np.minimum(h[d:], g[:-d] + sq[d], out=h[d:])
-        np.minimum(h[:-d], g[d:] + sq[d], out=h[:-d])
-    h[h > radius * radius] = FAR
-    h[0, :] = h[-1, :] = FAR
-    h[:, 0] = h[:, -1] = FAR
-    return h
-
-
-def make_field(win: Window, p: GMappingParams) -> Field:
-    fine = squared_distance_field(win.data > 0.0, p.field_radius)
-    cols = fine[:, 0::COARSE].copy()
-    for i in range(1, COARSE):
-        np.minimum(cols, fine[:, i::COARSE], out=cols)
-    coarse = cols[0::COARSE].copy()
-    for i in range(1, COARSE):
-        np.minimum(coarse, cols[i::COARSE], out=coarse)
-    coarse[0, :] = coarse[-1, :] = FAR
-    coarse[:, 0] = coarse[:, -1] = FAR
-    table = np.exp(-np.arange(256) * win.res**2 / (2 * p.match_sigma**2)).astype(np.float32)
-    table[FAR:] = 0.0
-    return Field(fine, coarse, win.ix0, win.iy0, win.res, table)
+    mean: np.ndarray  # (3,) x, y, theta  (or (P, 3) with (P,) weights for a batch)
+    translation_weight: float | np.ndarray
+    rotation_weight: float | np.ndarray
 
 
 def _rotated(pts: np.ndarray, thetas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    c, s = np.cos(thetas)[:, None], np.sin(thetas)[:, None]
-    return c * pts[None, :, 0] - s * pts[None, :, 1], s * pts[None, :, 0] + c * pts[None, :, 1]
+    """pts (B, 2) rotated by thetas (...): (..., B) x and y."""
+    c, s = np.cos(thetas)[..., None], np.sin(thetas)[..., None]
+    return c * pts[:, 0] - s * pts[:, 1], s * pts[:, 0] + c * pts[:, 1]
 
 
-def _grid_search(grid: np.ndarray, table: np.ndarray, cell: float, off: tuple[float, float],
-                 pose: np.ndarray, pts: np.ndarray, thetas: np.ndarray,
+def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray, thetas: np.ndarray,
                  half: int) -> tuple[np.ndarray, np.ndarray]:
-    """Score pose + (i*cell, j*cell, theta) for |i|,|j| <= half, theta in ``thetas``.
+    """Score pose_p + (i*cell, j*cell, theta) for |i|,|j| <= half, theta in thetas[p] (P, A).
 
-    Returns (scores (A, T), translations (T, 2) in metres).
+    Cells outside a particle's window score 0 (its border is FAR and the buffer is padded).
+    Returns (scores (P, A, T), translations (T, 2) in metres).
     """
-    ny, nx = grid.shape
-    rx, ry = _rotated(pts, thetas)
-    qx = np.floor((rx + pose[0]) / cell - off[0]).astype(np.int64)  # (A, B)
-    qy = np.floor((ry + pose[1]) / cell - off[1]).astype(np.int64)
+    if coarse:
+        flat, off, w, nx, ny, pad = fs.coarse, fs.off_c, fs.w_c, fs.nx_c, fs.ny_c, PAD_C
+        cell, ox, oy = fs.res * COARSE, fs.ix0 / COARSE, fs.iy0 / COARSE
+    else:
+        flat, off, w, nx, ny, pad = fs.fine, fs.off_f, fs.w_f, fs.nx_f, fs.ny_f, PAD_F
+        cell, ox, oy = fs.res, fs.ix0.astype(float), fs.iy0.astype(float)
+    assert 2 * half + 1 <= pad
+    rx, ry = _rotated(pts, thetas)  # (P, A, B)
+    e = (slice(None), None, None)
+    qx = np.floor((rx + poses[:, 0][e]) / cell - ox[e]).astype(np.int64)
+    qy = np.floor((ry + poses[:, 1][e]) / cell - oy[e]).astype(np.int64)
+    np.clip(qx, -half - 1, (nx + half)[e], out=qx)
+    np.clip(qy, -half - 1, (ny + half)[e], out=qy)
+    base = (qy + pad) * w[e] + (qx + pad) + off[e]  # (P, A, B)
     r = np.arange(-half, half + 1)
     tx, ty = np.repeat(r, r.size), np.tile(r, r.size)
-    ix = np.clip(qx[:, None, :] + tx[None, :, None], 0, nx - 1)
-    iy = np.clip(qy[:, None, :] + ty[None, :, None], 0, ny - 1)
-    scores = table[np.take(grid, iy * nx + ix)].sum(axis=-1)
+    shift = ty[None, :] * w[:, None] + tx[None, :]  # (P, T)
+    idx = base[:, :, None, :] + shift[:, None, :, None]  # (P, A, T, B)
+    scores = flat.take(idx).sum(axis=-1)
     return scores, np.column_stack((tx, ty)) * cell
 
 
-def _bilinear_scores(fld: Field, poses: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """Per-beam bilinearly interpolated field values for poses (K, 3): (K, B)."""
-    f, res, ix0, iy0, tab = fld.fine, fld.res, fld.ix0, fld.iy0, fld.table
-    ny, nx = f.shape
-    rx, ry = _rotated(pts, poses[:, 2])
-    u = (rx + poses[:, :1]) / res - ix0 - 0.5
-    v = (ry + poses[:, 1:2]) / res - iy0 - 0.5
+def _bilinear_scores(fs: FieldSet, poses: np.ndarray, pts: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
+    """Per-beam bilinearly interpolated field values for poses (P, K, 3) of fields ``sel``: (P, K, B)."""
+    c = fs.consts if sel is None else fs.consts[sel]  # (P, 6): ix0, iy0, nx - 2, ny - 2, w, base
+    ix0, iy0, nxm2, nym2, w, base = (c[:, i, None, None] for i in range(6))
+    rx, ry = _rotated(pts, poses[..., 2])
+    u = (rx + poses[..., :1]) / fs.res - ix0 - 0.5
+    v = (ry + poses[..., 1:2]) / fs.res - iy0 - 0.5
     u0, v0 = np.floor(u), np.floor(v)
     fu, fv = (u - u0).astype(np.float32), (v - v0).astype(np.float32)
-    i0 = np.clip(u0.astype(np.int64), 0, nx - 2)
-    j0 = np.clip(v0.astype(np.int64), 0, ny - 2)
-    k = j0 * nx + i0
-    flat = f.ravel()
-    a, b, c, d = tab[flat[k]], tab[flat[k + 1]], tab[flat[k + nx]], tab[flat[k + nx + 1]]
-    return (a * (1 - fu) + b * fu) * (1 - fv) + (c * (1 - fu) + d * fu) * fv
+    i0, j0 = u0.astype(np.int64), v0.astype(np.int64)
+    np.minimum(np.maximum(i0, 0, out=i0), nxm2, out=i0)
+    np.minimum(np.maximum(j0, 0, out=j0), nym2, out=j0)
+    k = j0 * w
+    k += i0
+    k += base
+    f = fs.fine
+    a, b = f.take(k), f.take(k + 1)
+    k += w
+    cc, d = f.take(k), f.take(k + 1)
+    gu = 1 - fu
+    return (a * gu + b * fu) * (1 - fv) + (cc * gu + d * fu) * fv
 
 
 class ScanMatcher:
     def __init__(self, p: GMappingParams):
         self.p = p
-        self.window = (p.search_linear, p.search_angular)
-        self.prior: MotionPrior | None = None
         self.floor = -((p.field_radius * p.delta) ** 2) / p.lsigma
 
-    def score(self, fld: Field, poses: np.ndarray, pts: np.ndarray) -> np.ndarray:
-        """gmapping score (sum of exp(-d^2/sigma) over endpoints) of each pose (K, 3)."""
-        return _bilinear_scores(fld, poses, pts).sum(axis=1)
+    # -- scoring -----------------------------------------------------------------------------
+    def score(self, fld: Field | FieldSet, poses: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """gmapping score (sum of exp(-d^2/sigma) over endpoints) of each pose (K, 3) of one field."""
+        return _bilinear_scores(FieldSet.of(fld), poses[None], pts)[0].sum(axis=1)
 
-    def log_likelihood(self, fld: Field, pose: np.ndarray, pts: np.ndarray) -> float:
+    def log_likelihood(self, fld: Field | FieldSet, pose: np.ndarray, pts: np.ndarray) -> float:
         """Sum over beams of max(-d^2/lsigma, floor), d recovered from the field value."""
-        f = _bilinear_scores(fld, pose[None, :], pts)[0]
-        ll = (2 * self.p.match_sigma**2 / self.p.lsigma) * np.log(np.maximum(f, 1e-12))
-        return float(np.maximum(ll, self.floor).sum())
+        return float(self.log_likelihoods(FieldSet.of(fld), pose[None], pts)[0])
 
-    def _penalty(self, cand: np.ndarray, pose0: np.ndarray, n: int) -> np.ndarray:
-        """Score units subtracted from a candidate pose: the motion prior (per beam, so that it
-        competes with the fraction of beams a shift gains) or, without a prior, a weak pull to the
-        search centre scaled by the window."""
-        if self.prior is not None:
-            m = self.prior.mean
-            d2 = (cand[..., 0] - m[0]) ** 2 + (cand[..., 1] - m[1]) ** 2
-            a = (cand[..., 2] - m[2] + np.pi) % (2 * np.pi) - np.pi
-            return n * (self.prior.translation_weight * d2 + self.prior.rotation_weight * a * a)
-        lin, ang = self.window
-        d2 = (cand[..., 0] - pose0[0]) ** 2 + (cand[..., 1] - pose0[1]) ** 2
+    def log_likelihoods(self, fs: FieldSet, poses: np.ndarray, pts: np.ndarray) -> np.ndarray:
+        """log_likelihood of pose p (P, 3) in field p, for every p: (P,) float32."""
+        f = _bilinear_scores(fs, poses[:, None, :], pts)[:, 0]
+        ll = (2 * self.p.match_sigma**2 / self.p.lsigma) * np.log(np.maximum(f, 1e-12))
+        return np.maximum(ll, self.floor).sum(axis=1)
+
+    def _penalty(self, cand: np.ndarray, pose0: np.ndarray, n: int, window: tuple[float, float],
+                 prior: MotionPrior | None) -> np.ndarray:
+        """Score units subtracted from candidate poses cand (P, ..., 3) of particles p: the motion
+        prior (per beam, so that it competes with the fraction of beams a shift gains) or, without
+        a prior, a weak pull to the search centre pose0 (P, 3) scaled by the window."""
+        e = (slice(None),) + (None,) * (cand.ndim - 2)
+        if prior is not None:
+            m = prior.mean
+            d2 = (cand[..., 0] - m[:, 0][e]) ** 2 + (cand[..., 1] - m[:, 1][e]) ** 2
+            a = (cand[..., 2] - m[:, 2][e] + np.pi) % (2 * np.pi) - np.pi
+            return n * (prior.translation_weight[e] * d2 + prior.rotation_weight[e] * a * a)
+        lin, ang = window
+        d2 = (cand[..., 0] - pose0[:, 0][e]) ** 2 + (cand[..., 1] - pose0[:, 1][e]) ** 2
         d2 = d2 / max(lin, 1e-3) ** 2
-        a = (cand[..., 2] - pose0[2] + np.pi) % (2 * np.pi) - np.pi
+        a = (cand[..., 2] - pose0[:, 2][e] + np.pi) % (2 * np.pi) - np.pi
         return 0.05 * n * (d2 + (a / max(ang, 1e-3)) ** 2)
 
-    def match(self, fld: Field, pose0: np.ndarray, pts: np.ndarray,
+    # -- matching ----------------------------------------------------------------------------
+    def match(self, fld: Field | FieldSet, pose0: np.ndarray, pts: np.ndarray,
               window: tuple[float, float] | None = None,
               prior: MotionPrior | None = None) -> tuple[np.ndarray, float]:
         """Best pose near ``pose0`` for sensor-frame endpoints ``pts`` (B, 2); returns (pose, score).
@@ -164,60 +144,79 @@ class ScanMatcher:
         sliding towards the part of the wall already in the map.
         The returned score is the plain match score (no penalty).
         """
-        p, res = self.p, fld.res
-        self.window = window or (p.search_linear, p.search_angular)
-        self.prior = prior
-        lin, ang = self.window
-        n = len(pts)
-        if n == 0:
-            return pose0.copy(), 0.0
-        best = pose0.astype(float).copy()
-        # coarse: COARSE*res cells, 1 degree steps over the whole window
-        if lin > 0 or ang > 0:
-            cell = res * COARSE
-            half = int(math.ceil(lin / cell))
-            na = int(math.ceil(ang / math.radians(1.0)))
-            th = best[2] + np.arange(-na, na + 1) * math.radians(1.0)
-            off = (fld.ix0 / COARSE, fld.iy0 / COARSE)
-            sc, tr = _grid_search(fld.coarse, fld.table, cell, off, best, pts, th, half)
-            cand = np.empty(sc.shape + (3,))
-            cand[..., 0] = best[0] + tr[None, :, 0]
-            cand[..., 1] = best[1] + tr[None, :, 1]
-            cand[..., 2] = th[:, None]
-            sc = sc - self._penalty(cand, pose0, n)
-            a, t = np.unravel_index(int(np.argmax(sc)), sc.shape)
-            best = cand[a, t].copy()
-            # fine: res cells, quarter-degree steps around the coarse winner
-            th = best[2] + np.arange(-4, 5) * math.radians(0.25)
-            sc, tr = _grid_search(fld.fine, fld.table, res, (fld.ix0, fld.iy0), best, pts, th,
-                                  COARSE // 2 + 1)
-            cand = np.empty(sc.shape + (3,))
-            cand[..., 0] = best[0] + tr[None, :, 0]
-            cand[..., 1] = best[1] + tr[None, :, 1]
-            cand[..., 2] = th[:, None]
-            sc = sc - self._penalty(cand, pose0, n)
-            a, t = np.unravel_index(int(np.argmax(sc)), sc.shape)
-            best = cand[a, t].copy()
-        return self._hill_climb(fld, best, pose0, pts)
+        if prior is not None:
+            prior = MotionPrior(np.asarray(prior.mean, float)[None], np.array([prior.translation_weight]),
+                                np.array([prior.rotation_weight]))
+        poses, scores = self.match_many(FieldSet.of(fld), pose0[None], pts, window, prior)
+        return poses[0], float(scores[0])
 
-    def _hill_climb(self, fld: Field, pose: np.ndarray, pose0: np.ndarray,
-                    pts: np.ndarray) -> tuple[np.ndarray, float]:
-        """gmapping's optimizer: try +-x, +-y, +-theta; halve the steps when nothing improves."""
+    def match_many(self, fs: FieldSet, pose0: np.ndarray, pts: np.ndarray,
+                   window: tuple[float, float] | None = None,
+                   prior: MotionPrior | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``match`` of pose p (P, 3) in field p for every particle at once: (poses (P, 3), scores (P,)).
+        ``prior``: mean (P, 3), weights (P,)."""
+        p, res = self.p, fs.res
+        window = window or (p.search_linear, p.search_angular)
+        lin, ang = window
         n = len(pts)
-        lstep, astep = min(self.p.lstep, fld.res) / 2, min(self.p.astep, math.radians(0.25)) / 2
-        cur = self.score(fld, pose[None, :], pts)[0] - self._penalty(pose, pose0, n)
-        refinements, steps = 0, 0
-        moves = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
-        while refinements <= self.p.iterations and steps < 200:
-            steps += 1
-            cand = pose[None, :] + moves * np.array([lstep, lstep, astep])
-            sc = self.score(fld, cand, pts) - self._penalty(cand, pose0, n)
-            k = int(np.argmax(sc))
-            if sc[k] > cur:
-                pose, cur = cand[k], sc[k]
-            else:
-                lstep, astep = lstep / 2, astep / 2
-                refinements += 1
+        pose0 = np.asarray(pose0, float)
+        if n == 0:
+            return pose0.copy(), np.zeros(len(pose0))
+        best = pose0.copy()
+        rows = np.arange(len(best))
+        if lin > 0 or ang > 0:
+            # coarse: COARSE*res cells, 1 degree steps over the whole window
+            half = int(math.ceil(lin / (res * COARSE)))
+            na = int(math.ceil(ang / math.radians(1.0)))
+            for coarse, th, h in ((True, np.arange(-na, na + 1) * math.radians(1.0), half),
+                                  # fine: res cells, quarter-degree steps around the coarse winner
+                                  (False, np.arange(-4, 5) * math.radians(0.25), FINE_HALF)):
+                th = best[:, 2:3] + th[None, :]
+                sc, tr = _grid_search(fs, coarse, best, pts, th, h)
+                cand = np.empty(sc.shape + (3,))
+                cand[..., 0] = best[:, None, None, 0] + tr[None, None, :, 0]
+                cand[..., 1] = best[:, None, None, 1] + tr[None, None, :, 1]
+                cand[..., 2] = th[:, :, None]
+                sc = sc - self._penalty(cand, pose0, n, window, prior)
+                k = sc.reshape(len(sc), -1).argmax(axis=1)
+                best = cand.reshape(len(sc), -1, 3)[rows, k].copy()
+        return self._hill_climb(fs, best, pose0, pts, window, prior)
+
+    def _hill_climb(self, fs: FieldSet, pose: np.ndarray, pose0: np.ndarray, pts: np.ndarray,
+                    window: tuple[float, float], prior: MotionPrior | None) -> tuple[np.ndarray, np.ndarray]:
+        """gmapping's optimizer: try +-x, +-y, +-theta; halve the steps when nothing improves
+        (each particle on its own schedule; the finished ones drop out of the batch)."""
+        n, P = len(pts), len(pose)
+        lstep, astep = min(self.p.lstep, fs.res) / 2, min(self.p.astep, math.radians(0.25)) / 2
         pose = pose.copy()
-        pose[2] = (pose[2] + np.pi) % (2 * np.pi) - np.pi
-        return pose, float(self.score(fld, pose[None, :], pts)[0])
+        cur = (_bilinear_scores(fs, pose[:, None], pts)[:, 0].sum(axis=-1)
+               - self._penalty(pose[:, None], pose0, n, window, prior)[:, 0])
+        steps = np.tile(np.array([lstep, lstep, astep]), (P, 1))
+        refinements = np.zeros(P, np.int64)
+        active = np.arange(P)
+        for _ in range(200):
+            active = active[refinements[active] <= self.p.iterations]
+            if active.size == 0:
+                break
+            sub = self.sub_prior(prior, active)
+            cand = pose[active][:, None, :] + MOVES[None] * steps[active][:, None, :]
+            sc = (_bilinear_scores(fs, cand, pts, active).sum(axis=-1)
+                  - self._penalty(cand, pose0[active], n, window, sub))
+            k = sc.argmax(axis=1)
+            top = sc[np.arange(active.size), k]
+            up = top > cur[active]
+            a_up = active[up]
+            pose[a_up] = cand[up, k[up]]
+            cur[a_up] = top[up]
+            a_down = active[~up]
+            steps[a_down] /= 2
+            refinements[a_down] += 1
+        pose[:, 2] = (pose[:, 2] + np.pi) % (2 * np.pi) - np.pi
+        return pose, _bilinear_scores(fs, pose[:, None], pts)[:, 0].sum(axis=-1)
+
+    @staticmethod
+    def sub_prior(prior: MotionPrior | None, idx: np.ndarray | slice) -> MotionPrior | None:
+        """The batch prior of particles ``idx``."""
+        if prior is None:
+            return None
+        return MotionPrior(prior.mean[idx], prior.translation_weight[idx], prior.rotation_weight[idx])

@@ -1,0 +1,161 @@
+"""Likelihood fields built once per change of a map tile's occupancy, shared by all particles.
+
+A tile's field depends only on the occupancy of the tile and of its eight neighbours (the field's
+support, ``field_radius`` cells, is smaller than a tile). Tiles carry an occupancy stamp (``grid``)
+that copies keep and that changes when a cell of the tile crosses log-odds 0, so the nine stamps
+key the field: particles that share a neighbourhood (nearly all of them, for most tiles) share one
+field tile, computed once, and a particle's field window is assembled from cached tiles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.lib.stride_tricks import as_strided
+
+from master_side.slam.field import COARSE, PAD_C, PAD_F, FieldSet, coarse_of, kernel_table, squared_distance_field
+from master_side.slam.grid import TILE, TiledGrid, Window
+from master_side.slam.params import GMappingParams
+
+CT = TILE // COARSE  # coarse cells per tile side
+ZERO_KEY = bytes(9 * 8)  # nine empty tiles: slot 0, an all-zero field
+
+
+class FieldCache:
+    def __init__(self, p: GMappingParams, capacity: int = 1024):
+        self.radius, self.res = p.field_radius, p.delta
+        self.table = kernel_table(p.delta, p)
+        self.fine = np.zeros((capacity, TILE, TILE), np.float32)
+        self.coarse = np.zeros((capacity, CT, CT), np.float32)
+        self.slots: dict[bytes, int] = {ZERO_KEY: 0}
+        self.last = np.zeros(capacity, np.int64)  # call in which each slot was last used
+        self.free = list(range(capacity - 1, 0, -1))
+        self.gen = 0
+        self.built = 0  # field tiles computed so far
+
+    def fieldset(self, grids: list[TiledGrid], ranges: list[tuple[int, int, int, int]],
+                 windows: list[Window] | None = None) -> FieldSet:
+        """The fields of ``grids[i]`` over tile ranges (tx0, ty0, tx1, ty1), as one FieldSet
+        (window border cells score 0, as a window's own field would). ``windows``: the grids'
+        log-odds over the same ranges if at hand (faster builds)."""
+        self.gen += 1
+        slot_grids, todo = [], {}
+        for n, (g, (tx0, ty0, tx1, ty1)) in enumerate(zip(grids, ranges)):
+            if g.halo < self.radius:
+                raise ValueError(f"the grid's halo ({g.halo} cells) is narrower than field_radius")
+            s = g.stamps(tx0 - 1, ty0 - 1, tx1 + 1, ty1 + 1)
+            nty, ntx = ty1 - ty0, tx1 - tx0
+            # neighbour (dy, dx) of a tile contributes its part facing the tile: its high strip
+            # for a neighbour below (dy = 0), all of it (dy = 1), its low strip above (dy = 2)
+            keys = np.stack([s[dy:dy + nty, dx:dx + ntx, 3 * (2 - dy) + (2 - dx)]
+                             for dy in range(3) for dx in range(3)], axis=-1)
+            raw = np.ascontiguousarray(keys).tobytes()
+            row = []
+            for k in range(nty * ntx):
+                key = raw[72 * k:72 * k + 72]
+                slot = self.slots.get(key)
+                if slot is not None:
+                    self.last[slot] = self.gen
+                else:
+                    slot = -1
+                    if key not in todo:
+                        todo[key] = (g, tx0 + k % ntx, ty0 + k // ntx, n)
+                row.append((slot, key))
+            slot_grids.append((row, nty, ntx))
+        if todo:
+            self._build(todo, ranges, windows)
+        shapes_f, shapes_c, ix0, iy0, slot_arrays = [], [], [], [], []
+        for (row, nty, ntx), (tx0, ty0, _, _) in zip(slot_grids, ranges):
+            sl = np.array([s if s >= 0 else self.slots[k] for s, k in row], np.int64).reshape(nty, ntx)
+            self.last[sl] = self.gen
+            slot_arrays.append(sl)
+            shapes_f.append((nty * TILE + 2 * PAD_F, ntx * TILE + 2 * PAD_F))
+            shapes_c.append((nty * CT + 2 * PAD_C, ntx * CT + 2 * PAD_C))
+            ix0.append(tx0 * TILE)
+            iy0.append(ty0 * TILE)
+        fs = FieldSet.empty(shapes_f, shapes_c, ix0, iy0, self.res)
+        for i, sl in enumerate(slot_arrays):
+            f, c = fs.views(i)
+            _fill(f, self.fine[sl], PAD_F)
+            _fill(c, self.coarse[sl], PAD_C)
+        return fs
+
+    def _build(self, todo: dict[bytes, tuple[TiledGrid, int, int, int]],
+               ranges: list[tuple[int, int, int, int]], windows: list[Window] | None) -> None:
+        r, m = self.radius, len(todo)
+        occ = np.empty((m, TILE + 2 * r, TILE + 2 * r), bool)
+        inner: dict[int, list[int]] = {}  # window -> rows of occ for its tiles off the window's edge
+        for i, (g, tx, ty, n) in enumerate(todo.values()):
+            tx0, ty0, tx1, ty1 = ranges[n]
+            if windows is not None and tx0 < tx < tx1 - 1 and ty0 < ty < ty1 - 1:
+                inner.setdefault(n, []).append(i)
+            else:
+                self._patch(occ[i], g, tx, ty)
+        if inner:
+            keys = list(todo.values())
+            for n, rows in inner.items():
+                tx0, ty0 = ranges[n][:2]
+                data = windows[n].data
+                s0, s1 = data.strides
+                start = data[TILE - r:, TILE - r:]
+                shape = ((data.shape[0] - TILE) // TILE - 1, (data.shape[1] - TILE) // TILE - 1,
+                         TILE + 2 * r, TILE + 2 * r)
+                blocks = as_strided(start, shape, (s0 * TILE, s1 * TILE, s0, s1))
+                jj = np.array([keys[i][2] - ty0 - 1 for i in rows])
+                ii = np.array([keys[i][1] - tx0 - 1 for i in rows])
+                occ[rows] = blocks[jj, ii] > 0.0
+        d = squared_distance_field(occ, r)[:, r:r + TILE, r:r + TILE]
+        fine, coarse = self.table[d], self.table[coarse_of(d)]
+        slots = self._alloc(m)
+        self.fine[slots] = fine
+        self.coarse[slots] = coarse
+        for key, s in zip(todo, slots.tolist()):
+            self.slots[key] = s
+        self.built += m
+
+    def _patch(self, out: np.ndarray, g: TiledGrid, tx: int, ty: int) -> None:
+        """Occupancy of tile (tx, ty) with a field_radius border from its neighbours."""
+        r = self.radius
+        src = {-1: slice(TILE - r, TILE), 0: slice(0, TILE), 1: slice(0, r)}
+        dst = {-1: slice(0, r), 0: slice(r, r + TILE), 1: slice(r + TILE, TILE + 2 * r)}
+        get = g.tiles.get
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                t = get((tx + dx, ty + dy))
+                if t is None:
+                    out[dst[dy], dst[dx]] = False
+                else:
+                    np.greater(t.data[src[dy], src[dx]], 0.0, out=out[dst[dy], dst[dx]])
+
+    def _alloc(self, m: int) -> np.ndarray:
+        if len(self.free) < m:  # forget the fields not used by this call
+            stale = {k: s for k, s in self.slots.items() if s and self.last[s] < self.gen}
+            for k, s in stale.items():
+                del self.slots[k]
+                self.free.append(s)
+        if len(self.free) < m:  # grow
+            n = len(self.fine)
+            extra = max(n, m)
+            self.fine = np.concatenate((self.fine, np.zeros((extra, TILE, TILE), np.float32)))
+            self.coarse = np.concatenate((self.coarse, np.zeros((extra, CT, CT), np.float32)))
+            self.last = np.concatenate((self.last, np.zeros(extra, np.int64)))
+            self.free.extend(range(n + extra - 1, n - 1, -1))
+        out = np.array(self.free[-m:], np.int64)
+        del self.free[-m:]
+        self.last[out] = self.gen
+        return out
+
+
+def _fill(view: np.ndarray, tiles: np.ndarray, pad: int) -> None:
+    """Write tiles (nty, ntx, t, t) into the padded 2-D view; zero the padding and the border."""
+    nty, ntx, t, _ = tiles.shape
+    h, w = view.shape
+    view[:pad + 1] = 0.0
+    view[h - pad - 1:] = 0.0
+    view[:, :pad + 1] = 0.0
+    view[:, w - pad - 1:] = 0.0
+    inner = view[pad:pad + nty * t, pad:pad + ntx * t]
+    s0, s1 = inner.strides
+    blocks = as_strided(inner, (nty, t, ntx, t), (s0 * t, s0, s1 * t, s1))
+    blocks[...] = tiles.transpose(0, 2, 1, 3)
+    inner[0, :] = inner[-1, :] = 0.0
+    inner[:, 0] = inner[:, -1] = 0.0
