@@ -3,7 +3,9 @@
 navfn: every .map/.scen pair under shared/datasets/movingai (obstacles LETHAL, free FREE, 1 cell = 1 m),
 a few queries from evenly spread buckets; time per query and path length / octile optimum (a
 Euclidean-ish planner should come out <= 1). DWA: the p3at dwa_planner_ros.yaml with vx 20 x vth 20
-samples on a 3 m x 3 m, 0.025 m costmap with inflated boxes. Run: python bench/planning.py
+samples on a 3 m x 3 m, 0.025 m costmap with inflated boxes, the robot advancing along the plan
+(flood fills are reused while the costmap and the pruned plan stay the same, as in a real run between
+costmap updates; dwa_cold_ms: with new fills every cycle). Run: python bench/planning.py
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from common.config import load_params, read_yaml  # noqa: E402
 from common.geometry import Pose2D  # noqa: E402
 from master_side.planning.grid import INSCRIBED, LETHAL  # noqa: E402
 from master_side.planning.local import DWAPlanner, DWAPlannerParams  # noqa: E402
+from master_side.planning.local.map_grid import forget_recent_fills  # noqa: E402
 from master_side.planning.navfn import NavFn, path_length  # noqa: E402
 
 SHARED = Path(os.environ.get("ZENAV_SHARED", REPO.parent / "shared"))
@@ -119,7 +122,9 @@ def local_costmap() -> np.ndarray:
     return np.maximum(g, infl.astype(np.uint8))
 
 
-def bench_dwa(cycles: int) -> tuple[float, int]:
+def bench_dwa(cycles: int, cold: bool = False) -> tuple[float, float, int]:
+    """Median wall / CPU ms per cycle. ``cold``: forget the flood fills before every cycle (as if the
+    costmap or the plan were new each time; otherwise a fill is reused while both stay the same)."""
     path = SHARED / "reference" / "p3at" / "dwa_planner_ros.yaml"
     cfg = read_yaml(path)["DWAPlannerROS"]
     params = load_params(
@@ -131,9 +136,12 @@ def bench_dwa(cycles: int) -> tuple[float, int]:
     grid = local_costmap()
     xs = np.linspace(0.3, 2.9, 60)
     planner.set_plan(np.column_stack((xs, 1.5 + 0.3 * np.sin(xs), np.zeros_like(xs))))
+    forget_recent_fills()
     times, cpu, n = [], [], 0
     for k in range(cycles):
         pose = Pose2D(0.4 + 0.6 * k / max(cycles - 1, 1), 1.5, 0.1)
+        if cold:
+            forget_recent_fills()
         t0, c0 = time.perf_counter(), time.process_time()
         res = planner.compute_velocity(pose, (0.3, 0.0, 0.2), grid, 0.025, (0.0, 0.0), P3AT_FOOTPRINT)
         times.append(time.perf_counter() - t0)
@@ -155,6 +163,7 @@ def main() -> None:
             f"{r['ratio_med']:>13.4f}{r['ratio_min']:>7.3f}{r['ratio_max']:>7.4f}"
         )
     dwa_ms, dwa_cpu_ms, dwa_n = bench_dwa(a.dwa_cycles)
+    cold_ms, cold_cpu_ms, _ = bench_dwa(a.dwa_cycles, cold=True)
     print(
         f"\nnavfn 256x256: median {1e3 * np.median(t256):.1f} ms over {len(t256)} queries; "
         f"length/octile optimum: median {np.median(ratios):.4f}, max {max(ratios):.4f} "
@@ -162,12 +171,13 @@ def main() -> None:
     )
     print(
         f"DWA (p3at params, 20 x 20 samples, 120x120 @ 0.025 m): median {dwa_ms:.2f} ms/cycle "
-        f"(CPU {dwa_cpu_ms:.2f} ms), {dwa_n} samples"
+        f"(CPU {dwa_cpu_ms:.2f} ms), {dwa_n} samples; with new flood fills every cycle {cold_ms:.2f} ms "
+        f"(CPU {cold_cpu_ms:.2f} ms)"
     )
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs (wall times inflate under load)")
     print(
         f"navfn_256_ms={1e3 * np.median(t256):.1f} navfn_len_ratio={max(ratios):.4f} "
-        f"dwa_cycle_ms={dwa_ms:.2f} dwa_samples={dwa_n}"
+        f"dwa_cycle_ms={dwa_ms:.2f} dwa_samples={dwa_n} dwa_cold_ms={cold_ms:.2f}"
     )
 
 

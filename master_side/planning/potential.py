@@ -10,6 +10,9 @@ cells. With ``heuristic`` (A*) only cells whose ``potential + heuristic`` is wit
 current minimum are committed, as navfn's ``propNavFnAstar`` threshold blocks do.
 
 Arrays are flat and padded: ``cost`` has an impassable (inf) ring so neighbours need no bounds checks.
+A loop turn is a fixed, short list of numpy calls (the per-cell terms ``2 h^2`` and ``h / sqrt 2`` are
+computed once per call), since at a few hundred wavefront cells the call count, not the cell count,
+sets the time.
 """
 
 from __future__ import annotations
@@ -31,13 +34,6 @@ def pad_costs(cell_cost: np.ndarray) -> np.ndarray:
     return out.ravel()
 
 
-def _dedup(idx: np.ndarray, stamp: np.ndarray) -> np.ndarray:
-    """Unique values of ``idx`` in O(len) using a scratch array ``stamp`` (size of the grid)."""
-    order = np.arange(idx.size)
-    stamp[idx] = order
-    return idx[stamp[idx] == order]
-
-
 def propagate(
     cost: np.ndarray,
     width: int,
@@ -54,17 +50,21 @@ def propagate(
     """Potential from ``source`` over padded flat ``cost`` (row stride ``width``).
 
     Stops when no cell can still improve, or once ``stop`` has a potential and every pending cell
-    would get at least ``pot[stop] + margin``. ``heuristic`` (flat, admissible) turns on A*
-    ordering with threshold blocks ``band`` wide. Returns (potential with inf = unreached, cycles).
+    would get at least ``pot[stop] + margin`` (``margin`` >= 0). ``heuristic`` (flat, admissible) turns
+    on A* ordering with threshold blocks ``band`` wide. Returns (potential with inf = unreached, cycles).
     Raises PlannerTimeout past ``deadline`` (time.monotonic()).
     """
     n = cost.size
     pot = np.full(n, np.inf)
     pot[source] = 0.0
-    stamp = np.zeros(n, dtype=np.int64)
-    offs = np.array([-1, 1, -width, width])
-    active = source + offs
+    stamp = np.zeros(n, dtype=np.intp)
+    ramp = np.arange(min(4 * n + 4, 1 << 14), dtype=np.intp)  # dedup stamps: sliced, grown on demand
+    h2 = 2.0 * cost * cost  # the quadratic update's 2 h^2, per cell
+    push = INV_SQRT2 * cost  # the push rule's least rise h / sqrt 2 (inf cost never passes)
+    offs = np.array([-1, -width, 1, width], dtype=np.intp)[:, None]
+    active = source + offs[:, 0]
     active = active[np.isfinite(cost[active])]
+    use_stop = stop >= 0
     cur_t = -np.inf
     cycles = 0
     while active.size:
@@ -73,15 +73,20 @@ def propagate(
             break
         if deadline is not None and (cycles & 31) == 0 and time.monotonic() > deadline:
             raise PlannerTimeout(f"potential propagation exceeded its time limit after {cycles} cycles")
-        a = np.minimum(pot[active - 1], pot[active + 1])
-        b = np.minimum(pot[active - width], pot[active + width])
-        h = cost[active]
-        lo = np.minimum(a, b)
+        v = pot[active + offs]  # (4, k): left, down, right, up
+        a, b = np.minimum(v[:2], v[2:])  # the lower neighbour along x and along y
         if quadratic:
-            dc = np.minimum(np.abs(a - b), h)  # |a - b| >= h degenerates to lo + h
-            new = lo + 0.5 * (dc + np.sqrt(2.0 * h * h - dc * dc))
+            lo = np.minimum(a, b)
+            dc = np.subtract(a, b, out=a)
+            np.abs(dc, out=dc)
+            np.minimum(dc, cost[active], out=dc)  # |a - b| >= h degenerates to lo + h
+            new = np.sqrt(np.subtract(h2[active], dc * dc, out=b), out=b)
+            new += dc
+            new *= 0.5
+            new += lo
         else:
-            new = lo + h
+            new = np.minimum(a, b, out=a)
+            new += cost[active]
         if heuristic is not None:
             key = new + heuristic[active]
             kmin = key.min()
@@ -89,18 +94,32 @@ def propagate(
             take = key <= cur_t
             waiting = active[~take]
             active, new = active[take], new[take]
+            floor = kmin
         else:
-            waiting = active[:0]
+            waiting = None
+            floor = None
+        if use_stop:
+            ps = pot[stop]
+            if ps < np.inf:
+                # A pending update of ``stop`` itself is below pot[stop] (so below the bar): no need to
+                # look for it separately.
+                if floor is None:
+                    floor = new.min() if new.size else np.inf
+                if floor >= ps + margin:
+                    break
         better = new < pot[active]
-        if stop >= 0 and np.isfinite(pot[stop]):
-            floor = kmin if heuristic is not None else (new.min() if new.size else np.inf)
-            if floor >= pot[stop] + margin and not better[active == stop].any():
-                break
         changed = active[better]
         newv = new[better]
         pot[changed] = newv
-        nb = (changed[:, None] + offs).ravel()
-        src = np.repeat(newv, 4)
-        keep = pot[nb] > src + INV_SQRT2 * cost[nb]  # navfn's push rule; inf cost never passes
-        active = _dedup(np.concatenate((waiting, nb[keep])), stamp)
+        nb = changed + offs  # (4, m)
+        keep = pot[nb] > newv + push[nb]  # navfn's push rule
+        cand = nb[keep]
+        if waiting is not None and waiting.size:
+            cand = np.concatenate((waiting, cand))
+        k = cand.size
+        if k > ramp.size:
+            ramp = np.arange(2 * k, dtype=np.intp)
+        r = ramp[:k]
+        stamp[cand] = r
+        active = cand[stamp[cand] == r]
     return pot, cycles

@@ -7,129 +7,17 @@ where a negative value rejects the trajectory. Lower is better; the planner sums
 from __future__ import annotations
 
 import math
-import zlib
 
 import numpy as np
-from scipy import ndimage
 
-from master_side.planning.grid import INSCRIBED, LETHAL
+from master_side.planning.local.cost_base import REJECT, CostFunction  # noqa: F401 (re-exported)
 from master_side.planning.local.map_grid import (
     ScoringContext,
     angle_diff,
-    footprint_outline,
-    footprint_radii,
 )
+from master_side.planning.local.obstacle_cost import ObstacleCost  # noqa: F401 (re-exported)
+from master_side.planning.local.traj_cells import all_inside, last_cells, point_cells
 from master_side.planning.local.trajectories import Trajectories
-
-REJECT = -1.0
-
-
-class CostFunction:
-    """Base: a named, scaled trajectory score."""
-
-    name = "Cost"
-
-    def __init__(self, scale: float = 1.0):
-        self.scale = float(scale)
-        self.ctx: ScoringContext | None = None
-
-    def prepare(self, ctx: ScoringContext) -> bool:
-        self.ctx = ctx
-        return True
-
-    def score(self, trajs: Trajectories) -> np.ndarray:
-        raise NotImplementedError
-
-
-class ObstacleCost(CostFunction):
-    """Max costmap cost under the footprint along each trajectory; rejects LETHAL / unknown / off-map.
-
-    Like base_local_planner's footprintCost: the centre cell must be below INSCRIBED, the footprint
-    outline must not touch a LETHAL or NO_INFORMATION cell. The outline is only rasterised for poses
-    within reach of a non-free cell; elsewhere every footprint cell is FREE and the centre cost is
-    exact. Reach is judged by the chessboard distance to the nearest lethal cell, a lower bound of the
-    Euclidean one (so no pose that could touch is skipped) that is five times cheaper to compute.
-    """
-
-    name = "ObstacleCost"
-
-    def __init__(self, scale: float = 1.0):
-        super().__init__(scale)
-        self._key = None
-
-    def prepare(self, ctx: ScoringContext) -> bool:
-        super().prepare(ctx)
-        g = ctx.grid
-        key = (g.shape, zlib.crc32(np.ascontiguousarray(g)), float(ctx.resolution), ctx.footprint.tobytes())
-        if key == self._key:  # the same costmap as the last call (several checks in one cycle)
-            return True
-        blocked = g >= LETHAL
-        self.clear = (
-            ndimage.distance_transform_cdt(~blocked, metric="chessboard") * ctx.resolution
-            if blocked.any()
-            else np.full(g.shape, np.inf)
-        )
-        soft = (g > 0) & (g < LETHAL)
-        # the farthest an inflated cell lies from a lethal one (Euclidean <= sqrt(2) x chessboard)
-        self.extent = (
-            math.sqrt(2.0) * float(self.clear[soft].max()) if soft.any() and blocked.any()
-            else (np.inf if soft.any() else 0.0)
-        )
-        self.inscribed, self.circumscribed = footprint_radii(ctx.footprint)
-        self.outline = footprint_outline(ctx.footprint, ctx.resolution)
-        self._key = key
-        return True
-
-    def score(self, trajs: Trajectories) -> np.ndarray:
-        ctx = self.ctx
-        s, t = trajs.poses.shape[:2]
-        pts = trajs.poses.reshape(-1, 3)
-        r, c, inside = ctx.cells(pts[:, :2])
-        centre = ctx.grid[r, c].astype(np.int64)
-        clear = self.clear[r, c]
-        res = ctx.resolution
-        bad = ~inside | (centre >= INSCRIBED)
-        cost = centre.astype(float)
-        # A pose equal to the previous one of its trajectory (padding after a short trajectory, a robot
-        # standing still) has the same outline: rasterise it once.
-        w = ctx.grid.shape[1]
-        same = np.zeros((s, t), bool)
-        poses = trajs.poses
-        same[:, 1:] = (poses[:, 1:] == poses[:, :-1]).all(axis=2)
-        first = ~same
-        src = np.maximum.accumulate(np.where(first, np.arange(t)[None, :], 0), axis=1)
-        src = (src + (np.arange(s) * t)[:, None]).ravel()
-        first = first.ravel()
-        # outline cells can be LETHAL only within the circumscribed radius; they can cost > 0 within
-        # circumscribed + inflation extent. Check the first band, drop rejected trajectories, then the second.
-        band = self.circumscribed + 1.5 * res  # cell-centre distances: allow for the discretisation
-        flat = ctx.grid.ravel()
-        outline_bad = np.zeros(s * t, bool)
-        outline_cost = np.zeros(s * t)
-        # the cost-only band samples every other outline point (about 2 cells apart): cheaper, and
-        # the inflation cost changes little over one cell
-        for lo, hi, outline in ((-np.inf, band, self.outline), (band, band + self.extent, self.outline[::2])):
-            dead = np.repeat(bad.reshape(s, t).any(axis=1), t)
-            near = np.flatnonzero(first & ~dead & (clear <= hi) & (clear > lo))
-            if near.size == 0:
-                continue
-            p = pts[near]
-            cs, sn = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
-            ox, oy = outline[:, 0][None, :], outline[:, 1][None, :]
-            orr, occ, oin = ctx.cells_xy(p[:, 0:1] + cs * ox - sn * oy, p[:, 1:2] + sn * ox + cs * oy)
-            oc = flat[orr * w + occ]
-            outline_bad[near] = (~oin | (oc >= LETHAL)).any(axis=1)
-            outline_cost[near] = oc.max(axis=1)
-            bad |= outline_bad[src]
-        bad |= outline_bad[src]
-        cost = np.maximum(cost, outline_cost[src])
-        bad = bad.reshape(s, t)
-        if t > 1 and bad[:, 0].any():
-            _allow_escape(bad, clear.reshape(s, t))
-        bad_t = bad.any(axis=1)
-        out = cost.reshape(s, t).max(axis=1)
-        out[bad_t] = REJECT
-        return out
 
 
 class MapGridCost(CostFunction):
@@ -149,24 +37,21 @@ class MapGridCost(CostFunction):
     def distances(self) -> np.ndarray:
         return self.ctx.path_distance() if self.target == "path" else self.ctx.goal_distance()
 
-    def points(self, trajs: Trajectories) -> np.ndarray:
-        p = trajs.poses
-        if self.forward == 0.0:
-            return p[..., :2]
-        return p[..., :2] + self.forward * np.stack((np.cos(p[..., 2]), np.sin(p[..., 2])), axis=-1)
-
     def score(self, trajs: Trajectories) -> np.ndarray:
-        d = self.distances()
-        r, c, inside = self.ctx.cells(self.points(trajs))
-        vals = np.where(inside, d[r, c], np.inf) * self.ctx.resolution
-        last = vals[:, -1]
-        off = ~inside.all(axis=1)
-        if self.stop_on_failure:
-            bad = ~np.isfinite(vals).all(axis=1)
-        else:  # off-map still rejects; an impossible end point costs what ROS gives it (the map size)
-            bad = np.zeros(len(last), bool)
-            last = np.where(np.isfinite(last), last, self.ctx.grid.size * self.ctx.resolution)
-        return np.where(off | bad, REJECT, last)
+        ctx = self.ctx
+        d, res = self.distances().ravel(), ctx.resolution
+        if self.stop_on_failure:  # every point must be on the map and on a reachable cell
+            flat, inside = point_cells(trajs, ctx, self.forward)  # (T + 1, S)
+            vals = d[flat]
+            ok = np.isfinite(vals)
+            if inside is not None:
+                ok &= inside
+            return np.where(ok.all(axis=0), vals[-1] * res, REJECT)
+        # off-map still rejects; an impossible end point costs what ROS gives it (the map size)
+        flat, inside = last_cells(trajs, ctx, self.forward)
+        last = (d[flat] if inside is None else np.where(inside, d[flat], np.inf)) * res
+        last = np.where(np.isfinite(last), last, ctx.grid.size * res)
+        return np.where(all_inside(trajs, ctx, self.forward), last, REJECT)
 
 
 class PathDistance(MapGridCost):
@@ -284,16 +169,3 @@ class Oscillation(CostFunction):
             self.allowed[flipped] = sg[flipped]
             self.anchor = np.array(pose, dtype=float)
         self.last_sign = np.where(sg != 0, sg, self.last_sign)
-
-
-def _allow_escape(bad: np.ndarray, clear: np.ndarray) -> None:
-    """The robot already touches an obstacle (the padded footprint at its current pose, shared by every
-    trajectory): rejecting every move would wedge it. Accept a trajectory whose leading in-contact
-    poses never get closer to the nearest obstacle and which leaves contact within half its length;
-    moves that stay in contact or push on are still rejected. ``bad`` (S, T) is edited in place."""
-    lead = np.logical_and.accumulate(bad, axis=1)
-    n_lead = lead.sum(axis=1)
-    steps = np.diff(clear, axis=1)
-    closer = np.concatenate((np.zeros((len(bad), 1), bool), steps < -1e-9), axis=1) & lead
-    ok = (n_lead < bad.shape[1] / 2) & ~closer.any(axis=1)
-    bad[ok[:, None] & lead] = False

@@ -20,6 +20,7 @@ from scipy.sparse.csgraph import breadth_first_order
 
 from master_side.planning.grid import INSCRIBED, NO_INFORMATION
 
+RECENT = 4  # fill results kept per grid shape
 IMPOSSIBLE = np.inf  # distance of an obstacle or unreachable cell (ROS: size of the map, or that + 1)
 
 
@@ -46,6 +47,7 @@ class _Lattice:
         out = self.indptr[:n, None] + k
         self.out_edges = np.where(k < counts[:, None], out, len(dst)).astype(np.int64)
         self._data = np.ones(0)
+        self._recent: dict = {}
 
     def _ones(self, k: int) -> np.ndarray:
         if len(self._data) < k:
@@ -61,9 +63,26 @@ class _Lattice:
         return self.fill_many(passable, [targets])[0]
 
     def fill_many(self, passable: np.ndarray, target_sets: list[np.ndarray]) -> list[np.ndarray]:
-        """``fill`` for several target sets on the same grid: one graph, one virtual source per set."""
-        n, k = self.n, len(target_sets)
+        """``fill`` for several target sets on the same grid: one graph, one virtual source per set.
+
+        The last few results are kept (read-only) and handed out again for the same passable cells and
+        target sets: the costmap and the plan usually change less often than the planner runs."""
         sets = [np.unique(np.asarray(t, np.int64)) for t in target_sets]
+        key = (passable.tobytes(), tuple(t.tobytes() for t in sets))
+        got = self._recent.get(key)
+        if got is None:
+            got = self._fill_many(passable, sets)
+            for a in got:
+                a.flags.writeable = False
+            if len(self._recent) >= RECENT:
+                self._recent.pop(next(iter(self._recent), None), None)
+        else:
+            self._recent.pop(key, None)  # most recently used last
+        self._recent[key] = got
+        return list(got)
+
+    def _fill_many(self, passable: np.ndarray, sets: list[np.ndarray]) -> list[np.ndarray]:
+        n, k = self.n, len(sets)
         # Blocked cells are reached but expand nothing (their out-edges lead to the dead end n); their
         # depth is overwritten with IMPOSSIBLE below. Targets expand even when blocked.
         blocked = ~passable
@@ -102,10 +121,12 @@ def _depths(graph, n: int, source: int) -> tuple[np.ndarray, np.ndarray]:
     # BFS order is by depth, and the parents' positions never decrease along it, so level k + 1 is the
     # run of nodes whose parents lie in level k: below(j) = how many nodes have a parent before position
     # j, and the level boundaries are its iterates from 0.
-    below = np.cumsum(np.bincount(pos[pred[order]] + 1, minlength=m + 1))
+    below = np.cumsum(np.bincount(pos[pred[order]] + 1, minlength=m + 1)).item
     bounds = [0]
-    while bounds[-1] < m:
-        bounds.append(max(int(below[bounds[-1]]), bounds[-1] + 1))
+    b = 0
+    while b < m:
+        b = max(below(b), b + 1)
+        bounds.append(b)
     return order, np.repeat(np.arange(len(bounds) - 1, dtype=np.float64), np.diff(bounds))
 
 

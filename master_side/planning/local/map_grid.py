@@ -1,7 +1,8 @@
 """Local-costmap geometry for scoring: the scoring context, footprint helpers.
 
 Path and goal distances are base_local_planner's MapGrid flood fills (``grid_distance``), computed
-once per cycle on demand and cached in the context.
+once per cycle on demand and cached in the context; a fill of one of the last few cycles with the same
+costmap, plan (and footprint cells) is handed out again instead of being recomputed.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from master_side.costmap.costmap2d import points_in_polygon
-from master_side.planning.local.grid_distance import MapGrid, densify
+from master_side.planning.local.grid_distance import _LATTICES, MapGrid, densify
 
 
 @dataclass
@@ -54,7 +55,8 @@ class ScoringContext:
     def path_distance(self) -> np.ndarray:
         """(H, W) flood-fill cells to the plan (inf: obstacle or no way there)."""
         if "path" not in self._cache:  # with the goal distance: one graph for both fills
-            self._cache["path"], self._cache[("goal", 0.0)] = self.map_grid().distances(self.plan[:, :2])
+            self._cache["path"], self._cache[("goal", 0.0)] = self._recall(
+                ("path", self.plan[:, :2].tobytes()), lambda: self.map_grid().distances(self.plan[:, :2]))
         return self._cache["path"]
 
     def goal_distance(self, front: float = 0.0) -> np.ndarray:
@@ -69,8 +71,30 @@ class ScoringContext:
                 d = xy[-1] - self.pose[:2]
                 a = math.atan2(d[1], d[0])
                 xy[-1] += front * np.array([math.cos(a), math.sin(a)])
-            self._cache[key] = self.map_grid().goal_distance(xy)
+            self._cache[key] = self._recall(("goal", xy.tobytes()), lambda: self.map_grid().goal_distance(xy))
         return self._cache[key]
+
+    def _recall(self, what: tuple, compute):
+        """A flood fill of a recent cycle with the same costmap, plan and footprint cells, else compute."""
+        robot = (self.pose.tobytes(), self.footprint.tobytes()) if self.within_robot else None
+        key = (what, self.grid.tobytes(), self.grid.shape, self.resolution, self.origin.tobytes(), robot)
+        got = _RECENT.pop(key, None)
+        if got is None:
+            got = compute()
+            if len(_RECENT) >= 8:
+                _RECENT.pop(next(iter(_RECENT), None), None)
+        _RECENT[key] = got  # most recently used last
+        return got
+
+
+_RECENT: dict = {}  # flood fills of the last few cycles (the arrays are read-only)
+
+
+def forget_recent_fills() -> None:
+    """Drop the remembered flood fills (the next cycle computes its own; for benchmarks)."""
+    _RECENT.clear()
+    for lattice in _LATTICES.values():
+        lattice._recent.clear()
 
 
 def footprint_cells(pose: np.ndarray, footprint: np.ndarray, ctx: ScoringContext) -> np.ndarray:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -14,6 +14,8 @@ class Trajectories:
 
     poses: np.ndarray
     vels: np.ndarray
+    # per-set derived arrays (cells of the poses, ...) shared by the cost functions of one cycle
+    cache: dict = field(default_factory=dict, compare=False, repr=False)
 
     def __len__(self) -> int:
         return int(self.vels.shape[0])
@@ -38,8 +40,12 @@ def linspace_window(lo: float, hi: float, n: int) -> np.ndarray:
 
 def sample_grid(vx: np.ndarray, vy: np.ndarray, vth: np.ndarray) -> np.ndarray:
     """Cartesian product of per-axis samples -> (S, 3)."""
-    g = np.meshgrid(vx, vy, vth, indexing="ij")
-    return np.stack([a.ravel() for a in g], axis=1)
+    vx, vy, vth = (np.asarray(v, dtype=float).ravel() for v in (vx, vy, vth))
+    out = np.empty((len(vx), len(vy), len(vth), 3))  # vx slowest, vth fastest (meshgrid "ij")
+    out[..., 0] = vx[:, None, None]
+    out[..., 1] = vy[None, :, None]
+    out[..., 2] = vth[None, None, :]
+    return out.reshape(-1, 3)
 
 
 def simulate(
@@ -57,15 +63,14 @@ def simulate(
     heading at the start of each step, like base_local_planner.
     """
     samples = np.asarray(samples, dtype=float).reshape(-1, 3)
-    s, t = samples.shape[0], max(int(steps), 1)
+    t = max(int(steps), 1)
     dt = sim_time / t
     if acc is None:
-        v = np.broadcast_to(samples[:, None, :], (s, t, 3))
-    else:
-        k = np.arange(1, t + 1)[None, :, None] * dt
-        lo = np.asarray(vel0, float)[None, None, :] - np.asarray(acc, float)[None, None, :] * k
-        hi = np.asarray(vel0, float)[None, None, :] + np.asarray(acc, float)[None, None, :] * k
-        v = np.clip(samples[:, None, :], lo, hi)
+        return _integrate_constant(start, samples, t, dt)
+    k = np.arange(1, t + 1)[None, :, None] * dt
+    lo = np.asarray(vel0, float)[None, None, :] - np.asarray(acc, float)[None, None, :] * k
+    hi = np.asarray(vel0, float)[None, None, :] + np.asarray(acc, float)[None, None, :] * k
+    v = np.clip(samples[:, None, :], lo, hi)
     return Trajectories(_integrate(start, v, dt), samples)
 
 
@@ -86,6 +91,45 @@ def _integrate(start: np.ndarray, v: np.ndarray, dt) -> np.ndarray:
     poses[:, 1:, 1] += start[1]
     poses[:, :, 2] = th
     return poses
+
+
+def _integrate_constant(start: np.ndarray, samples: np.ndarray, t: int, dt: float) -> Trajectories:
+    """``_integrate`` for samples held constant over all ``t`` steps, with the same arithmetic (so the
+    same bits): headings, their cosines and sines once per distinct rotation speed, the running sums in
+    a (step, sample) layout. The (T + 1, S) x, y, heading, cos and sin arrays go to the cache ("xyT")."""
+    s = samples.shape[0]
+    out = Trajectories(np.empty((s, t + 1, 3)), samples)
+    if s == 0:
+        return out
+    w, inv = np.unique(samples[:, 2], return_inverse=True)
+    th = np.empty((len(w), t + 1))
+    th[:, 0] = start[2]
+    np.cumsum(np.repeat((w * dt)[:, None], t, axis=1), axis=1, out=th[:, 1:])
+    th[:, 1:] += start[2]
+    cos_t, sin_t = np.cos(th).T[:, inv], np.sin(th).T[:, inv]  # (T + 1, S)
+    c, sn = cos_t[:-1], sin_t[:-1]
+    vx, vy = np.ascontiguousarray(samples[:, 0]), np.ascontiguousarray(samples[:, 1])
+    d = np.empty((2, t, s))  # per step dx, dy
+    if vy.any():
+        np.subtract(vx * c, vy * sn, out=d[0])
+        np.add(vx * sn, vy * c, out=d[1])
+    else:  # vx * c - 0 * sn == vx * c (up to the sign of a zero)
+        np.multiply(vx, c, out=d[0])
+        np.multiply(vx, sn, out=d[1])
+    d *= dt
+    xy = np.empty((2, t + 1, s))
+    xy[:, 1] = d[:, 0]
+    for k in range(1, t):  # cumsum along the steps, one vector add per step
+        np.add(xy[:, k], d[:, k], out=xy[:, k + 1])
+    x, y = xy
+    x[1:] += start[0]
+    y[1:] += start[1]
+    x[0], y[0] = start[0], start[1]
+    th_t = th.T[:, inv]
+    poses = out.poses
+    poses[:, :, 0], poses[:, :, 1], poses[:, :, 2] = x.T, y.T, th_t.T
+    out.cache["xyT"] = (x, y, th_t, cos_t, sin_t)
+    return out
 
 
 def ros_steps(samples: np.ndarray, sim_time: float, sim_granularity: float, angular_granularity: float,
