@@ -18,7 +18,7 @@ def _matched(pub) -> None:
 def test_keep_latest_holds_only_the_newest_message(node_pair):
     a, b = node_pair("pub"), node_pair("sub")
     sub = b.subscribe("chatter", Text)  # default mode: latest
-    pub = a.publisher("chatter")
+    pub = a.publisher("chatter", reliable=True)  # the subscriber's semantics, not DROP under load
     _matched(pub)
     for i in range(50):
         pub.publish(Text(Header(float(i)), str(i)))
@@ -32,7 +32,7 @@ def test_queue_mode_delivers_every_message_in_order(node_pair):
     a, b = node_pair("pub"), node_pair("sub")
     sub = b.subscribe("cmd", Text, mode="queue", queue_size=100)
     small = b.subscribe("cmd", Text, mode="queue", queue_size=10)
-    pub = a.publisher("cmd")
+    pub = a.publisher("cmd", reliable=True)
     _matched(pub)
     for i in range(50):
         pub.publish(Text(data=str(i)))
@@ -53,7 +53,7 @@ def test_queue_mode_callback_sees_every_message_in_order(node_pair):
             done.set()
 
     b.subscribe("cmd_vel", Text, callback=cb, mode="queue", queue_size=500)
-    pub = a.publisher("cmd_vel")
+    pub = a.publisher("cmd_vel", reliable=True)
     _matched(pub)
     for i in range(200):
         pub.publish(Text(data=str(i)))

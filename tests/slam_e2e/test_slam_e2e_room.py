@@ -30,7 +30,9 @@ def _wall_length(world: str) -> float:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("world", ["room", "corridor"])
+# the corridor (bound 85 %, measured 93-100 %) is left out of the suite for time:
+# `zenav demo --slam --world corridor` runs it; WITHIN_TWO_CELLS keeps its bound
+@pytest.mark.parametrize("world", ["room"])
 def test_slam_e2e_map_of_a_loop_has_its_walls_within_two_cells(world, robot_name, tmp_path):
     demo = Demo(DemoOptions(worlds=(world,), slam=True, monitor_args=(), robot=robot_name,
                             workdir=str(tmp_path)), echo=print)
