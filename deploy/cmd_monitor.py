@@ -30,6 +30,10 @@ Outputs (pick one; default: --spawn when a display is available, else --save):
                        "why not moving" line; --token T guards the control endpoints (open the page with
                        ?token=T)
   --save FILE.rrd      write a recording; open later with `rerun FILE.rrd`
+
+--robot '*' (or a pattern such as 'pioneer*') shows every matching robot side by side: each robot's
+entities and TF frames under its name (robot1/world/map in frame robot1/map), one column per robot
+(map, plots, events); not with --serve-web, whose tools drive one robot.
 """
 
 
@@ -78,8 +82,8 @@ def open_recording(args, robot: str):
 
     from deploy.monitor.layout import blueprint
 
-    rec = rr.RecordingStream(f"zenav_{robot}")
-    bp = blueprint(follow=getattr(args, "follow", False))
+    rec = rr.RecordingStream(f"zenav_{robot}".replace("*", "all"))
+    bp = blueprint(follow=getattr(args, "follow", False)) if "*" not in robot else robots_blueprint({})
     if args.save:
         parent = os.path.dirname(os.path.abspath(args.save))
         if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
@@ -120,6 +124,48 @@ def fit_view_to_map(rec, args):
     return observe
 
 
+def robots_blueprint(maps: dict[str, tuple]) -> object:
+    """Side by side, one column per robot (``maps``: robot -> (centre, eye height) of its map view)."""
+    import rerun.blueprint as rrb
+
+    from deploy.monitor.layout import top_down
+
+    def column(r: str, centre: tuple, height: float):
+        return rrb.Vertical(
+            rrb.Spatial3DView(name=f"{r}: map", origin="/", contents=[f"/{r}/world/**", f"/{r}/tf/**"],
+                              spatial_information=rrb.SpatialInformation(target_frame=f"{r}/map"),
+                              eye_controls=top_down(centre, height, False), line_grid=False),
+            rrb.TimeSeriesView(name=f"{r}: plots", origin=f"/{r}/plots"),
+            rrb.TextLogView(name=f"{r}: events", origin=f"/{r}/log"), row_shares=[3, 2, 2])
+
+    cols = [column(r, *maps[r]) for r in sorted(maps)] or [rrb.TextDocumentView(name="waiting for robots")]
+    return rrb.Blueprint(rrb.Horizontal(*cols), collapse_panels=True)
+
+
+def fit_robots_views(rec):
+    """For a robot pattern: an observer sending the side-by-side blueprint again when a robot first shows
+    up and when its map first arrives (its view fitted to the map)."""
+    from common.messages import OccupancyGrid
+    from deploy.monitor.layout import DEFAULT_HEIGHT, fit_height
+
+    maps: dict[str, tuple] = {}
+    fitted: set[str] = set()
+
+    def observe(topic: str, msg) -> None:
+        robot, _, topic = topic.partition("/")
+        fit = topic == "map" and isinstance(msg, OccupancyGrid) and msg.width > 0 and robot not in fitted
+        if robot in maps and not fit:
+            return
+        maps[robot] = ((0.0, 0.0), DEFAULT_HEIGHT)
+        if fit:
+            fitted.add(robot)
+            w, h = msg.width * msg.resolution, msg.height * msg.resolution
+            maps[robot] = ((msg.origin.x + w / 2, msg.origin.y + h / 2), fit_height(w, h))
+        rec.send_blueprint(robots_blueprint(maps), make_active=True)
+
+    return observe
+
+
 def bus_publisher(session, robot: str):
     """``publish(topic, msg)`` on the robot's bus (what the page's tools send)."""
     from common.bus_topics import topic_key
@@ -148,9 +194,13 @@ def run(args) -> int:
             args.spawn = True
         else:
             args.save = f"zenav-monitor-{time.strftime('%Y%m%d-%H%M%S')}.rrd"
-    one_robot(args)
+    pattern = getattr(args, "robot", None) or ""
+    if "*" in pattern and args.serve_web:
+        raise SystemExit("zenav monitor: --serve-web shows one robot (its tools drive it): --robot NAME")
+    if "*" not in pattern:
+        one_robot(args)
     cfg = BusConfig.from_env()
-    robot = cfg.robot
+    robot = pattern if "*" in pattern else cfg.robot
     web_state = web = None
     state_subs: list = []
     if args.serve_web:
@@ -161,7 +211,7 @@ def run(args) -> int:
         web_state = WebState(robot)
     rec, where = open_recording(args, robot)
     session = zenoh.open(cfg.to_zenoh())
-    observers = [fit_view_to_map(rec, args)]
+    observers = [fit_view_to_map(rec, args) if "*" not in robot else fit_robots_views(rec)]
     if web_state is not None:  # the latched map arrives through the monitor's query, the rest directly
         observers.append(lambda topic, msg: web_state.observe(topic, msg) if topic == "map" else None)
     mon = Monitor(session, robot, rec, rates, observers=observers)

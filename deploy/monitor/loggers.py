@@ -28,14 +28,33 @@ def frame_name(frame_id: str, default: str = "map") -> str:
     return frame_id.strip().lstrip("/") or default
 
 
-def _frame(header: m.Header) -> rr.CoordinateFrame:
-    return rr.CoordinateFrame(frame_name(header.frame_id))
+class Prefixed:
+    """A recording stream whose entity paths and frame names start with ``<prefix>/`` (one robot of
+    several side by side: ``robot1/world/map`` in frame ``robot1/map``); everything else is the stream's."""
+
+    def __init__(self, rec, prefix: str) -> None:
+        self._rec, self.prefix, self.frame_prefix = rec, prefix, prefix + "/"
+
+    def log(self, path: str, *args, **kwargs) -> None:
+        self._rec.log(f"{self.prefix}/{path}", *args, **kwargs)
+
+    def __getattr__(self, name: str):
+        return getattr(self._rec, name)
+
+
+def frame_of(rec, frame_id: str, default: str = "map") -> str:
+    """The Rerun frame name of ``frame_id`` in ``rec`` (with a ``Prefixed`` stream's robot prefix)."""
+    return getattr(rec, "frame_prefix", "") + frame_name(frame_id, default)
+
+
+def _frame(rec, header: m.Header) -> rr.CoordinateFrame:
+    return rr.CoordinateFrame(frame_of(rec, header.frame_id))
 
 
 def _grid(rec, path: str, header, resolution: float, origin: m.Pose2D, data: np.ndarray, colormap,
           opacity: float, draw_order: float) -> None:
     h, w = data.shape
-    rec.log(path, _frame(header), rr.GridMap(
+    rec.log(path, _frame(rec, header), rr.GridMap(
         data=aligned(data).view(np.uint8).tobytes(),
         format=rr.components.ImageFormat(width=w, height=h, color_model="L", channel_datatype="U8"),
         cell_size=resolution, translation=[origin.x, origin.y, 0.0],
@@ -60,7 +79,7 @@ def scan_points(msg: m.LaserScan) -> np.ndarray:
 
 
 def log_scan(rec, path: str, msg: m.LaserScan) -> None:
-    rec.log(path, _frame(msg.header), rr.Points3D(scan_points(msg), radii=0.03, colors=[255, 40, 40]))
+    rec.log(path, _frame(rec, msg.header), rr.Points3D(scan_points(msg), radii=0.03, colors=[255, 40, 40]))
 
 
 def log_cloud(rec, path: str, msg: m.PointCloud, max_points: int = 20000) -> None:
@@ -68,7 +87,7 @@ def log_cloud(rec, path: str, msg: m.PointCloud, max_points: int = 20000) -> Non
     if len(pts) > max_points:
         pts = aligned(pts[:: int(np.ceil(len(pts) / max_points))])
     z = pts[:, 2] if len(pts) else np.zeros(0)
-    rec.log(path, _frame(msg.header), rr.Points3D(pts, radii=0.01, colors=_height_colors(z)))
+    rec.log(path, _frame(rec, msg.header), rr.Points3D(pts, radii=0.01, colors=_height_colors(z)))
 
 
 def _height_colors(z: np.ndarray) -> np.ndarray:
@@ -83,7 +102,7 @@ def log_depth_image(rec, path: str, msg: m.DepthImage) -> None:
 def log_path(rec, path: str, msg: m.Path, color=(40, 200, 40)) -> None:
     p = msg.poses
     strip = np.column_stack((p[:, 0], p[:, 1], np.full(len(p), 0.02))) if len(p) else np.zeros((0, 3))
-    rec.log(path, _frame(msg.header), rr.LineStrips3D([strip], colors=[color], radii=0.015))
+    rec.log(path, _frame(rec, msg.header), rr.LineStrips3D([strip], colors=[color], radii=0.015))
 
 
 def log_polygon(rec, path: str, msg: m.PolygonStamped, color=(60, 120, 255)) -> None:
@@ -91,19 +110,19 @@ def log_polygon(rec, path: str, msg: m.PolygonStamped, color=(60, 120, 255)) -> 
     if len(p):
         p = np.vstack((p, p[:1]))
     strip = np.column_stack((p[:, 0], p[:, 1], np.full(len(p), 0.03))) if len(p) else np.zeros((0, 3))
-    rec.log(path, _frame(msg.header), rr.LineStrips3D([strip], colors=[color], radii=0.02))
+    rec.log(path, _frame(rec, msg.header), rr.LineStrips3D([strip], colors=[color], radii=0.02))
 
 
 def log_pose(rec, path: str, msg: m.PoseStamped, color=(255, 0, 200), length: float = 0.5) -> None:
     p = msg.pose.to_pose2d()
     vec = [length * np.cos(p.theta), length * np.sin(p.theta), 0.0]
-    rec.log(path, _frame(msg.header), rr.Arrows3D(origins=[[p.x, p.y, 0.05]], vectors=[vec],
+    rec.log(path, _frame(rec, msg.header), rr.Arrows3D(origins=[[p.x, p.y, 0.05]], vectors=[vec],
                                                   colors=[color], radii=0.03))
 
 
 def log_robot_marker(rec, path: str, base_frame: str = "base_link") -> None:
     """A small marker at the robot's base frame (static): the map view's camera follows this entity."""
-    rec.log(path, rr.CoordinateFrame(base_frame), rr.Points3D([[0.0, 0.0, 0.05]], radii=0.04,
+    rec.log(path, rr.CoordinateFrame(frame_of(rec, base_frame)), rr.Points3D([[0.0, 0.0, 0.05]], radii=0.04,
                                                               colors=[[60, 120, 255]]), static=True)
 
 
@@ -125,11 +144,11 @@ def log_particles(rec, path: str, msg: m.Path, max_arrows: int = 400) -> None:
     origins = np.column_stack((p[:, 0], p[:, 1], np.full(len(p), 0.03))) if len(p) else np.zeros((0, 3))
     vecs = np.column_stack((0.15 * np.cos(p[:, 2]), 0.15 * np.sin(p[:, 2]), np.zeros(len(p)))) if len(p) \
         else np.zeros((0, 3))
-    rec.log(path, _frame(msg.header), rr.Arrows3D(origins=origins, vectors=vecs, colors=[[255, 60, 60]],
+    rec.log(path, _frame(rec, msg.header), rr.Arrows3D(origins=origins, vectors=vecs, colors=[[255, 60, 60]],
                                                   radii=0.008))
     ell = covariance_ellipse(np.asarray(msg.poses, np.float64)[:, :2]) if len(msg.poses) > 1 else None
     strips = [] if ell is None else [ellipse_strip(*ell)]
-    rec.log(f"{path}/covariance", _frame(msg.header), rr.LineStrips3D(strips, colors=[[255, 140, 0]], radii=0.02))
+    rec.log(f"{path}/covariance", _frame(rec, msg.header), rr.LineStrips3D(strips, colors=[[255, 140, 0]], radii=0.02))
 
 
 def log_transform(rec, path: str, ts: m.TransformStamped, static: bool = False) -> None:
@@ -139,7 +158,7 @@ def log_transform(rec, path: str, ts: m.TransformStamped, static: bool = False) 
     t, q = ts.transform.translation, ts.transform.rotation
     rec.log(path, rr.Transform3D(
         translation=[t.x, t.y, t.z], quaternion=[q.x, q.y, q.z, q.w],
-        parent_frame=frame_name(ts.header.frame_id), child_frame=frame_name(ts.child_frame_id)),
+        parent_frame=frame_of(rec, ts.header.frame_id), child_frame=frame_of(rec, ts.child_frame_id)),
         static=static)
 
 
@@ -162,7 +181,7 @@ class OdomTrail:
         self.points.append((p.x, p.y))
         arr = np.array(self.points)
         strip = np.column_stack((arr, np.full(len(arr), 0.01)))
-        rec.log(f"{path}/{self.index}", _frame(msg.header),
+        rec.log(f"{path}/{self.index}", _frame(rec, msg.header),
                 rr.LineStrips3D([strip], colors=[[250, 200, 0]], radii=0.015))
         if len(self.points) >= self.segment:  # start the next segment where this one ends
             self.points, self.index = self.points[-1:], self.index + 1

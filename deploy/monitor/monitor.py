@@ -4,7 +4,9 @@ It subscribes once to ``zenav/<robot>/**`` and dispatches on the decoded message
 topics show up without configuration. Latched topics (map, tf_static) published before it started
 are fetched from every publisher that announces them (liveliness), never from services.
 Heavy streams are throttled per entity (``pacing.Throttle``, latest wins) so a long run keeps the
-viewer's memory bounded. Time comes from the message stamps (``pacing.StampTimeline``).
+viewer's memory bounded. Time comes from the message stamps (``pacing.StampTimeline``). A robot pattern
+(``*``) logs every matching robot side by side: one view per robot (its own throttle, timeline, ...),
+its entities and TF frames under ``<robot>/`` (``loggers.Prefixed``).
 """
 
 from __future__ import annotations
@@ -53,8 +55,9 @@ class Monitor:
     def __init__(self, session: zenoh.Session, robot: str, rec: rr.RecordingStream,
                  rates: dict[str, float] | None = None, flush_period: float = 0.05,
                  observers: list[Callable[[str, object], None]] | None = None,
-                 base_frame: str = "base_link") -> None:
+                 base_frame: str = "base_link", subscribe: bool = True) -> None:
         self.robot, self.rec, self.session = robot, rec, session
+        self.base_frame, self._views = base_frame, {}  # robot pattern: robot name -> its Monitor
         self.observers = list(observers or [])  # e.g. the web page's state: every decoded message
         self.throttle = Throttle(rates)
         self.timeline = StampTimeline()
@@ -65,15 +68,29 @@ class Monitor:
         self._prefix = f"zenav/{robot}/"
         self._queried: set[str] = set()
         self._stop = threading.Event()
-        L.log_robot_marker(rec, "world/robot", base_frame)  # what the map view follows
-        self._handles = [
-            session.declare_subscriber(f"zenav/{robot}/**", self._on_sample),
-            session.liveliness().declare_subscriber(f"zenavlive/{robot}/pub/**", self._on_publisher,
+        if "*" not in robot:
+            L.log_robot_marker(rec, "world/robot", base_frame)  # what the map view follows
+        sel = robot if robot == "*" else robot.replace("*", "$*")  # 'pioneer*': a wildcard inside a chunk
+        self._handles = [] if not subscribe else [
+            session.declare_subscriber(f"zenav/{sel}/**", self._on_sample),
+            session.liveliness().declare_subscriber(f"zenavlive/{sel}/pub/**", self._on_publisher,
                                                     history=True),
         ]
         self._flusher = threading.Thread(target=self._flush_loop, args=(flush_period,), daemon=True,
                                          name="monitor-flush")
-        self._flusher.start()
+        if subscribe:
+            self._flusher.start()
+
+    def _view(self, robot: str) -> Monitor:
+        """One robot's view (robot pattern): entities under ``robot/``, observers get ``robot/topic``."""
+        with self._lock:
+            if robot not in self._views:
+                obs = [lambda t, msg, o=o: o(f"{robot}/{t}", msg) for o in self.observers]
+                v = Monitor(self.session, robot, L.Prefixed(self.rec, robot), self.throttle.rates, observers=obs,
+                            base_frame=self.base_frame, subscribe=False)
+                v.stats, v._lock = self.stats, self._lock  # one count, one lock (the stream is shared)
+                self._views[robot] = v
+            return self._views[robot]
 
     # -- input -----------------------------------------------------------------------------------
     def _on_publisher(self, sample) -> None:
@@ -81,6 +98,9 @@ class Monitor:
         if sample.kind != zenoh.SampleKind.PUT:
             return
         parts = str(sample.key_expr).split("/", 4)  # zenavlive/<robot>/pub/<node>/<topic>
+        if "*" in self.robot and len(parts) == 5:
+            self._view(parts[1])._on_publisher(sample)
+            return
         key = str(sample.key_expr)  # one query per publisher: several nodes may latch one topic (tf_static)
         if len(parts) < 5 or key in self._queried:
             return
@@ -97,6 +117,9 @@ class Monitor:
 
     def _on_sample(self, sample) -> None:
         key = str(sample.key_expr)
+        if "*" in self.robot:
+            self._view(key.split("/")[1])._on_sample(sample)
+            return
         if not key.startswith(self._prefix) or key.startswith(self._prefix + "srv/"):
             return
         topic = key[len(self._prefix):]
@@ -144,6 +167,11 @@ class Monitor:
 
     def flush_pending(self, flush_all: bool = False) -> None:
         with self._lock:
+            for v in list(self._views.values()):
+                v.flush_pending(flush_all)
+            if self._views:
+                self.stats.throttled = sum(v.throttle.dropped for v in self._views.values())
+                return
             for entity, (stamp, fn) in self.throttle.due(flush_all):
                 try:
                     self._emit(entity, stamp, fn)

@@ -4,6 +4,9 @@
 The bridge has an address in the root namespace, so the test (the "laptop") reaches every host over
 ssh. All hosts share this machine's filesystem: each gets its own install_dir and sysroot under the
 temp dir. No systemd runs here, so the hosts use the supervisor (service_manager: auto detects it).
+
+Also the test's helpers: the inventory it writes, ``zenav`` run as a subprocess, processes started in
+a host's namespace with that host's Zenoh identity (its generated zenav.env).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import pytest
 
 from tests.support import ip
 
+REPO = Path(__file__).resolve().parents[2]
 SSHD = "/usr/sbin/sshd"
 SSH_OPTS = ["StrictHostKeyChecking=no", "UserKnownHostsFile=/dev/null"]
 
@@ -151,3 +155,88 @@ def requirements() -> None:
 def python_for_hosts() -> str:
     """The interpreter the hosts use for their venvs (this one: it has zenav's dependencies)."""
     return os.path.realpath(sys.executable)
+
+
+def inventory(hosts: FleetHosts, robots: dict[str, str], tmp: Path, clock_cmd: str = "", acl: bool = False) -> dict:
+    """robot1 + master1 serving ``robots["1"]`` (and robot2 + master2 serving ``robots["2"]`` when given):
+    simulated P3-AT on the robot hosts, the master on the known map; ``acl``: generated cmd_vel access
+    control (off in the netns flow: Zenoh 1.10's gossip with usrpwd sometimes leaves two processes unlinked,
+    see docs/fleet.md; tests/fleet/test_fleet_acl.py checks the generated files live)."""
+    def host(name: str, role: str, config: str) -> dict:
+        return {"address": hosts.address(name), "role": role, "robot": robots[name[-1]], "config": config,
+                "install_dir": str(tmp / "hosts" / name / "zenav"), "sysroot": str(tmp / "hosts" / name / "root")}
+
+    inv = {
+        "security": {"cmd_vel_acl": acl, "secrets_dir": str(tmp / "secrets")},
+        "defaults": {"ssh": {"user": "root", "key": str(hosts.key), "options": SSH_OPTS},
+                     "python": python_for_hosts(), "zenoh": {"mode": "peer", "shared_memory": False},
+                     # the namespaces have no route to PyPI (local wheels); setuptools + wheel come from the
+                     # venv's system site-packages instead of an isolated build env (~60 s of CPU saved)
+                     "pip_args": ["--retries", "0", "--no-build-isolation"]},
+        "hosts": {},
+    }
+    for n in sorted(robots):
+        inv["hosts"][f"robot{n}"] = host(f"robot{n}", "robot", "robot_side/config/p3at_sim.yaml")
+        inv["hosts"][f"master{n}"] = host(f"master{n}", "master", "master_side/config/p3at_known_map.yaml")
+    # only robot1 installs with pip (install_mode: link elsewhere): pip's build costs CPU this shared
+    # 2-core machine lacks
+    for name, h in inv["hosts"].items():
+        if name != "robot1":
+            h["install_mode"] = "link"
+    if clock_cmd:
+        inv["hosts"]["robot1"]["clock_cmd"] = clock_cmd
+    return inv
+
+
+def zenav(*args: str, timeout: float = 240) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
+    t0 = time.monotonic()
+    r = subprocess.run([sys.executable, "-m", "deploy.cli", *args], cwd=REPO, env=env, capture_output=True,
+                       text=True, timeout=timeout)
+    print(f"$ zenav {' '.join(args)}  ({time.monotonic() - t0:.1f} s, exit {r.returncode})\n{r.stdout}{r.stderr}")
+    return r
+
+
+def status_until(inv: Path, ok: bool, timeout: float = 60) -> subprocess.CompletedProcess:
+    deadline = time.monotonic() + timeout
+    while True:
+        r = zenav("fleet", "-i", str(inv), "status", "--seconds", "1.5")
+        if (r.returncode == 0) == ok or time.monotonic() > deadline:
+            return r
+        time.sleep(1)
+
+
+def host_env(path: Path) -> dict[str, str]:
+    return dict(line.split("=", 1) for line in path.read_text().splitlines() if "=" in line and line[0] != "#")
+
+
+def on_host(hosts: FleetHosts, tmp: Path, host: str, argv: list[str], identity: str = "",
+            env: dict | None = None, seconds: float = 0) -> subprocess.Popen:
+    """``python argv`` in ``host``'s namespace with the Zenoh settings and identity of the zenav.env of
+    ``identity`` (default: ``host`` itself); ``env`` entries win; ``seconds``: killed after that long."""
+    e = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
+    e.update(host_env(tmp / "hosts" / (identity or host) / "zenav/etc/zenav.env"), PYTHONPATH=str(REPO))
+    e.update(env or {})
+    limit = ["timeout", str(seconds)] if seconds else []
+    return subprocess.Popen(["ip", "netns", "exec", hosts.ns[host], *limit, sys.executable, *argv], cwd=REPO,
+                            env=e, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def output(p: subprocess.Popen, timeout: float = 30) -> str:
+    try:
+        out, err = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        p.kill()
+        out, err = p.communicate()
+    return out + err
+
+
+def node_pid(hosts: FleetHosts, host: str, node: str) -> int:
+    for pid in hosts.pids(host):
+        try:
+            argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+        except OSError:
+            continue
+        if b"--name" in argv and argv[argv.index(b"--name") + 1] == node.encode():
+            return pid
+    raise AssertionError(f"no process of node {node} on {host}")
