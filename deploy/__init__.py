@@ -93,10 +93,29 @@ def close_quietly(*objs) -> None:
             o.undeclare() if hasattr(o, "undeclare") else o.close()
 
 
+_HANDED_OUT: set[int] = set()
+
+
 def free_port() -> int:
-    """A TCP port on 127.0.0.1 that is free right now (for private loopback Zenoh networks)."""
+    """A TCP port on 127.0.0.1 that is free right now (for private loopback Zenoh networks).
+
+    Picked at random below Linux's ephemeral range (32768-60999): a port the kernel hands out for
+    ``bind(0)`` — every Zenoh peer's own listener, every outgoing connection — could be taken by another
+    process between this check and our bind (seen in CI: "Address already in use"); these cannot."""
+    import random
     import socket
 
-    with socket.socket() as s:
+    for _ in range(200):
+        port = random.randrange(20000, 32768)
+        if port in _HANDED_OUT:
+            continue
+        with socket.socket() as s:
+            try:
+                s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+        _HANDED_OUT.add(port)
+        return port
+    with socket.socket() as s:  # the low range is crowded: fall back to the kernel's choice
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]

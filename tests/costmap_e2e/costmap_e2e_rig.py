@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -18,14 +17,14 @@ import numpy as np
 import psutil
 import yaml
 
+from deploy import free_port
+
 REPO = Path(__file__).resolve().parents[2]
 ROOM = REPO / "robot_side" / "worlds" / "room.yaml"
 
 
 def cme_free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+    return free_port()  # below the ephemeral range (deploy.free_port)
 
 
 def cme_wait(cond, timeout: float, what: str, procs=(), period: float = 0.05):
