@@ -201,6 +201,19 @@ def read_yaml(path: str | Path) -> dict:
     return data
 
 
+def load_params_file(cls: type, path: str | Path | None, section: str = "", overrides: Mapping | None = None,
+                     **kw) -> Any:
+    """``load_params`` of ``cls`` from a YAML file's ``section`` (the whole file without one; defaults
+    without a file), ``overrides`` winning over the file; ``kw`` as for ``load_params``."""
+    data: dict = {}
+    if path is not None:
+        data = read_yaml(path)
+        if section:
+            data = data.get(section, {}) or {}
+    data.update(overrides or {})
+    return load_params(cls, data, source=str(path or "<defaults>"), section=section, **kw)
+
+
 def strip_frame(name: str) -> str:
     """ROS tf2 frame ids carry no leading slash: '/map' -> 'map'."""
     return name.lstrip("/")

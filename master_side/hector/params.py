@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from common.config import load_params, param, read_yaml
+from common.config import load_params_file, param
 
 
 @dataclass(frozen=True)
@@ -76,10 +76,4 @@ class HectorParams:
 def load_hector(path: str | Path | None = None, section: str = "", notes: list | None = None,
                 **overrides) -> HectorParams:
     """Load hector_mapping parameters from a YAML file (or defaults); ``overrides`` win."""
-    data: dict = {}
-    if path is not None:
-        data = read_yaml(path)
-        if section:
-            data = data.get(section, {}) or {}
-    data.update(overrides)
-    return load_params(HectorParams, data, source=str(path or "<defaults>"), section=section, notes=notes)
+    return load_params_file(HectorParams, path, section, overrides, notes=notes)

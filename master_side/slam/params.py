@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from common.config import load_params, param, read_yaml
+from common.config import load_params_file, param
 
 # ROS-side keys of slam_gmapping that the pure filter does not use (frames, timing of the node)
 NODE_ONLY = ("base_frame", "odom_frame", "map_frame", "throttle_scans", "transform_publish_period",
@@ -78,11 +78,4 @@ class GMappingParams:
 
 def load_gmapping(path: str | Path | None = None, section: str = "", **overrides) -> GMappingParams:
     """Load a gmapping YAML (node-only keys are accepted and ignored); ``overrides`` win."""
-    data: dict = {}
-    if path is not None:
-        data = read_yaml(path)
-        if section:
-            data = data.get(section, {}) or {}
-    data.update(overrides)
-    return load_params(GMappingParams, data, source=str(path or "<defaults>"), section=section,
-                       ignore=NODE_ONLY)
+    return load_params_file(GMappingParams, path, section, overrides, ignore=NODE_ONLY)
