@@ -16,7 +16,7 @@ import yaml
 
 from deploy.check_web_viewer import find_chromium
 from deploy.monitor.cdp import CDP
-from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc
+from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, absolute_param_paths
 from tests.support import free_port, wait_until
 
 REPO = Path(__file__).resolve().parents[2]
@@ -30,11 +30,7 @@ def master_yaml(tmp: Path, initial: tuple[float, float, float]) -> Path:
 
     src = MASTER_DIR / "p3at_amcl.yaml"
     cfg = yaml.safe_load(src.read_text())
-    for spec in cfg["nodes"].values():
-        params = spec.get("params") or {}
-        for k, v in list(params.items()):
-            if isinstance(v, str) and (src.parent / v).exists():
-                params[k] = str((src.parent / v).resolve())
+    absolute_param_paths(cfg, src.parent)
     cfg["nodes"]["map_server"]["params"]["map"] = str(export_world_map("room", tmp / "maps"))
     loc = cfg["nodes"]["localization"]["params"]
     loc["initial_pose_x"], loc["initial_pose_y"], loc["initial_pose_a"] = initial

@@ -33,6 +33,16 @@ def world_goals(world: str) -> dict[str, tuple[float, float, float]]:
     return {k: tuple(float(x) for x in v) for k, v in data["goals"].items()}
 
 
+def absolute_param_paths(cfg: dict, base: Path) -> None:
+    """Node parameters naming a file relative to the config's folder ``base`` made absolute (the
+    generated config is written elsewhere)."""
+    for spec in cfg["nodes"].values():
+        params = spec.get("params") or {}
+        for k, v in list(params.items()):
+            if isinstance(v, str) and (base / v).exists():
+                params[k] = str((base / v).resolve())
+
+
 def master_config_for(planner: str, world: str, tmp: Path, move_base: dict | None = None,
                       navfn: dict | None = None) -> Path:
     """The shipped master YAML for ``planner``. For another world than the room, or with ``move_base`` /
@@ -44,11 +54,9 @@ def master_config_for(planner: str, world: str, tmp: Path, move_base: dict | Non
     from deploy.world_maps import export_world_map
 
     cfg = yaml.safe_load(src.read_text())
+    absolute_param_paths(cfg, src.parent)
     for spec in cfg["nodes"].values():
         params = spec.get("params") or {}
-        for k, v in list(params.items()):
-            if isinstance(v, str) and (src.parent / v).exists():
-                params[k] = str((src.parent / v).resolve())
         if "map" in params and world != "room":
             params["map"] = str(export_world_map(world, tmp / "maps"))
     mb = cfg["nodes"]["move_base"]["params"]
