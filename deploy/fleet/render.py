@@ -149,8 +149,6 @@ def unit(h: Host) -> str:
     text = text.replace(exec_line, "ExecStart=" + " ".join(agent_argv(h)))
     text = text.replace("/etc/zenav/zenav.env", p["env"]).replace("@REPO@", p["src"])
     text = text.replace("User=zenav", f"User={h.service_user}").replace("Group=zenav", f"Group={h.service_user}")
-    text = text.replace("Restart=on-failure", "Restart=on-failure\n# exit 2 = bad config: a restart cannot fix it\n"
-                        "RestartPreventExitStatus=2")
     for old in ("deploy/hosts/install-robot.sh", "install-robot.sh"):
         text = text.replace(old, "zenav fleet install")
     return text
