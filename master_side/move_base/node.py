@@ -49,6 +49,7 @@ from common.tf import TFListener
 from master_side.costmap.health import SensorHealth
 from master_side.move_base.config import check, load_move_base_config
 from master_side.move_base.controller import LocalController
+from master_side.move_base.inputs import robot_pose, safety_override
 from master_side.move_base.planner_process import NavfnProcess
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
@@ -103,7 +104,9 @@ class MoveBaseNode:
         node.subscribe("move_base_simple/goal", PoseStamped, callback=self._on_goal, mode="queue")
         node.subscribe("move_base/goal", MoveBaseGoal, mode="queue",
                        callback=lambda g: self._on_goal(g.target_pose, g.goal_id))
-        node.subscribe("move_base/cancel", None, callback=lambda _m: self.cancel(), mode="queue")
+        self._cancel_sub = None
+        self._cancel_sub = node.subscribe("move_base/cancel", None, mode="queue", callback=lambda _m: self.cancel(
+            self._cancel_sub.last_publisher if self._cancel_sub is not None else ""))
         node.service("make_plan", self._make_plan_service, PlanRequest)
         for n in c.notes:
             node.log.debug("no effect: %s", n)
@@ -141,7 +144,8 @@ class MoveBaseNode:
         self.node.log.info("new goal %s: (%.2f, %.2f, %.2f) in %s (given in %s)", gid, goal.x, goal.y,
                            goal.theta, gf, frame)
 
-    def cancel(self) -> None:
+    def cancel(self, by: str = "") -> None:
+        """Stop and end the goal (PREEMPTED); ``by``: the node that published the cancel, for the log."""
         # Stop first: the control cycle may hold self.lock for a while (a recovery's costmap-clear
         # service calls run inside it), and cancel must zero cmd_vel at once. The cycle checks the
         # cancel count under cmd_lock before it publishes, so it cannot send a stale command after this.
@@ -149,7 +153,10 @@ class MoveBaseNode:
             self._cancels += 1
             self.cmd.publish(Twist())
         with self.lock:
-            self.machine.cancel(self.node.clock.now())
+            goal = self.machine.goal
+            if goal is not None:
+                self.node.log.info("goal %s cancelled by %s", goal.goal_id, by or "an unnamed publisher")
+            self.machine.cancel(self.node.clock.now(), by)
             self.cmd.publish(Twist())
             self._report(None)
 
@@ -207,28 +214,8 @@ class MoveBaseNode:
     # -- the control cycle ---------------------------------------------------------------------------
     def _robot_pose(self, now: float):
         """(global pose, local pose, local_from_global, problem)."""
-        tol, gf = self.config.transform_tolerance, self.global_frame
-        if gf is None:
-            return None, None, None, "no global costmap received yet"
-        try:
-            g = self.tf.buffer.lookup(gf, self.base_frame, 0.0)
-            lo = self.tf.buffer.lookup(self.local_frame, self.base_frame, 0.0)
-            lg = self.tf.buffer.lookup_pose2d(self.local_frame, gf, 0.0)
-        except Exception as e:  # noqa: BLE001
-            return None, None, None, f"no robot pose: {e}"
-        for ts, a, b in ((g, gf, self.base_frame), (lo, self.local_frame, self.base_frame)):
-            age = now - ts.header.stamp
-            if ts.header.stamp > 0 and age > tol:
-                return None, None, None, (f"stale TF: {a} <- {b} is {age:.2f} s old (transform_tolerance "
-                                          f"{tol:.2f} s){self._slowest_edge(now)}")
-        return g.transform.to_pose2d(), lo.transform.to_pose2d(), lg, ""
-
-    def _slowest_edge(self, now: float) -> str:
-        edges = [e for e in self.tf.buffer.edges() if not e.static]
-        if not edges:
-            return ""
-        e = max(edges, key=lambda e: now - e.latest_stamp)
-        return f"; oldest edge {e.parent} -> {e.child} ({now - e.latest_stamp:.2f} s, from {e.publisher or '?'})"
+        return robot_pose(self.tf.buffer, self.global_frame, self.local_frame, self.base_frame,
+                          self.config.transform_tolerance, now)
 
     def cycle(self) -> None:
         t0 = time.perf_counter()
@@ -280,7 +267,7 @@ class MoveBaseNode:
         reason = m.reason
         if self._blind and m.state is State.IDLE:  # say it before a goal comes in too
             reason = f"{reason}; sensor data: {self._blind}"
-        override = _safety_override(self.safety)
+        override = safety_override(self.safety)
         if override and m.state is not State.IDLE:
             reason = f"{reason}; {override}" if reason else override
         self._publish_status(m.status, reason, terminal, dist)
@@ -308,15 +295,6 @@ class MoveBaseNode:
         self.navfn.close()
         self.cmd.publish(Twist())
         self.tf.close()
-
-
-def _safety_override(sub) -> str:
-    """The robot's collision monitor overriding our commands now, in words ("" when it is not)."""
-    st = sub.latest()
-    if st is None or sub.age() > 1.5 or st.action in ("none", "disabled", "stale_cmd"):
-        return ""
-    why = f": {st.reason}" if st.reason else ""
-    return f"robot's collision monitor: {st.action}{why} (speed x{st.ratio:.2f})"
 
 
 def start(node: Node, cfg: dict, source: str) -> MoveBaseNode:

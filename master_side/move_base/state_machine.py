@@ -123,11 +123,11 @@ class MoveBaseMachine:
         self._enter(State.PLANNING, f"new goal {goal_id} at ({goal.x:.2f}, {goal.y:.2f}, {goal.theta:.2f})")
         self.reason = "waiting for a global plan"
 
-    def cancel(self, now: float) -> Decision:
-        """Cancel from any state: zero velocity now, status PREEMPTED."""
+    def cancel(self, now: float, by: str = "") -> Decision:
+        """Cancel from any state: zero velocity now, status PREEMPTED. ``by``: who asked (in the reason)."""
         if self.goal is not None and self.state is not State.IDLE:
             self.status = GoalStatus.PREEMPTED
-            self._finish("goal cancelled")
+            self._finish(f"goal cancelled by {by}" if by else "goal cancelled")
         return self._decide(ZERO)
 
     # -- one control cycle ---------------------------------------------------------------------

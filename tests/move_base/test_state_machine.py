@@ -120,8 +120,9 @@ def test_cancel_from_recovery_stops_immediately():
     d = m.tick(0.1, Pose2D(), (0, 0, 0))
     d = m.tick(0.2, Pose2D(), (0, 0, 0))
     assert m.state is State.CLEARING and d.cmd[2] == pytest.approx(0.5)
-    d = m.cancel(0.25)
+    d = m.cancel(0.25, by="zenav_goal")
     assert d.cmd == (0.0, 0.0, 0.0) and d.status == GoalStatus.PREEMPTED and d.state is State.IDLE
+    assert d.reason == "goal cancelled by zenav_goal"  # who cancelled it, in the status line
     assert m.tick(0.3, Pose2D(), (0, 0, 0)).cmd == (0.0, 0.0, 0.0)
 
 

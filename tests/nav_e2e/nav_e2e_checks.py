@@ -146,8 +146,9 @@ def cancel_and_measure(stack: NavStack) -> float:
     stack.cancel_pub.publish(Empty())
     first = wait_until(lambda: next((t for t, m in stack.cmd.since(t_pub) if m.is_zero()), None), 10.0,
                      "a zero cmd_vel after cancel")
-    wait_until(lambda: (m := stack.status.last()).status == GoalStatus.PREEMPTED and m.state == "IDLE",
-             10.0, "status PREEMPTED")
+    done = wait_until(lambda: (m := stack.status.last()).status == GoalStatus.PREEMPTED and m.state == "IDLE"
+                      and m, 10.0, "status PREEMPTED")
+    assert done.reason == f"goal cancelled by {stack.node.name}", done.reason  # says who cancelled
     n = len(stack.status.since(first))  # move_base keeps publishing status every cycle: watch a few more
     wait_until(lambda: len(stack.status.since(first)) >= n + 5, 10.0, "more move_base/status")
     later = [m for t, m in stack.cmd.since(first) if not m.is_zero()]
