@@ -9,7 +9,7 @@ camera_link as the sensor frame. The tests share one stack and run in order.
 (a) 100 ms delay each way + 5 % packet loss: the goal is still reached, no collision.
 (b) a 3 s partition while driving: the robot stops within cmd_vel_timeout + braking of the last command;
     after the link heals the same goal completes, nothing restarted.
-(c) a box appears 0.1 m in front of the bumper as the link is cut while driving at 0.25 m/s or more:
+(c) a box appears 0.1 m in front of the bumper as the link is cut while driving at 0.3 m/s or more:
     command expiry alone would carry the robot 0.25 s + braking, further than that; the robot's own
     collision monitor acts on its next scan and the robot stops short of the box.
 """
@@ -222,19 +222,29 @@ def test_b_a_partition_stops_the_robot_and_the_goal_completes_after_it(stack):
 
 def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(stack):
     probe = stack["probe"]
-    t0 = _goal(probe, -2.2, 1.9, math.pi / 2)  # 1.9 m straight north along the west wall, 0.85 m from it
 
-    def cruising():
-        return [w for w in probe.events("GT", t0) if float(w[5]) >= 0.25 and abs(float(w[4]) - math.pi / 2) < 0.15]
-    try:
-        wait_until(cruising, 120, "driving north at 0.25 m/s or more")
-    except AssertionError:
-        gt = probe.events("GT", t0)
-        gid = _goal_id(probe, t0)
-        st = [" ".join(w[2:]) for w in probe.events("ST", t0) if w[3] == gid]
-        raise AssertionError(f"never cruising; top speed {max((float(w[5]) for w in gt), default=0):.2f} m/s, "
-                             f"last {gt[-1][2:] if gt else None}, goal {gid}: {list(dict.fromkeys(st))[-4:]}") from None
-    v = float(probe.events("GT", t0)[-1][5])
+    def cruising(t0):
+        return [w for w in probe.events("GT", t0) if float(w[5]) >= 0.3 and abs(float(w[4]) - math.pi / 2) < 0.15]
+    # Face north first, so the drive north starts straight (after (b) the robot faces west and DWA's
+    # arc out of that turn may never run at 0.3 m/s with the heading within 0.15 rad of north). On a
+    # loaded machine localization can pause the drive (stale map->odom): then go back and drive again.
+    for attempt in range(3):
+        _reached(probe, _goal(probe, -2.2, -0.2, math.pi / 2), what="facing north at the start")
+        t0 = _goal(probe, -2.2, 1.9, math.pi / 2)  # 2.1 m straight north along the west wall, 0.85 m from it
+        try:
+            wait_until(lambda: cruising(t0), 120, "driving north at 0.3 m/s or more")
+            break
+        except AssertionError:
+            gt = probe.events("GT", t0)
+            gid = _goal_id(probe, t0)
+            st = [" ".join(w[2:]) for w in probe.events("ST", t0) if w[3] == gid]
+            why = (f"never cruising; top speed {max((float(w[5]) for w in gt), default=0):.2f} m/s, "
+                   f"last {gt[-1][2:] if gt else None}, goal {gid}: {list(dict.fromkeys(st))[-4:]}")
+            print(f"attempt {attempt + 1}: {why}")
+            if attempt == 2:
+                raise AssertionError(why) from None
+            _reached(probe, t0, what="the north goal after an attempt without cruising")
+    v = float(probe.events("GT", t0)[-1][5])  # >= 0.3 m/s: command expiry alone then exceeds the 0.1 m gap
     # the box is placed inside what command expiry alone would cover (the last command for cmd_vel_timeout,
     # then braking) but beyond what braking after 0.2 s of reaction needs: only a robot-side reaction stops
     gap = max(0.10, v * 0.2 + v**2 / (2 * DECEL))
