@@ -149,11 +149,12 @@ class Node:
         raise ServiceTimeout(f"service '{name}' did not answer within {timeout:.1f} s")
 
     # -- time ----------------------------------------------------------------------------------
-    def timer(self, period: float, fn: Callable[[], None]) -> Timer:
+    def timer(self, period: float, fn: Callable[[], None], on_data: bool = False) -> Timer:
+        """``fn`` every ``period`` s of the node's clock; ``on_data``: when kicked (see ``Timer``)."""
         def on_error(e: Exception) -> None:
             self.log.error("timer callback raised: %s\n%s", e, traceback.format_exc())
 
-        t = Timer(self.clock, period, fn, name=f"timer:{self.name}", on_error=on_error)
+        t = Timer(self.clock, period, fn, name=f"timer:{self.name}", on_error=on_error, on_data=on_data)
         self._timers.append(t)
         return t
 

@@ -56,6 +56,11 @@ class SimClock:
     def now(self) -> float:
         return self._t
 
+    def wake(self) -> None:
+        """Let sleepers check their cancel event now (a kicked timer) instead of at the next tick."""
+        with self._cv:
+            self._cv.notify_all()
+
     def sleep(self, seconds: float) -> None:
         self.sleep_until(self._t + seconds)
 
@@ -70,36 +75,78 @@ class SimClock:
 
 
 class Timer:
-    """Calls ``fn()`` every ``period`` seconds of ``clock`` on its own thread until cancelled."""
+    """Calls ``fn()`` every ``period`` seconds of ``clock`` on its own thread until cancelled.
 
-    def __init__(self, clock, period: float, fn, name: str = "timer", on_error=None) -> None:
+    ``on_data=True`` (zenav's event-driven mode): ``kick()`` asks for a run as soon as new data is there.
+    It runs at once if ``period`` has passed since the last run, else when it has (so never more often
+    than 1/period); without kicks it still runs every ``IDLE_PERIODS`` periods or ``IDLE_MIN_S``, whichever
+    is longer (so a sensor slower than the timer's rate never meets an idle run just before its data).
+    The run is then aligned with the data instead of a free-running phase."""
+
+    IDLE_PERIODS, IDLE_MIN_S = 2.0, 0.5
+
+    def __init__(self, clock, period: float, fn, name: str = "timer", on_error=None, on_data: bool = False) -> None:
         if period <= 0:
             raise ValueError("timer period must be > 0")
         self._clock, self._period, self._fn, self._on_error = clock, period, fn, on_error
         self._cancel = threading.Event()
+        self._wake = threading.Event()  # set by kick() and cancel(): ends the current sleep
+        self._on_data = on_data
         self.overruns = 0
         self.last_duration = 0.0
-        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self.kicks = 0
+        self._thread = threading.Thread(target=self._run if not on_data else self._run_on_data, name=name,
+                                        daemon=True)
         self._thread.start()
+
+    def _call(self) -> None:
+        t0 = time.perf_counter()
+        try:
+            self._fn()
+        except Exception as e:  # a failing callback must not kill the node
+            if self._on_error is not None:
+                self._on_error(e)
+        self.last_duration = time.perf_counter() - t0
 
     def _run(self) -> None:
         next_t = self._clock.now() + self._period
         while self._clock.sleep_until(next_t, self._cancel):
-            t0 = time.perf_counter()
-            try:
-                self._fn()
-            except Exception as e:  # a failing callback must not kill the node
-                if self._on_error is not None:
-                    self._on_error(e)
-            self.last_duration = time.perf_counter() - t0
+            self._call()
             next_t += self._period
             now = self._clock.now()
             if next_t < now:  # fell behind: skip missed ticks rather than bursting
                 self.overruns += 1
                 next_t = now + self._period
 
+    def _run_on_data(self) -> None:
+        last, idle = float("-inf"), max(self._period * self.IDLE_PERIODS, self.IDLE_MIN_S)
+        next_t = self._clock.now() + idle
+        while True:
+            slept = self._clock.sleep_until(next_t, self._wake)
+            if self._cancel.is_set() or not (slept or self._wake.is_set()):  # cancelled, or the clock closed
+                return
+            if not slept:  # kicked: run now if a period has passed, else when it has
+                self._wake.clear()
+                self.kicks += 1
+                due = last + self._period
+                if self._clock.now() < due:
+                    next_t = min(next_t, due)
+                    continue
+            last = self._clock.now()
+            self._call()
+            next_t = last + idle
+
+    def kick(self) -> None:
+        """New data: run soon (``on_data`` timers; a no-op for fixed-rate ones)."""
+        if self._on_data:
+            self._wake.set()
+            wake = getattr(self._clock, "wake", None)
+            if wake is not None:
+                wake()
+
     def cancel(self) -> None:
         self._cancel.set()
+        self._wake.set()
 
     def join(self, timeout: float = 2.0) -> None:
         if threading.current_thread() is not self._thread:

@@ -95,6 +95,9 @@ class CostmapParams:
     global_frame: str = param("map", doc="frame the costmap lives in")
     robot_base_frame: str = param("base_link")
     update_frequency: float = param(5.0, lo=0.0, hi=1000.0, unit="Hz", doc="map update rate")
+    update_on_observation: bool = param(
+        False, doc="zenav: update as soon as an observation arrives (at most update_frequency times a "
+                   "second; without observations every max(2/update_frequency, 0.5) s); false = ROS's fixed-rate loop")
     publish_frequency: float = param(0.0, lo=0.0, hi=1000.0, unit="Hz", doc="display rate (0: never)")
     transform_tolerance: float = param(0.3, lo=0.0, unit="s", doc="max TF age")
     static_map: bool = param(False, doc="pre-Hydro: add a static layer")

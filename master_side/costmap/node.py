@@ -83,7 +83,8 @@ class CostmapNode:
                 self.subs.append(node.subscribe(topic, OccupancyGrid, callback=cb))
         node.service(f"{self.name}/clear", self._on_clear)
         c = cfg.costmap
-        self.timers = [node.timer(1.0 / c.update_frequency, self.update)] if c.update_frequency > 0 else []
+        self.timers = [node.timer(1.0 / c.update_frequency, self.update, on_data=c.update_on_observation)
+                       ] if c.update_frequency > 0 else []
         if c.publish_frequency > 0:
             self.timers.append(node.timer(1.0 / c.publish_frequency, self.publish))
         self._sensors_sent = float("-inf")
@@ -116,6 +117,8 @@ class CostmapNode:
             buf.add(data_tf.transform.apply(pts), origin, msg.header.stamp, received=self.node.clock.now())
             self._newest_obs = max(self._newest_obs, msg.header.stamp)
             self.watch.used(layer.name, src)
+        if self.timers and self.cfg.costmap.update_on_observation:
+            self.timers[0].kick()  # only an on_data timer reacts
 
     def check_sensors(self) -> None:
         """Sensor health: log each change of state, publish ``<name>/sensors`` on a change and at 1 Hz."""

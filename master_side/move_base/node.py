@@ -89,7 +89,7 @@ class MoveBaseNode:
         self.health = SensorHealth(required=("local_costmap",))
         self.odom = node.subscribe("odom", Odometry)
         self.global_costmap = node.subscribe("global_costmap/costmap", Costmap)
-        self.local_costmap = node.subscribe("local_costmap/costmap", Costmap)
+        self.local_costmap = node.subscribe("local_costmap/costmap", Costmap, callback=self._on_local_costmap)
         for name in ("local_costmap", "global_costmap"):
             node.subscribe(f"{name}/sensors", CostmapSensors, callback=self.health.update, mode="queue")
         self.cmd = node.publisher("cmd_vel")
@@ -110,7 +110,7 @@ class MoveBaseNode:
         node.service("make_plan", self._make_plan_service, PlanRequest)
         for n in c.notes:
             node.log.debug("no effect: %s", n)
-        self.timer = node.timer(1.0 / p.controller_frequency, self.cycle)
+        self.timer = node.timer(1.0 / p.controller_frequency, self.cycle, on_data=p.control_on_costmap)
 
     @property
     def global_frame(self) -> str | None:
@@ -143,6 +143,11 @@ class MoveBaseNode:
         self.goal_pub.publish(self.goal_msg)
         self.node.log.info("new goal %s: (%.2f, %.2f, %.2f) in %s (given in %s)", gid, goal.x, goal.y,
                            goal.theta, gf, frame)
+
+    def _on_local_costmap(self, _msg: Costmap) -> None:
+        timer = getattr(self, "timer", None)  # a costmap may come in before the timer exists
+        if timer is not None:
+            timer.kick()  # control_on_costmap: a cycle now; a fixed-rate timer ignores it
 
     def cancel(self, by: str = "") -> None:
         """Stop and end the goal (PREEMPTED); ``by``: the node that published the cancel, for the log."""

@@ -26,6 +26,10 @@ class MoveBaseParams:
     base_local_planner: str = param("base_local_planner/TrajectoryPlannerROS", choices=LOCAL_PLANNERS,
                                     doc="local planner: DWA, trajectory rollout, or zenav's regulated pure pursuit")
     controller_frequency: float = param(20.0, lo=0.1, hi=100.0, unit="Hz", doc="control loop rate")
+    control_on_costmap: bool = param(
+        False, doc="zenav: run the control cycle as soon as a new local costmap arrives (at most "
+                   "controller_frequency times a second; without one every max(2/controller_frequency, 0.5) s); "
+                   "false = ROS's fixed-rate loop")
     planner_frequency: float = param(0.0, lo=0.0, hi=100.0, unit="Hz",
                                      doc="global replanning rate; 0 = plan only on a new goal or failure")
     controller_patience: float = param(15.0, lo=0.0, unit="s",
