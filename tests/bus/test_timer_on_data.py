@@ -1,7 +1,7 @@
 """common.clock.Timer's event-driven mode (costmap ``update_on_observation``, move_base
 ``control_on_costmap``): a kick runs at once when a period has passed since the last run, else one period
-after it; without kicks every IDLE_PERIODS periods (at least IDLE_MIN_S). A step clock shows when the timer plans to wake, so
-the schedule is checked exactly, without racing the timer's thread."""
+after it; without kicks every IDLE_PERIODS periods (at least IDLE_MIN_S). A step clock shows when the
+timer plans to wake, so the schedule is checked exactly, without racing the timer's thread."""
 
 from __future__ import annotations
 
