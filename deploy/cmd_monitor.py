@@ -12,14 +12,17 @@ import time
 
 from common.argtypes import nonneg, port
 
+KEYFRAME_S = 30.0  # with --serve-web: rarely logged entities (the latched map) logged again this often
+HISTORY_LIMIT = "512MiB"  # with --serve-web: Rerun's gRPC history buffer (bench/monitor_memory.py)
+
 DESCRIPTION = """\
 Join the bus as a Zenoh peer (on any machine: robot, master or a laptop) and log one robot's
 topics to Rerun: map, costmap layers, footprint, global/local plan, goal, laser scan, depth image
 and point cloud, odometry trail, TF frames, cmd_vel and loop-time plots, node states and
 move_base state changes. Heavy streams are throttled per entity (--rate; the newest message of
 each entity is always logged in the end) so long runs keep the viewer's memory bounded, together
-with --memory-limit. Times are the message stamps (timeline `stamp`: a duration under simulated
-time, a timestamp under wall time).
+with --memory-limit (and, with --serve-web, --history-limit for this process). Times are the message
+stamps (timeline `stamp`: a duration under simulated time, a timestamp under wall time).
 
 Outputs (pick one; default: --spawn when a display is available, else --save):
   --spawn              start the native viewer on this machine
@@ -61,8 +64,13 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "--rate camera/depth/points=0.5 (0 = every message; repeatable or comma list)")
     p.add_argument("--duration", type=nonneg, default=0.0, help="stop after this many seconds (0 = Ctrl-C)")
     p.add_argument("--memory-limit", default="2GiB",
-                   help="memory limit of the spawned viewer / of the web server's buffer; the oldest data "
-                        "is dropped beyond it (spawn, serve-web)")
+                   help="memory limit of the viewer (spawned, or the page's web viewer); the oldest data is "
+                        "dropped beyond it, the newest state of every entity stays")
+    p.add_argument("--history-limit", default=HISTORY_LIMIT,
+                   help="with --serve-web: the history this process keeps for pages opened later (Rerun's gRPC "
+                        "buffer; at the demo's rates about 1 MB/s is offered): the oldest is dropped beyond it, "
+                        f"the map and goal are logged again every {KEYFRAME_S:.0f} s so a late page still gets "
+                        "them (default %(default)s)")
     p.set_defaults(func=run)
     return p
 
@@ -95,7 +103,7 @@ def open_recording(args, robot: str):
         return rec, f"saving to {args.save} (open with: rerun {args.save})"
     if args.serve_web:
         uri = rec.serve_grpc(grpc_port=args.grpc_port, default_blueprint=bp,
-                             server_memory_limit=args.memory_limit)
+                             server_memory_limit=getattr(args, "history_limit", HISTORY_LIMIT))
         host = args.bind if args.bind not in ("0.0.0.0", "::") else "localhost"
         return rec, f"page at http://{host}:{args.serve_web}/ (recording {uri})"
     if args.connect_viewer:
@@ -214,7 +222,10 @@ def run(args) -> int:
     observers = [fit_view_to_map(rec, args) if "*" not in robot else fit_robots_views(rec)]
     if web_state is not None:  # the latched map arrives through the monitor's query, the rest directly
         observers.append(lambda topic, msg: web_state.observe(topic, msg) if topic == "map" else None)
-    mon = Monitor(session, robot, rec, rates, observers=observers)
+    # the page's gRPC server drops its oldest history beyond --memory-limit: log the map, goal and plan again
+    # while unchanged so a page opened late still gets them (not for a file or a viewer, which keep them)
+    mon = Monitor(session, robot, rec, rates, observers=observers,
+                  keyframe_period=KEYFRAME_S if args.serve_web else 0.0)
     if web_state is not None:
         from deploy.monitor.webserver import WebServer, subscribe_state
 

@@ -51,11 +51,20 @@ def _frame(rec, header: m.Header) -> rr.CoordinateFrame:
     return rr.CoordinateFrame(frame_of(rec, header.frame_id))
 
 
+def grid_image(data: np.ndarray) -> np.ndarray:
+    """A ROS grid (row 0 = the lowest y, at the origin) in Rerun's GridMap order: image rows, row 0 at the
+    top (the highest y). Rerun places the image's lower-left corner at ``translation`` and draws row 0 at
+    the far edge along +y (``re_view_spatial`` grid_map.rs: top-left = (0, height * cell_size)); logging the
+    ROS rows as they are mirrors the map top to bottom (checked in the web viewer:
+    tests/monitor/test_monitor_not_mirrored.py)."""
+    return aligned(data[::-1]).view(np.uint8)
+
+
 def _grid(rec, path: str, header, resolution: float, origin: m.Pose2D, data: np.ndarray, colormap,
           opacity: float, draw_order: float) -> None:
     h, w = data.shape
     rec.log(path, _frame(rec, header), rr.GridMap(
-        data=aligned(data).view(np.uint8).tobytes(),
+        data=grid_image(data).tobytes(),
         format=rr.components.ImageFormat(width=w, height=h, color_model="L", channel_datatype="U8"),
         cell_size=resolution, translation=[origin.x, origin.y, 0.0],
         rotation_axis_angle=rr.RotationAxisAngle([0, 0, 1], origin.theta),

@@ -6,14 +6,15 @@ are fetched from every publisher that announces them (liveliness), never from se
 Heavy streams are throttled per entity (``pacing.Throttle``, latest wins) so a long run keeps the
 viewer's memory bounded. Time comes from the message stamps (``pacing.StampTimeline``). A robot pattern
 (``*``) logs every matching robot side by side: one view per robot (its own throttle, timeline, ...),
-its entities and TF frames under ``<robot>/`` (``loggers.Prefixed``).
+its entities and TF frames under ``<robot>/`` (``loggers.Prefixed``). With a server history that drops
+its oldest data (``--serve-web``), rarely logged entities such as a latched map are logged again while
+unchanged (``keyframes.Keyframes``) so a page opened hours later still gets them.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-import re
 import threading
 from dataclasses import dataclass, field
 from typing import Callable
@@ -24,16 +25,14 @@ import zenoh
 from common import messages as m
 from common.codec import DecodeError, decode
 from deploy.monitor import loggers as L
+from deploy.monitor.events import STATUS_NAMES, TextEvents
+from deploy.monitor.keyframes import Keyframes
 from deploy.monitor.layout import blueprint  # noqa: F401 - re-exported for callers
 from deploy.monitor.pacing import DEFAULT_RATES, StampTimeline, Throttle  # noqa: F401
-from master_side.costmap.health import summary as sensors_summary
 
 log = logging.getLogger("zenav.monitor")
 
 IGNORED = {"CameraInfo", "Empty"}
-STATUS_NAMES = {0: "PENDING", 1: "ACTIVE", 2: "PREEMPTED", 3: "SUCCEEDED", 4: "ABORTED", 5: "REJECTED",
-                8: "RECALLED"}
-NODE_LEVELS = {"FAILED": "ERROR", "RESTARTING": "WARN", "EXITED": "WARN"}
 PLAN_COLORS = {"local_plan": (0, 200, 255)}
 
 
@@ -51,12 +50,13 @@ class MonitorStats:
                 f"malformed={self.malformed} errors={self.errors}")
 
 
-class Monitor:
+class Monitor(TextEvents):
     def __init__(self, session: zenoh.Session, robot: str, rec: rr.RecordingStream,
                  rates: dict[str, float] | None = None, flush_period: float = 0.05,
                  observers: list[Callable[[str, object], None]] | None = None,
-                 base_frame: str = "base_link", subscribe: bool = True) -> None:
+                 base_frame: str = "base_link", subscribe: bool = True, keyframe_period: float = 0.0) -> None:
         self.robot, self.rec, self.session = robot, rec, session
+        self.keyframes = Keyframes(keyframe_period)  # > 0 with a history that drops its oldest (--serve-web)
         self.base_frame, self._views = base_frame, {}  # robot pattern: robot name -> its Monitor
         self.observers = list(observers or [])  # e.g. the web page's state: every decoded message
         self.throttle = Throttle(rates)
@@ -87,7 +87,7 @@ class Monitor:
             if robot not in self._views:
                 obs = [lambda t, msg, o=o: o(f"{robot}/{t}", msg) for o in self.observers]
                 v = Monitor(self.session, robot, L.Prefixed(self.rec, robot), self.throttle.rates, observers=obs,
-                            base_frame=self.base_frame, subscribe=False)
+                            base_frame=self.base_frame, subscribe=False, keyframe_period=self.keyframes.period)
                 v.stats, v._lock = self.stats, self._lock  # one count, one lock (the stream is shared)
                 self._views[robot] = v
             return self._views[robot]
@@ -150,6 +150,7 @@ class Monitor:
 
     def _submit(self, entity: str, topic: str, kind: str, stamp: float | None,
                 fn: Callable[[], None]) -> None:
+        self.keyframes.note(entity, kind, stamp, fn)
         if self.throttle.offer(entity, self.throttle.period(topic, kind), (stamp, fn)):
             self._emit(entity, stamp, fn)
         else:
@@ -172,7 +173,7 @@ class Monitor:
             if self._views:
                 self.stats.throttled = sum(v.throttle.dropped for v in self._views.values())
                 return
-            for entity, (stamp, fn) in self.throttle.due(flush_all):
+            for entity, (stamp, fn) in self.throttle.due(flush_all) + self.keyframes.due():
                 try:
                     self._emit(entity, stamp, fn)
                 except Exception as e:  # noqa: BLE001
@@ -260,48 +261,6 @@ class Monitor:
                                  change=f"{msg.action}|{msg.polygon}")
         elif isinstance(msg, m.MotorState):
             self._text_on_change("log/motors", stamp, f"motors {'enabled' if msg.enabled else 'disabled'}")
-
-    def _move_base_status(self, topic: str, msg: m.MoveBaseStatus) -> None:
-        """One event per change of goal / status / state / recovery / reason (numbers in it ignored)."""
-        status = STATUS_NAMES.get(msg.status, str(msg.status))
-        text = f"{msg.state or '-'} [{status}] goal {msg.goal_id or '-'}"
-        if msg.reason:
-            text += f": {msg.reason}"
-        if msg.recovery_count:
-            text += f" (recoveries {msg.recovery_count})"
-        level = ("ERROR" if status in ("ABORTED", "REJECTED")
-                 else "WARN" if msg.state.upper().startswith(("CLEAR", "RECOVER")) or msg.reason else "INFO")
-        key = re.sub(r"-?\d+(\.\d+)?", "#", msg.reason)
-        self._text_on_change(f"log/{topic.rsplit('/', 1)[0]}", msg.header.stamp, text, level,
-                             change=f"{msg.goal_id}|{msg.status}|{msg.state}|{msg.recovery_count}|{key}")
-
-    def _node_state(self, topic: str, msg: m.NodeState) -> None:
-        """``agent/<name>/state`` -> one event per node state change at ``log/agent/<name>``."""
-        parts = topic.split("/")
-        entity = f"log/agent/{parts[1]}" if len(parts) == 3 and parts[0] == "agent" else f"log/{topic}"
-        text = f"{msg.node}: {msg.state}"
-        if msg.restarts:
-            text += f" (restarts {msg.restarts})"
-        if msg.detail:
-            text += f" {msg.detail}"
-        self._text_on_change(entity, msg.header.stamp, text, NODE_LEVELS.get(msg.state, "INFO"),
-                             key=f"{entity}|{msg.node}", change=f"{msg.state}|{msg.restarts}|{msg.detail}")
-
-    def _sensors(self, topic: str, msg: m.CostmapSensors) -> None:
-        """``<costmap>/sensors`` -> one event per change of a source's state at ``log/<costmap>/sensors``
-        (WARN while a source is late or silent)."""
-        change = "|".join(f"{s.layer}/{s.source}/{s.topic}:{s.state}" for s in msg.sources)
-        level = "WARN" if msg.problems() else "INFO"
-        self._text_on_change(f"log/{topic}", msg.header.stamp, sensors_summary(msg), level, change=change)
-
-    def _text_on_change(self, entity: str, stamp: float | None, text: str, level: str = "INFO",
-                        key: str | None = None, change: str | None = None) -> None:
-        """Log ``text`` when it differs from the last one under ``key`` (default: the entity)."""
-        key = key or entity
-        change = text if change is None else change
-        if self._last_text.get(key) != change:
-            self._last_text[key] = change
-            self._emit(entity, stamp, lambda: L.log_text(self.rec, entity, text, level))
 
     def close(self) -> None:
         """Stop receiving, then log what the throttle still held (the newest state of each entity)."""

@@ -131,7 +131,7 @@ class WebState:
         return "; ".join(parts)
 
     def snapshot(self) -> dict:
-        from deploy.monitor.monitor import STATUS_NAMES
+        from deploy.monitor.events import STATUS_NAMES
 
         with self.lock:
             mb = self.move_base
@@ -156,16 +156,19 @@ class WebState:
             }
 
     def map_payload(self) -> dict | None:
-        """The map as grey levels (row 0 = lowest y, like ROS): base64 of uint8 h*w plus its geometry."""
+        """The map as grey levels in image order (row 0 = the top = the highest y, as in a PGM file; the ROS
+        grid's row 0 is the lowest y): base64 of uint8 h*w plus its geometry. The page draws the rows as
+        they come, so what it shows cannot be mirrored by the drawing code."""
         with self.lock:
             g = self.map
             if g is None:
                 return None
             if self._map_payload is None:
                 d = np.asarray(g.data).astype(np.int16)
-                grey = np.where(d < 0, 128, 254 - np.clip(d, 0, 100) * 254 // 100).astype(np.uint8)
+                grey = np.where(d < 0, 128, 254 - np.clip(d, 0, 100) * 254 // 100).astype(np.uint8)[::-1]
                 self._map_payload = {
                     "version": self.map_version, "width": int(g.width), "height": int(g.height),
                     "resolution": float(g.resolution), "origin": _pose(g.origin),
-                    "frame": _frame(g.header.frame_id), "data": base64.b64encode(grey.tobytes()).decode()}
+                    "frame": _frame(g.header.frame_id), "rows": "top_first",
+                    "data": base64.b64encode(np.ascontiguousarray(grey).tobytes()).decode()}
             return self._map_payload

@@ -66,3 +66,22 @@ def read_rrd(path: Path) -> dict[str, list[dict]]:
 def values(rows: list[dict], component: str) -> list:
     """The non-null values of ``component`` (each a list, as logged) in row order."""
     return [r[component] for r in rows if r.get(component) is not None]
+
+
+def asymmetric_grid(width_m: float = 8.0, height_m: float = 6.0, res: float = 0.1,
+                    origin: tuple[float, float] = (-3.0, -2.0)):
+    """An OccupancyGrid (ROS rows: row 0 = lowest y) that is free inside a wall, with one occupied block in
+    the top-right quadrant only (x in 60-80 %, y in 65-85 % of the map), so a mirror in x or y moves it.
+    Returns (grid, (x, y) of the block's centre in the map frame)."""
+    import numpy as np
+
+    from common import messages as m
+    from common.geometry import Pose2D
+
+    w, h = round(width_m / res), round(height_m / res)
+    d = np.zeros((h, w), np.int8)
+    d[0, :] = d[-1, :] = d[:, 0] = d[:, -1] = 100
+    r0, r1, c0, c1 = round(0.65 * h), round(0.85 * h), round(0.6 * w), round(0.8 * w)
+    d[r0:r1, c0:c1] = 100
+    centre = (origin[0] + res * (c0 + c1) / 2, origin[1] + res * (r0 + r1) / 2)
+    return m.OccupancyGrid(m.Header(0.0, "map"), res, Pose2D(origin[0], origin[1], 0.0), d), centre

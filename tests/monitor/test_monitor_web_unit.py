@@ -42,7 +42,8 @@ def test_the_state_puts_the_robot_in_the_map_through_tf_and_serves_the_map():
     assert mp["origin"] == {"x": -1.0, "y": -2.0, "yaw": 0.0}
     import base64
 
-    assert list(base64.b64decode(mp["data"])) == [254, 0, 128, 127]  # free, occupied, unknown, 50 %
+    # image order (top row = the grid's last row): unknown, 50 %, then free, occupied
+    assert list(base64.b64decode(mp["data"])) == [128, 127, 254, 0]
 
 
 def test_particles_give_the_covariance_ellipse_and_the_why_line_skips_the_idle_stale_command():

@@ -141,7 +141,7 @@ def test_recording_has_every_display_in_its_frame(tmp_path, robot_bus):
     pts = map_laser.apply(np.array(scan_row["Points3D:positions"], dtype=float))
     grid_row = rec["/world/map"][-1]
     fmt = grid_row["GridMap:format"][0]
-    occ = np.array(grid_row["GridMap:data"][0], np.uint8).reshape(fmt["height"], fmt["width"])
+    occ = np.array(grid_row["GridMap:data"][0], np.uint8).reshape(fmt["height"], fmt["width"])[::-1]  # top row first
     col = np.floor((pts[:, 0] + 1.0) / syn.RES).astype(int)
     row = np.floor((pts[:, 1] + 1.0) / syn.RES).astype(int)
     near = [(occ[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2] == 100).any() for r, c in zip(row, col)]

@@ -1,11 +1,14 @@
 """Rig for the web page tests: simulated P3-AT + master (AMCL, move_base) + `zenav monitor --serve-web`
-on a private loopback bus, and headless Chromium driven over the DevTools protocol (deploy.monitor.cdp)."""
+on a private loopback bus (``WebRig``), and headless Chromium driven over the DevTools protocol on the page
+(``Page``, deploy.monitor.cdp)."""
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
+import signal
 import subprocess
 import sys
 import uuid
@@ -39,33 +42,11 @@ def master_yaml(tmp: Path, initial: tuple[float, float, float]) -> Path:
     return out
 
 
-class WebRig:
-    def __init__(self, tmp: Path, amcl_initial: tuple[float, float, float], token: str) -> None:
-        from common.bus import Node
-        from common.messages import MoveBaseStatus, Odometry, PoseStamped
-        from common.zenoh_config import BusConfig
+class Page:
+    """Headless Chromium driven over the DevTools protocol, on the monitor page served at ``web``."""
 
-        self.tmp, self.token, self.procs = tmp, token, []
-        self.robot = f"web{uuid.uuid4().hex[:10]}"
-        test_port, robot_port, master_port, mon_port = free_port(), free_port(), free_port(), free_port()
-        self.web, self.grpc, self.devtools = free_port(), free_port(), free_port()
-        self.node = Node("web_tools_test", config=BusConfig(robot=self.robot, listen=(f"tcp/127.0.0.1:{test_port}",),
-                                                            multicast=False), use_sim_time=False)
-        base = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
-                "PYTHONPATH": str(REPO)}
-        base.pop("ZENAV_USE_SIM_TIME", None)
-        hub = f"tcp/127.0.0.1:{test_port}"
-        self.gt = self.node.subscribe("ground_truth", Odometry)
-        self.amcl = self.node.subscribe("amcl_pose", PoseStamped)
-        self.status = self.node.subscribe("move_base/status", MoveBaseStatus)
-        self.start("robot", [*ZENAV, "robot", "--config", str(ROBOT_CONFIG), "--world", "room"],
-                   {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{robot_port}", "ZENAV_CONNECT": hub})
-        self.start("master", [*ZENAV, "master", "--config", str(master_yaml(tmp, amcl_initial))],
-                   {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{master_port}",
-                    "ZENAV_CONNECT": f"{hub},tcp/127.0.0.1:{robot_port}"})
-        self.start("monitor", [*ZENAV, "monitor", "--serve-web", str(self.web), "--grpc-port", str(self.grpc),
-                               "--token", token],
-                   {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{mon_port}", "ZENAV_CONNECT": hub})
+    def __init__(self, tmp: Path, web: int, token: str = "") -> None:
+        self.web, self.token, self.devtools = web, token, free_port()
         self.chromium = subprocess.Popen(
             [find_chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
              "--disable-dev-shm-usage", f"--remote-debugging-port={self.devtools}", "--window-size=1600,900",
@@ -73,18 +54,9 @@ class WebRig:
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
         self.cdp: CDP | None = None
 
-    def start(self, name: str, argv: list[str], env: dict) -> NavProc:
-        p = NavProc(self.tmp / f"{name}.log", argv, env)
-        self.procs.append(p)
-        return p
-
-    def dead(self) -> str:
-        return next((f"{p.log_path.name} exited:\n{p.log()}" for p in self.procs if not p.alive()), "")
-
     def wait(self, cond, timeout: float, what: str):
-        return wait_until(cond, timeout, what, period=0.2, alive=self.dead)
+        return wait_until(cond, timeout, what, period=0.2)
 
-    # -- the page ----------------------------------------------------------------------------------
     def open_page(self, viewer: bool = True) -> None:
         import urllib.request
 
@@ -125,7 +97,7 @@ class WebRig:
 
     def use_tool(self, tool: str, x: float, y: float, yaw: float, drag_m: float = 0.6) -> None:
         """Select ``tool`` (its button), press at map point (x, y), drag ``drag_m`` along ``yaw``, release:
-        real mouse events, as a user does."""
+        real mouse events, as a user does. Both points convert through the view shown at the press."""
         self.click_element(f"tool-{tool}")
         a = self.js(f"JSON.stringify(zenav.worldToClient({x}, {y}))")
         b = self.js(f"JSON.stringify(zenav.worldToClient({x + drag_m * np.cos(yaw)}, {y + drag_m * np.sin(yaw)}))")
@@ -147,6 +119,52 @@ class WebRig:
             self.chromium.wait(10)
         except subprocess.TimeoutExpired:
             self.chromium.kill()
+        with contextlib.suppress(ProcessLookupError, PermissionError):  # its helpers (own session: own group)
+            os.killpg(self.chromium.pid, signal.SIGKILL)
+
+
+class WebRig(Page):
+    def __init__(self, tmp: Path, amcl_initial: tuple[float, float, float], token: str) -> None:
+        from common.bus import Node
+        from common.messages import MoveBaseStatus, Odometry, PoseStamped
+        from common.zenoh_config import BusConfig
+
+        self.tmp, self.procs = tmp, []
+        self.robot = f"web{uuid.uuid4().hex[:10]}"
+        test_port, robot_port, master_port, mon_port = free_port(), free_port(), free_port(), free_port()
+        web, self.grpc = free_port(), free_port()
+        self.node = Node("web_tools_test", config=BusConfig(robot=self.robot, listen=(f"tcp/127.0.0.1:{test_port}",),
+                                                            multicast=False), use_sim_time=False)
+        base = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
+                "PYTHONPATH": str(REPO)}
+        base.pop("ZENAV_USE_SIM_TIME", None)
+        hub = f"tcp/127.0.0.1:{test_port}"
+        self.gt = self.node.subscribe("ground_truth", Odometry)
+        self.amcl = self.node.subscribe("amcl_pose", PoseStamped)
+        self.status = self.node.subscribe("move_base/status", MoveBaseStatus)
+        self.start("robot", [*ZENAV, "robot", "--config", str(ROBOT_CONFIG), "--world", "room"],
+                   {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{robot_port}", "ZENAV_CONNECT": hub})
+        self.start("master", [*ZENAV, "master", "--config", str(master_yaml(tmp, amcl_initial))],
+                   {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{master_port}",
+                    "ZENAV_CONNECT": f"{hub},tcp/127.0.0.1:{robot_port}"})
+        self.start("monitor", [*ZENAV, "monitor", "--serve-web", str(web), "--grpc-port", str(self.grpc),
+                               "--token", token],
+                   {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{mon_port}", "ZENAV_CONNECT": hub})
+        super().__init__(tmp, web, token)
+
+    def start(self, name: str, argv: list[str], env: dict) -> NavProc:
+        p = NavProc(self.tmp / f"{name}.log", argv, env)
+        self.procs.append(p)
+        return p
+
+    def dead(self) -> str:
+        return next((f"{p.log_path.name} exited:\n{p.log()}" for p in self.procs if not p.alive()), "")
+
+    def wait(self, cond, timeout: float, what: str):
+        return wait_until(cond, timeout, what, period=0.2, alive=self.dead)
+
+    def close(self) -> None:
+        super().close()
         for p in reversed(self.procs):
             p.stop()
         self.node.close()

@@ -1,5 +1,6 @@
 // zenav monitor page: the Rerun web viewer (right) and a top-down map panel with rviz's tools (left).
 // The map panel is drawn from /api/map and /api/state; clicks become POSTs to /api/goal, /api/initialpose.
+// Its view (view.js) follows the robot by default; every click converts through the view being drawn.
 "use strict";
 
 const Z = (window.zenav = {
@@ -21,18 +22,18 @@ async function post(path, body) {
 
 function note(text) { document.getElementById("note").textContent = text; }
 
-// -- view: the whole map fitted into the panel (x right, y up) ------------------------------------
+// -- view (view.js): follows the robot by default; "Follow robot" off fixes it; zoom; drag to pan ---
+Z.follow = true; Z.zoom = 1; Z.centre = null;
 function view() {
-  const r = canvas.getBoundingClientRect();
-  const m = Z.map;
-  if (!m) return null;
-  const w = m.width * m.resolution, h = m.height * m.resolution;
-  const s = Math.min(r.width / w, r.height / h) * 0.98;
-  const ox = (r.width - w * s) / 2, oy = (r.height - h * s) / 2;
-  return { s, ox, oy, x0: m.origin.x, y1: m.origin.y + h, rect: r };
+  if (!Z.map) return null;
+  if (Z.frozen) return Z.frozen;  // a tool drag in progress: the view under the mouse stays put
+  const rect = canvas.getBoundingClientRect();
+  const v = ZenavView.make(rect, Z.map, { zoom: Z.zoom, follow: Z.follow, centre: Z.centre,
+                                          pose: Z.state && Z.state.pose });
+  v.rect = rect;
+  return v;
 }
-function toCanvas(v, x, y) { return [v.ox + (x - v.x0) * v.s, v.oy + (v.y1 - y) * v.s]; }
-function toWorld(v, cx, cy) { return [v.x0 + (cx - v.ox) / v.s, v.y1 - (cy - v.oy) / v.s]; }
+const toCanvas = ZenavView.toCanvas, toWorld = ZenavView.toWorld;
 Z.worldToClient = (x, y) => {
   const v = view();
   if (!v) return null;
@@ -43,6 +44,18 @@ Z.clientToWorld = (px, py) => {
   const v = view();
   return v ? toWorld(v, px - v.rect.left, py - v.rect.top) : null;
 };
+Z.viewInfo = () => {
+  const v = view();
+  return v && { s: v.s, cx: v.cx, cy: v.cy, following: v.following, whole: v.whole, follow: Z.follow, zoom: Z.zoom };
+};
+function setFollow(on) {
+  const v = view();
+  if (!on && v) Z.centre = [v.cx, v.cy];  // fix the view where it is now
+  Z.follow = on;
+  document.getElementById("follow").classList.toggle("active", on);
+  draw();
+}
+function zoom(factor) { Z.zoom = ZenavView.zoomBy(Z.zoom, factor); draw(); }
 
 // -- drawing -------------------------------------------------------------------------------------
 function arrow(v, p, color, len) {
@@ -103,12 +116,9 @@ async function loadMap() {
   const m = await r.json();
   const grey = Uint8Array.from(atob(m.data), (c) => c.charCodeAt(0));
   const img = new ImageData(m.width, m.height);
-  for (let row = 0; row < m.height; row++) {  // row 0 is the lowest y: drawn at the bottom
-    const src = row * m.width, dst = (m.height - 1 - row) * m.width;
-    for (let c = 0; c < m.width; c++) {
-      const g = grey[src + c], k = 4 * (dst + c);
-      img.data[k] = img.data[k + 1] = img.data[k + 2] = g; img.data[k + 3] = 255;
-    }
+  for (let k = 0; k < grey.length; k++) {  // rows come top first (row 0 = highest y): image order
+    const g = grey[k];
+    img.data[4 * k] = img.data[4 * k + 1] = img.data[4 * k + 2] = g; img.data[4 * k + 3] = 255;
   }
   const off = document.createElement("canvas");
   off.width = m.width; off.height = m.height;
@@ -146,22 +156,37 @@ document.getElementById("cancel").onclick = () =>
   post("api/cancel").then(() => note("cancel sent")).catch((e) => note(`cancel failed: ${e.message}`));
 
 canvas.addEventListener("mousedown", (ev) => {
-  const w = Z.tool && Z.clientToWorld(ev.clientX, ev.clientY);
-  if (!w) return;
+  const v = view();
+  if (!v) return;
+  if (!Z.tool) {  // no tool: drag the map (the view stops following)
+    Z.pan = { x: ev.clientX, y: ev.clientY, cx: v.cx, cy: v.cy, s: v.s };
+    return;
+  }
+  const w = Z.clientToWorld(ev.clientX, ev.clientY);
+  Z.frozen = v;
   Z.drag = { x: w[0], y: w[1], yaw: 0, moved: false };
   draw();
 });
 canvas.addEventListener("mousemove", (ev) => {
+  if (Z.pan) {
+    const p = Z.pan;
+    if (Z.follow && Math.hypot(ev.clientX - p.x, ev.clientY - p.y) > 4) setFollow(false);
+    if (!Z.follow) Z.centre = [p.cx - (ev.clientX - p.x) / p.s, p.cy + (ev.clientY - p.y) / p.s];
+    draw();
+    return;
+  }
   if (!Z.drag) return;
   const w = Z.clientToWorld(ev.clientX, ev.clientY);
   const dx = w[0] - Z.drag.x, dy = w[1] - Z.drag.y;
   if (Math.hypot(dx, dy) * view().s > 4) { Z.drag.yaw = Math.atan2(dy, dx); Z.drag.moved = true; }
   draw();
 });
+canvas.addEventListener("wheel", (ev) => { ev.preventDefault(); zoom(ev.deltaY < 0 ? 1.25 : 0.8); }, { passive: false });
 window.addEventListener("mouseup", async () => {
+  Z.pan = null;
   const d = Z.drag, tool = Z.tool;
   if (!d) return;
-  Z.drag = null;
+  Z.drag = null; Z.frozen = null;
   setTool(null);
   try {
     const out = await post(`api/${tool}`, { x: d.x, y: d.y, yaw: d.yaw });
@@ -173,6 +198,9 @@ window.addEventListener("mouseup", async () => {
   }
   draw();
 });
+document.getElementById("follow").onclick = () => setFollow(!Z.follow);
+document.getElementById("zoom-in").onclick = () => zoom(1.25);
+document.getElementById("zoom-out").onclick = () => zoom(0.8);
 window.addEventListener("resize", draw);
 
 // -- the Rerun viewer (the wheel's own wasm build, served under /rerun/) ------------------------

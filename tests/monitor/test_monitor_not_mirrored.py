@@ -1,0 +1,151 @@
+"""The map is not mirrored: ROS map frame +x right, +y up; a grid's row 0 is the lowest y, an image's row 0
+(PGM, Rerun's GridMap, our page's map image) the top.
+
+An asymmetric map (one block in the top-right quadrant, monhelp.asymmetric_grid) is checked
+  - in what the monitor logs to Rerun (a real .rrd read back, placed the way Rerun's GridMap visualizer
+    places an image: lower-left corner at the translation, row 0 at the far +y edge),
+  - in what our page's map panel is sent (/api/map rows),
+  - and on screen (slow, Chromium): the Rerun web viewer draws the block under a marker logged at the
+    block's map coordinates, with +y up; our panel draws it dark where the block is and light at its mirror.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+
+import numpy as np
+import pytest
+import rerun as rr
+from monhelp import asymmetric_grid, read_rrd
+
+from common import messages as m
+from deploy.check_web_viewer import find_chromium
+from deploy.monitor.monitor import Monitor
+from deploy.monitor.webstate import WebState
+
+
+def image_cell(x: float, y: float, origin: tuple[float, float], res: float, h: int) -> tuple[int, int]:
+    """(row, col) of map point (x, y) in an image of ``h`` rows whose row 0 is the top (highest y) and
+    whose lower-left corner is at ``origin``."""
+    col = int(np.floor((x - origin[0]) / res))
+    return h - 1 - int(np.floor((y - origin[1]) / res)), col
+
+
+def mirrors(grid: m.OccupancyGrid, p: tuple[float, float]) -> dict[str, tuple[float, float]]:
+    """``p`` and its mirror images across the map's vertical / horizontal centre lines."""
+    cx = grid.origin.x + grid.width * grid.resolution / 2
+    cy = grid.origin.y + grid.height * grid.resolution / 2
+    return {"block": p, "mirror_y": (p[0], 2 * cy - p[1]), "mirror_x": (2 * cx - p[0], p[1])}
+
+
+def test_the_monitor_logs_grids_top_row_first_so_rerun_draws_them_unmirrored(tmp_path):
+    grid, block = asymmetric_grid()
+    costmap = m.Costmap(grid.header, grid.resolution, grid.origin, np.where(grid.data > 0, 254, 0).astype(np.uint8))
+    rec = rr.RecordingStream("zenav_test_not_mirrored")
+    out = tmp_path / "grid.rrd"
+    rec.save(str(out))
+    mon = Monitor(None, "r1", rec, subscribe=False)
+    mon.handle("map", grid)
+    mon.handle("global_costmap/costmap", costmap)
+    mon.flush_pending(flush_all=True)
+    rec.flush()
+    rec.disconnect()
+    rows = read_rrd(out)
+    for entity, occupied in (("/world/map", 100), ("/world/global_costmap/costmap", 254)):
+        row = next(r for r in rows[entity] if r.get("GridMap:data") is not None)
+        fmt, res = row["GridMap:format"][0], row["GridMap:cell_size"][0]
+        tx, ty, _ = row["GridMap:translation"][0]
+        img = np.array(row["GridMap:data"][0], np.uint8).reshape(fmt["height"], fmt["width"])
+        seen = {k: img[image_cell(*p, (tx, ty), res, fmt["height"])] for k, p in mirrors(grid, block).items()}
+        assert seen == {"block": occupied, "mirror_y": 0, "mirror_x": 0}, (entity, seen)
+
+
+def test_the_page_gets_the_map_image_top_row_first():
+    grid, block = asymmetric_grid()
+    st = WebState("r1")
+    st.observe("map", grid)
+    mp = st.map_payload()
+    assert mp["rows"] == "top_first"
+    img = np.frombuffer(base64.b64decode(mp["data"]), np.uint8).reshape(mp["height"], mp["width"])
+    origin = (mp["origin"]["x"], mp["origin"]["y"])
+    res, h = mp["resolution"], mp["height"]
+    seen = {k: int(img[image_cell(*p, origin, res, h)]) for k, p in mirrors(grid, block).items()}
+    assert seen == {"block": 0, "mirror_y": 254, "mirror_x": 254}, seen
+
+
+def _centroid(mask: np.ndarray) -> tuple[float, float] | None:
+    """(x, y) pixel centroid of ``mask`` (None below 20 pixels)."""
+    ys, xs = np.nonzero(mask)
+    return (float(xs.mean()), float(ys.mean())) if len(xs) > 20 else None
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(find_chromium() is None, reason="chromium not installed (deploy/install.sh --test)")
+def test_the_rerun_view_and_our_panel_show_the_block_where_it_is(tmp_path):
+    """The real logging path (Monitor.handle, the monitor's blueprint fitted to the map) served to the
+    Rerun web viewer inside our page; a green marker at the block's centre, a magenta one at its mirror
+    across the horizontal centre line. In Rerun's map view the green marker sits on black (the block), the
+    magenta on white, and green is above magenta (+y up). In our panel the block is dark, its mirrors light."""
+    from deploy.monitor.layout import blueprint, fit_height
+    from deploy.monitor.web_assets import ensure_assets
+    from deploy.monitor.webserver import WebServer
+    from tests.monitor.webrig import Page, rgb
+    from tests.support import free_port
+
+    grid, block = asymmetric_grid()
+    pts = mirrors(grid, block)
+    w, h = grid.width * grid.resolution, grid.height * grid.resolution
+    centre = (grid.origin.x + w / 2, grid.origin.y + h / 2)
+    rec = rr.RecordingStream("zenav_test_not_mirrored_web")
+    grpc = free_port()
+    rec.serve_grpc(grpc_port=grpc, default_blueprint=blueprint(centre=centre, height=fit_height(w, h)))
+    mon = Monitor(None, "r1", rec, subscribe=False)
+    mon.handle("map", grid)
+    mon.flush_pending(flush_all=True)
+    for name, p, color in (("mark_block", pts["block"], [0, 255, 0]), ("mark_mirror", pts["mirror_y"], [255, 0, 255])):
+        rec.log(f"world/{name}", rr.CoordinateFrame("map"), rr.Points3D([[*p, 0.2]], radii=0.12, colors=[color]),
+                static=True)
+    rec.flush()
+    state = WebState("r1")
+    state.observe("map", grid)
+    srv = WebServer(state, lambda *_: None, free_port(), grpc, assets=ensure_assets())
+    page = Page(tmp_path, srv.port)
+    try:
+        page.open_page(viewer=True)
+        page.wait(lambda: page.js("!!(window.zenav && zenav.map && zenav.rerun !== 'starting')"), 150.0,
+                  "the page with our map and the Rerun viewer")
+        assert page.js("zenav.rerun") == "started", page.js("zenav.rerun")
+        ours = {k: json.loads(page.js(f"JSON.stringify(zenav.worldToClient({x}, {y}))")) for k, (x, y) in pts.items()}
+        split = int(json.loads(page.js("JSON.stringify(document.getElementById('rerun-panel')"
+                                       ".getBoundingClientRect())"))["x"])
+
+        def markers():
+            img = rgb(page.screenshot())
+            r, g, b = img[..., 0], img[..., 1], img[..., 2]
+            right = np.zeros(r.shape, bool)
+            right[:, split:] = True
+            green = _centroid(right & (g > 180) & (r < 90) & (b < 90))
+            magenta = _centroid(right & (r > 180) & (b > 180) & (g < 90))
+            return (img, green, magenta) if green and magenta else None
+
+        img, green, magenta = page.wait(markers, 150.0, "both markers drawn in Rerun's map view")
+        (tmp_path / "not_mirrored.png").write_bytes(page.screenshot())
+        assert green[1] < magenta[1] - 20, (green, magenta)  # +y is up on screen
+        assert abs(green[0] - magenta[0]) < 10, (green, magenta)  # same x
+        px_per_m = (magenta[1] - green[1]) / (pts["block"][1] - pts["mirror_y"][1])
+        ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+
+        def ring(c):  # brightness on a ring 0.3 m around a marker: inside the 1.6 x 1.2 m block, off the marker
+            xs = (c[0] + 0.3 * px_per_m * np.cos(ang)).astype(int)
+            ys = (c[1] + 0.3 * px_per_m * np.sin(ang)).astype(int)
+            return float(np.median(img[ys, xs].mean(axis=1)))
+
+        assert ring(green) < 60, f"Rerun draws no block under the marker at {pts['block']}: {ring(green)}"
+        assert ring(magenta) > 200, f"Rerun draws something at the mirror {pts['mirror_y']}: {ring(magenta)}"
+        bright = {k: float(img[int(c["y"]), int(c["x"])].mean()) for k, c in ours.items()}
+        assert bright["block"] < 40 and bright["mirror_y"] > 200 and bright["mirror_x"] > 200, bright
+    finally:
+        page.close()
+        srv.close()
+        rec.disconnect()
