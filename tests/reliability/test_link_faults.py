@@ -232,7 +232,7 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
         _reached(probe, _goal(probe, -2.2, -0.2, math.pi / 2), what="facing north at the start")
         t0 = _goal(probe, -2.2, 1.9, math.pi / 2)  # 2.1 m straight north along the west wall, 0.85 m from it
         try:
-            wait_until(lambda: cruising(t0), 120, "driving north at 0.3 m/s or more")
+            wait_until(lambda t0=t0: cruising(t0), 120, "driving north at 0.3 m/s or more")
             break
         except AssertionError:
             gt = probe.events("GT", t0)
