@@ -8,7 +8,8 @@ Per host, over ssh:
     only what is missing), and ``pip install -e src`` — re-run only when pyproject.toml changed.
     ``install_mode: link`` skips pip: a .pth file and a ``zenav`` script point the venv at src (for hosts
     that already have every dependency; no build, no index)
- 4. zenav.env, the Zenoh config (+ users file) and service.json under install_dir/etc
+ 4. zenav.env, the Zenoh config (+ users file; + router.json5 for a secured robot / master) and
+    service.json under install_dir/etc
  5. robots: the udev rule (/dev/pioneer) + udevadm reload when udevadm exists
  6. systemd hosts: the unit in /etc/systemd/system (+ daemon-reload, enable); a service user
 Nothing is started (``zenav fleet up``). ``--dry-run`` prints every command and file instead.
@@ -19,7 +20,7 @@ from __future__ import annotations
 import shlex
 import time
 
-from deploy.fleet import render, services
+from deploy.fleet import render, secured, services
 from deploy.fleet.inventory import Host, Inventory
 from deploy.fleet.ssh import Remote
 
@@ -40,7 +41,9 @@ def install_host(inv: Inventory, r: Remote, echo=print, upload: bool = True) -> 
         dt = r.put_checkout(p["src"], exclude=(inv.security.secrets_dir,))  # passwords stay here
         if not dry:
             echo(f"[{h.name}] checkout uploaded to {p['src']} ({dt:.1f} s)")
-    r.run(f"[ -x {q['python']} ] || {py} -m venv --system-site-packages {q['venv']}", what="create the venv")
+    no_pip = "--without-pip " if h.install_mode == "link" else ""  # ensurepip: the slow part, unused by link
+    r.run(f"[ -x {q['python']} ] || {py} -m venv --system-site-packages {no_pip}{q['venv']}", what="create the venv",
+          timeout=600)
     stamp = shlex.quote(f"{p['etc']}/pyproject.installed")
     if h.install_mode == "link":  # no pip: the venv points at src (dependencies must be there already)
         how = ("SP=$(" + q["python"] + " -c 'import sysconfig; print(sysconfig.get_paths()[\"purelib\"])') && "
@@ -56,7 +59,7 @@ def install_host(inv: Inventory, r: Remote, echo=print, upload: bool = True) -> 
                  f"{how} && cp {q['src']}/pyproject.toml {stamp} && echo installed; fi", what=what, timeout=600)
     check = f"import zenoh, numpy, yaml, deploy.cli; assert deploy.cli.__file__.startswith({p['src']!r} + '/')"
     r.run(f"cd / && {q['python']} -c {shlex.quote(check)}",
-          what="import check in the venv (zenoh, numpy, yaml, and zenav from src)")
+          what="import check in the venv (zenoh, numpy, yaml, and zenav from src)", timeout=300)
     if not dry:
         echo(f"[{h.name}] venv {p['venv']}: zenav {'already installed' if 'unchanged' in out else 'installed'}")
     _files(inv, r)
@@ -73,19 +76,21 @@ def _files(inv: Inventory, r: Remote) -> None:
     z = render.zenoh_json(inv, h, dry)
     if z is not None:
         r.put(p["router"] if h.role == "router" else p["zenoh"], z, mode="0600")
+    if (router := render.router_json(inv, h, dry)) is not None:  # secured: the host's own router
+        r.put(p["router"], router, mode="0600")
     if (users := render.users_txt(inv, h, dry)) is not None:
         r.put(p["users"], users, mode="0600")
-    r.put(p["spec"], render.service_spec(h))
+    r.put(p["spec"], render.service_spec(h, secured.enabled(inv, h)))
     if h.role == "robot":
         r.put(p["udev"], render.udev_rules(h))
         r.run("if command -v udevadm >/dev/null && [ -d /run/udev ]; then udevadm control --reload-rules && "
               "udevadm trigger --subsystem-match=tty; else echo 'udevadm not running: rule applies at next boot'; fi",
               what="reload udev rules", check=False)
     if services.manager(r) == "systemd" or (dry and h.service_manager == "auto"):
-        _systemd_unit(r)
+        _systemd_unit(r, secured.enabled(inv, h))
 
 
-def _systemd_unit(r: Remote) -> None:
+def _systemd_unit(r: Remote, own_router: bool) -> None:
     h = r.host
     p = render.paths(h)
     user = shlex.quote(h.service_user)
@@ -96,7 +101,7 @@ def _systemd_unit(r: Remote) -> None:
           f"--create-home --shell /usr/sbin/nologin {user}; usermod -a -G dialout {user}; "
           f"chgrp -R {user} {shlex.quote(p['etc'])}; chmod -R g+rX {shlex.quote(h.install_dir)}",
           what=f"service user {h.service_user}")
-    r.put(p["unit"], render.unit(h))
+    r.put(p["unit"], render.unit(h, own_router))
     r.run(f"systemctl daemon-reload && systemctl enable {h.service}.service", what="systemctl enable")
 
 

@@ -265,27 +265,8 @@ def load(path: str | os.PathLike, checkout: str | os.PathLike | None = None) -> 
     secrets = r.typed(sec_raw, "secrets_dir", str, "security", "fleet-secrets")
     security = Security(r.typed(sec_raw, "cmd_vel_acl", bool, "security", False), str(r.base / secrets))
     inv = Inventory(src, hosts, security)
-    _cross_checks(inv, p)
+    from deploy.fleet.inventory_checks import cross_checks  # (it uses this module's classes)
+
+    cross_checks(inv, p)
     p.raise_if_any()
     return inv
-
-
-def _cross_checks(inv: Inventory, p: Problems) -> None:
-    names = inv.names()
-    for h in inv.hosts:
-        z = h.zenoh
-        if z.router and (z.router not in names or inv.host(z.router).role != "router"):
-            p.add(inv.path, f"hosts.{h.name}.zenoh.router", f"{z.router!r} is not a host with role: router"
-                  + suggest(z.router, [x.name for x in inv.hosts if x.role == "router"]))
-        if h.role == "router" and z.mode != "router":
-            p.add(inv.path, f"hosts.{h.name}.zenoh.mode", "a router host runs Zenoh in mode: router")
-    seen: dict[tuple[str, str], str] = {}
-    for h in inv.hosts:  # two hosts on one machine must not share a directory
-        key = (h.address, h.install_dir)
-        if key in seen:
-            p.add(inv.path, f"hosts.{h.name}.install_dir", f"same address and install_dir as {seen[key]}")
-        seen[key] = h.name
-    if inv.security.cmd_vel_acl:
-        for h in inv.hosts:
-            if h.role == "robot" and not inv.masters_of(h.robot):
-                p.add(inv.path, f"hosts.{h.name}", f"security.cmd_vel_acl: no master host serves robot {h.robot!r}")

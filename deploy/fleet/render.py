@@ -6,8 +6,10 @@ definition), ``D/run`` pid and state files, ``D/log`` service logs (supervisor).
 udev rule go to ``<sysroot>/etc/...`` (sysroot is ``/`` except in tests).
 
 Zenoh: mode, endpoints, multicast, lease and shared memory become ``ZENAV_*`` lines of zenav.env (the
-agents pass them to their nodes; listen ports are rewritten per child); authentication, TLS and the
-cmd_vel access control go into zenoh.json5 (``ZENAV_ZENOH_CONFIG``).
+agents pass them to their nodes; listen ports are rewritten per child); authentication and TLS go into
+zenoh.json5 (``ZENAV_ZENOH_CONFIG``). With ``security.cmd_vel_acl`` robots and masters get a router of
+their own (router.json5, run by ``deploy.fleet.host_router`` in front of the agent; the cmd_vel access
+control is in the robot's) and their processes are its clients: ``deploy.fleet.secured``.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import json
 import secrets
 from pathlib import Path
 
+from deploy.fleet import secured
 from deploy.fleet.inventory import Host, Inventory
 from deploy.hosts import zenohconf
 
@@ -49,59 +52,52 @@ def _connect(inv: Inventory, h: Host) -> list[str]:
     out = list(h.zenoh.connect)
     if h.zenoh.router:
         out.append(f"tcp/{inv.host(h.zenoh.router).address}:{ZENOH_PORT}")
-    if inv.security.cmd_vel_acl and h.role == "master":  # the master opens the link: usrpwd names it
-        out += [ep for r in inv.hosts if r.role == "robot" and r.robot == h.robot for ep in _reach(inv, r)]
     return list(dict.fromkeys(out))
 
 
-def _reach(inv: Inventory, h: Host) -> list[str]:
-    """Endpoints where others reach ``h`` (its listen endpoints, wildcard replaced by its address)."""
-    return [ep.replace("0.0.0.0", h.address).replace("[::]", h.address) for ep in _listen(inv, h)]
-
-
-def _listen(inv: Inventory, h: Host) -> list[str]:
-    out = list(h.zenoh.listen)
-    if not out and (h.role == "router" or (inv.security.cmd_vel_acl and h.role == "robot")):
-        out = [f"tcp/0.0.0.0:{ZENOH_PORT}"]
-    return out
+def _listen(h: Host) -> list[str]:
+    return list(h.zenoh.listen) or ([f"tcp/0.0.0.0:{ZENOH_PORT}"] if h.role == "router" else [])
 
 
 def zenoh_options(inv: Inventory, h: Host, dry_run: bool = False) -> zenohconf.Options | None:
-    """Options for zenoh.json5 when the host needs one (auth, TLS, ACL, router), else None."""
-    z, acl = h.zenoh, inv.security.cmd_vel_acl
-    user, pw, users_file, acl_user = z.user, "", z.users_file, ""
+    """Options for zenoh.json5 when the host needs one (auth, TLS, router), else None (not for the
+    secured topology: ``secured``)."""
+    z = h.zenoh
+    pw = ""
     if z.password_file:
         pw = zenohconf.read_password(z.password_file) if not dry_run else "(from password_file)"
-    if acl and h.role == "master":  # its own processes must accept each other: a users file with itself
-        user, pw, users_file = h.name, password(inv, h.name, dry_run), paths(h)["users"]
-    if acl and h.role == "robot":  # its own processes authenticate too (they connect to its agent)
-        users_file, acl_user = paths(h)["users"], "|".join(m.name for m in inv.masters_of(h.robot))
-        user, pw = h.name, password(inv, h.name, dry_run)
-    if not (user or users_file or z.tls_ca or h.role == "router"):
+    if not (z.user or z.users_file or z.tls_ca or h.role == "router"):
         return None
     return zenohconf.Options(
-        role=h.zenoh.mode, listen=_listen(inv, h) if h.role == "router" else [],
-        connect=_connect(inv, h) if h.role == "router" else [], multicast=_multicast(inv, h),
-        lease_ms=z.lease_ms, user=user, password=pw, users_file=users_file, acl_cmd_vel_only=acl_user,
+        role=h.zenoh.mode, listen=_listen(h) if h.role == "router" else [],
+        connect=_connect(inv, h) if h.role == "router" else [], multicast=_multicast(h),
+        lease_ms=z.lease_ms, user=z.user, password=pw, users_file=z.users_file,
         tls_ca=z.tls_ca, tls_cert=z.tls_cert, tls_key=z.tls_key, mtls=z.mtls, shared_memory=z.shared_memory)
 
 
-def _multicast(inv: Inventory, h: Host) -> bool:
-    if inv.security.cmd_vel_acl and h.role in ("robot", "master"):
-        return False  # only the master may open the robot link (usrpwd identifies the opening side)
+def _multicast(h: Host) -> bool:
     return h.zenoh.multicast if h.zenoh.multicast is not None else h.zenoh.mode != "client"
 
 
+def _secured_identity(inv: Inventory, h: Host, dry_run: bool) -> tuple[str, str]:
+    return h.name, password(inv, h.name, dry_run)
+
+
 def zenoh_json(inv: Inventory, h: Host, dry_run: bool = False) -> str | None:
+    """zenoh.json5: the Zenoh config of the host's processes (router.json5 on router hosts)."""
+    note = [f"(zenav fleet: host {h.name} of {inv.path})"]
+    if secured.enabled(inv, h):
+        return zenohconf.render(secured.client_conf(h, *_secured_identity(inv, h, dry_run)), note)
     o = zenoh_options(inv, h, dry_run)
-    if o is None:
+    return None if o is None else zenohconf.render(zenohconf.build(o), note)
+
+
+def router_json(inv: Inventory, h: Host, dry_run: bool = False) -> str | None:
+    """router.json5 of a secured robot / master (its own router: usrpwd, links, cmd_vel access control)."""
+    if not secured.enabled(inv, h):
         return None
-    acl_users = o.acl_cmd_vel_only.split("|") if o.acl_cmd_vel_only else []
-    o.acl_cmd_vel_only = acl_users[0] if acl_users else ""
-    conf = zenohconf.build(o)
-    if len(acl_users) > 1:  # several masters for one robot: all of them may drive it
-        conf["access_control"]["subjects"][1]["usernames"] = acl_users
-    return zenohconf.render(conf, [f"(zenav fleet: host {h.name} of {inv.path})"])
+    conf = secured.router_conf(inv, h, *_secured_identity(inv, h, dry_run), paths(h)["users"])
+    return zenohconf.render(conf, [f"(zenav fleet: router of host {h.name} of {inv.path})"])
 
 
 def users_txt(inv: Inventory, h: Host, dry_run: bool = False) -> str | None:
@@ -118,10 +114,13 @@ def env_file(inv: Inventory, h: Host, dry_run: bool = False) -> str:
              "re-install to change it", f"ZENAV_FLEET_HOST={h.name}"]
     if h.robot:
         lines.append(f"ZENAV_ROBOT={h.robot}")
-    lines += [f"ZENAV_MODE={z.mode}", f"ZENAV_MULTICAST={1 if _multicast(inv, h) else 0}",
-              f"ZENAV_LEASE_MS={z.lease_ms}"]
-    if h.role != "router":
-        if listen := _listen(inv, h):
+    if secured.enabled(inv, h):
+        lines += secured.env_lines(h, p["zenoh"], p["router"])
+    else:
+        lines += [f"ZENAV_MODE={z.mode}", f"ZENAV_MULTICAST={1 if _multicast(h) else 0}",
+                  f"ZENAV_LEASE_MS={z.lease_ms}"]
+    if h.role != "router" and not secured.enabled(inv, h):
+        if listen := _listen(h):
             lines.append("ZENAV_LISTEN=" + ",".join(listen))
         if connect := _connect(inv, h):
             lines.append("ZENAV_CONNECT=" + ",".join(connect))
@@ -134,19 +133,22 @@ def env_file(inv: Inventory, h: Host, dry_run: bool = False) -> str:
     return "\n".join(lines) + "\n"
 
 
-def agent_argv(h: Host) -> list[str]:
+def agent_argv(h: Host, own_router: bool = False) -> list[str]:
+    """The service's command; ``own_router`` (a secured robot / master): the host's Zenoh router first,
+    the agent then its child (deploy.fleet.host_router)."""
     p = paths(h)
     if h.role == "router":
         return [p["zenav"], "zenoh", "router", "--config", p["router"]]
-    return [p["zenav"], h.role, "--config", f"{p['src']}/{h.config}", *h.args]
+    agent = [p["zenav"], h.role, "--config", f"{p['src']}/{h.config}", *h.args]
+    return [p["python"], "-m", "deploy.fleet.host_router", p["router"], "--", *agent] if own_router else agent
 
 
-def unit(h: Host) -> str:
+def unit(h: Host, own_router: bool = False) -> str:
     """The systemd unit of the host's role, from deploy/hosts/zenav-<role>.service."""
     p = paths(h)
     text = (HOSTS_DIR / f"{h.service}.service").read_text()
     exec_line = next(line for line in text.splitlines() if line.startswith("ExecStart="))
-    text = text.replace(exec_line, "ExecStart=" + " ".join(agent_argv(h)))
+    text = text.replace(exec_line, "ExecStart=" + " ".join(agent_argv(h, own_router)))
     text = text.replace("/etc/zenav/zenav.env", p["env"]).replace("@REPO@", p["src"])
     text = text.replace("User=zenav", f"User={h.service_user}").replace("Group=zenav", f"Group={h.service_user}")
     for old in ("deploy/hosts/install-robot.sh", "install-robot.sh"):
@@ -154,10 +156,10 @@ def unit(h: Host) -> str:
     return text
 
 
-def service_spec(h: Host) -> str:
+def service_spec(h: Host, own_router: bool = False) -> str:
     """The supervisor's definition of the service (hosts without systemd)."""
     p = paths(h)
-    return json.dumps({"name": h.service, "argv": agent_argv(h), "cwd": p["src"], "env_file": p["env"],
+    return json.dumps({"name": h.service, "argv": agent_argv(h, own_router), "cwd": p["src"], "env_file": p["env"],
                        "log": f"{p['log']}/{h.service}.log", "run_dir": p["run"], "restart_sec": 2.0,
                        "stop_timeout": 15.0, "no_restart_exit": [2]}, indent=2) + "\n"
 

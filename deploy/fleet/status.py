@@ -127,6 +127,7 @@ def reference_clock(statuses: list[HostStatus]) -> float:
 def evaluate(statuses: list[HostStatus]) -> None:
     """Fill each HostStatus.checks: service, nodes, topics, clock."""
     ref = reference_clock(statuses)
+    robots_up = {s.host.robot for s in statuses if s.host.role == "robot" and "robot_agent" in s.probe.get("nodes", [])}
     for s in statuses:
         h, c = s.host, s.checks
         state = s.service.get("state", "unknown")
@@ -154,6 +155,10 @@ def evaluate(statuses: list[HostStatus]) -> None:
                                f"zenav fleet restart {h.name}"))
             elif s.expected:
                 c.append(Check("nodes", "PASS", f"{len(s.expected)} expected nodes alive"))
+            if h.role == "master" and h.robot in robots_up and "robot_agent" not in nodes and not s.probe.get("error"):
+                c.append(Check("link", "FAIL", f"robot {h.robot}'s nodes run but are not seen from {h.name}",
+                               f"the Zenoh link from {h.name} to the robot: `zenav fleet logs {h.name}` (its "
+                               "router's line says where it links to); the robot's address and port 7447"))
             for t, hz in sorted(s.probe.get("rates", {}).items()):
                 if hz < MIN_RATE:
                     c.append(Check(f"topic {t}", "FAIL", f"{hz:.1f} Hz on zenav/{h.robot}/{t}",

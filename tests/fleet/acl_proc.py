@@ -1,7 +1,7 @@
 """A Zenoh process with a fleet host's generated settings: ``python acl_proc.py ENV_FILE sub|pub KEY [TEXT]``.
 
 sub prints each payload it receives on KEY; pub puts TEXT on KEY every 50 ms and prints its peer count
-once (and exits then if $ACL_PROC_EXIT_ON_PEERS is set). The bus config is the host's zenav.env
+(peers and routers) once (and exits then if $ACL_PROC_EXIT_ON_PEERS is set). The bus config is the host's zenav.env
 (ZENAV_* lines, ZENAV_ZENOH_CONFIG) as the agents read it; extra ZENAV_* variables of this process's
 environment win (the test points a master elsewhere)."""
 
@@ -38,7 +38,7 @@ def main() -> int:
     for _ in range(12000):
         pub.put(sys.argv[4].encode())
         if not told:
-            peers = list(session.info.peers_zid())
+            peers = list(session.info.peers_zid()) + list(session.info.routers_zid())
             if peers:
                 print("PEERS", len(peers), flush=True)
                 told = True

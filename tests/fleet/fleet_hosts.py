@@ -159,9 +159,8 @@ def python_for_hosts() -> str:
 
 def inventory(hosts: FleetHosts, robots: dict[str, str], tmp: Path, clock_cmd: str = "", acl: bool = False) -> dict:
     """robot1 + master1 serving ``robots["1"]`` (and robot2 + master2 serving ``robots["2"]`` when given):
-    simulated P3-AT on the robot hosts, the master on the known map; ``acl``: generated cmd_vel access
-    control (off in the netns flow: Zenoh 1.10's gossip with usrpwd sometimes leaves two processes unlinked,
-    see docs/fleet.md; tests/fleet/test_fleet_acl.py checks the generated files live)."""
+    simulated P3-AT on the robot hosts, the master on the known map; ``acl``: ``security.cmd_vel_acl`` (a
+    Zenoh router per host, usrpwd, the robot's router holding the cmd_vel access control)."""
     def host(name: str, role: str, config: str) -> dict:
         return {"address": hosts.address(name), "role": role, "robot": robots[name[-1]], "config": config,
                 "install_dir": str(tmp / "hosts" / name / "zenav"), "sysroot": str(tmp / "hosts" / name / "root")}

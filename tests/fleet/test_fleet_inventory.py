@@ -78,27 +78,58 @@ def test_env_file_and_units(tmp_path):
     assert 'ATTRS{idVendor}=="0403"' in rules and 'ATTRS{idVendor}=="067b"' not in rules
 
 
-def test_cmd_vel_acl_generates_usrpwd_and_access_control(tmp_path):
+def test_cmd_vel_acl_gives_each_robot_and_master_a_router_with_usrpwd_and_access_control(tmp_path):
     import zenoh
 
-    p = _example(tmp_path, security={"cmd_vel_acl": True, "secrets_dir": "secrets"})
-    inv = inventory.load(p)
+    data = yaml.safe_load(EXAMPLE.read_text())
+    data["defaults"]["ssh"].pop("key")
+    data["security"] = {"cmd_vel_acl": True, "secrets_dir": "secrets"}
+    for name in ("robot2", "master2"):  # no shared router with the access control (checked below)
+        data["hosts"][name].pop("zenoh")
+    (tmp_path / "fleet.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
+    inv = inventory.load(tmp_path / "fleet.yaml")
     robot, master = inv.host("robot1"), inv.host("master1")
     users = render.users_txt(inv, robot)
     assert [line.split(":")[0] for line in users.splitlines()] == ["master1", "robot1"]  # not master2
     assert render.users_txt(inv, master).split(":")[0] == "master1"  # its own processes accept each other
-    rconf = _json_body(render.zenoh_json(inv, robot))
-    acl = rconf["access_control"]
-    assert acl["subjects"][1]["usernames"] == ["master1"]
-    assert rconf["transport"]["auth"]["usrpwd"]["dictionary_file"] == "/opt/zenav/etc/users.txt"
-    mconf = _json_body(render.zenoh_json(inv, master))
-    assert mconf["transport"]["auth"]["usrpwd"]["user"] == "master1"
-    assert mconf["transport"]["auth"]["usrpwd"]["password"] == users.splitlines()[0].split(":", 1)[1]
-    assert "ZENAV_CONNECT=tcp/192.168.1.21:7447" in render.env_file(inv, master)  # the master opens the link
-    assert "ZENAV_LISTEN=tcp/0.0.0.0:7447" in render.env_file(inv, robot)
+    rrouter = _json_body(render.router_json(inv, robot))  # the robot's router holds the access control
+    assert rrouter["mode"] == "router" and rrouter["listen"]["endpoints"] == ["tcp/0.0.0.0:7447"]
+    assert rrouter["access_control"]["subjects"][1]["usernames"] == ["master1"]
+    assert rrouter["transport"]["auth"]["usrpwd"]["dictionary_file"] == "/opt/zenav/etc/users.txt"
+    assert "endpoints" not in rrouter.get("connect", {})  # the robot opens no link
+    mrouter = _json_body(render.router_json(inv, master))  # the master's router opens the link: usrpwd names it
+    assert mrouter["connect"]["endpoints"] == ["tcp/192.168.1.21:7447"] and "access_control" not in mrouter
+    assert mrouter["transport"]["auth"]["usrpwd"]["user"] == "master1"
+    assert mrouter["transport"]["auth"]["usrpwd"]["password"] == users.splitlines()[0].split(":", 1)[1]
+    mclient = _json_body(render.zenoh_json(inv, master))  # every process on the host: a client of its router
+    assert mclient["mode"] == "client" and mclient["connect"]["endpoints"] == ["tcp/127.0.0.1:7447"]
+    assert mclient["transport"]["auth"]["usrpwd"]["user"] == "master1"
+    for h in (robot, master):
+        env = render.env_file(inv, h)
+        assert "ZENAV_MODE=client" in env and "ZENAV_CONNECT=tcp/127.0.0.1:7447" in env, env
+        assert "ZENAV_LISTEN" not in env and "ZENAV_MULTICAST=0" in env
+        spec = json.loads(render.service_spec(h, own_router=True))
+        assert spec["argv"][1:5] == ["-m", "deploy.fleet.host_router", "/opt/zenav/etc/router.json5", "--"]
+        assert spec["argv"][6] == h.role
+    assert render.router_json(inv, inv.host("hub")) is None
     assert render.users_txt(inv, robot) == users  # passwords kept: re-installs are idempotent
-    for conf in (rconf, mconf):
-        zenoh.Config.from_json5(json.dumps(conf))  # zenoh accepts both
+    for conf in (rrouter, mrouter, mclient):
+        zenoh.Config.from_json5(json.dumps(conf))  # zenoh accepts them
+
+
+def test_cmd_vel_acl_refuses_a_shared_router_and_two_routers_on_one_port(tmp_path):
+    p = _example(tmp_path, security={"cmd_vel_acl": True})
+    with pytest.raises(ConfigError) as e:
+        inventory.load(p)
+    assert "hosts.robot2.zenoh.router: with security.cmd_vel_acl every robot and master runs its own" in str(e.value)
+    data = yaml.safe_load(p.read_text())
+    for name in ("robot2", "master2"):
+        data["hosts"][name] = {**data["hosts"][name], "address": "192.168.1.21"}
+        data["hosts"][name].pop("zenoh")
+    p.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError, match="hosts.robot2.zenoh.listen: 192.168.1.21 port 7447 is the router port "
+                                          "of robot1 too"):
+        inventory.load(p)
 
 
 def _json_body(text: str) -> dict:
@@ -194,16 +225,37 @@ def test_rendered_units_pass_systemd_analyze_verify(tmp_path):
     data["defaults"]["install_dir"] = str(tmp_path / "zenav")
     (tmp_path / "fleet.yaml").write_text(yaml.safe_dump(data, sort_keys=False))
     inv = inventory.load(tmp_path / "fleet.yaml")
-    zenav = Path(render.paths(inv.host("robot1"))["zenav"])
-    zenav.parent.mkdir(parents=True)
-    zenav.write_text("#!/bin/sh\n")
-    zenav.chmod(0o755)
+    for exe in ("zenav", "python"):  # the secured units start the venv's python (host_router)
+        f = Path(render.paths(inv.host("robot1"))[exe])
+        f.parent.mkdir(parents=True, exist_ok=True)
+        f.write_text("#!/bin/sh\n")
+        f.chmod(0o755)
     (tmp_path / "zenav" / "src").mkdir()
     units = []
-    for name in ("robot1", "master1", "hub"):
+    for name, own_router in (("robot1", False), ("master1", False), ("hub", False), ("robot1", True)):
         h = inv.host(name)
-        units.append(tmp_path / "units" / f"{h.service}.service")
+        units.append(tmp_path / "units" / f"{h.service}{'-secured' if own_router else ''}.service")
         units[-1].parent.mkdir(exist_ok=True)
-        units[-1].write_text(render.unit(h))
+        units[-1].write_text(render.unit(h, own_router))
     v = subprocess.run(["systemd-analyze", "verify", *map(str, units)], capture_output=True, text=True, timeout=120)
     assert v.returncode == 0, v.stderr
+
+
+def test_status_names_a_master_that_does_not_reach_its_running_robot():
+    from deploy.fleet.inventory import Host
+    from deploy.fleet.status import HostStatus, evaluate, report
+
+    def statuses(master_sees: list[str]) -> list[HostStatus]:
+        up = {"state": "active", "manager": "supervisor", "pid": 3}
+        return [HostStatus(Host("r1", "10.0.0.1", "robot", "p", "x.yaml"), service=up,
+                           probe={"nodes": ["robot_agent", "sim"]}, expected=["robot_agent", "sim"]),
+                HostStatus(Host("m1", "10.0.0.2", "master", "p", "y.yaml"), service=up,
+                           probe={"nodes": ["master_agent", *master_sees]}, expected=["master_agent"])]
+
+    unlinked = statuses([])
+    evaluate(unlinked)
+    text, bad = report(unlinked)
+    assert bad == 1 and "m1: FAIL  link: robot p's nodes run but are not seen from m1" in text, text
+    linked = statuses(["robot_agent", "sim"])
+    evaluate(linked)
+    assert report(linked)[1] == 0
