@@ -74,9 +74,9 @@ def pick(scen: list, per_map: int, rng: np.random.Generator) -> list:
     return out
 
 
-def bench_navfn(per_map: int) -> tuple[list[dict], list[float], list[float]]:
+def bench_navfn(per_map: int) -> tuple[list[dict], list[float], list[float], list[float]]:
     rng = np.random.default_rng(1)
-    rows, t256, ratios = [], [], []
+    rows, t256, c256, ratios = [], [], [], []
     nf = NavFn()
     for scen_path in sorted((SHARED / "datasets" / "movingai").rglob("*.scen")):
         name = scen_path.name.replace("-random-1.scen", ".map").replace(".map.scen", ".map")
@@ -84,16 +84,18 @@ def bench_navfn(per_map: int) -> tuple[list[dict], list[float], list[float]]:
         if not map_path.exists():
             continue
         grid = read_map(map_path)
-        times, rat = [], []
+        times, cpu, rat = [], [], []
         for _, sx, sy, gx, gy, opt in pick(read_scen(scen_path), per_map, rng):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             path = nf.make_plan(grid, 1.0, (0.0, 0.0), Pose2D(sx + 0.5, sy + 0.5), Pose2D(gx + 0.5, gy + 0.5))
             times.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
             if opt > 0:
                 rat.append(path_length(path) / opt)
         is256 = grid.shape == (256, 256)
         if is256:
             t256 += times
+            c256 += cpu
         ratios += rat
         rows.append(
             {
@@ -107,7 +109,7 @@ def bench_navfn(per_map: int) -> tuple[list[dict], list[float], list[float]]:
                 "ratio_min": min(rat),
             }
         )
-    return rows, t256, ratios
+    return rows, t256, c256, ratios
 
 
 def local_costmap() -> np.ndarray:
@@ -155,7 +157,7 @@ def main() -> None:
     ap.add_argument("--per-map", type=int, default=24, help="queries per Moving AI map")
     ap.add_argument("--dwa-cycles", type=int, default=60)
     a = ap.parse_args()
-    rows, t256, ratios = bench_navfn(a.per_map)
+    rows, t256, c256, ratios = bench_navfn(a.per_map)
     print(f"{'map':<22}{'size':>9}{'n':>4}{'med ms':>9}{'max ms':>9}{'len/opt med':>13}{'min':>7}{'max':>7}")
     for r in rows:
         print(
@@ -165,7 +167,8 @@ def main() -> None:
     dwa_ms, dwa_cpu_ms, dwa_n = bench_dwa(a.dwa_cycles)
     cold_ms, cold_cpu_ms, _ = bench_dwa(a.dwa_cycles, cold=True)
     print(
-        f"\nnavfn 256x256: median {1e3 * np.median(t256):.1f} ms over {len(t256)} queries; "
+        f"\nnavfn 256x256: median {1e3 * np.median(t256):.1f} ms (CPU {1e3 * np.median(c256):.1f} ms) over "
+        f"{len(t256)} queries; "
         f"length/octile optimum: median {np.median(ratios):.4f}, max {max(ratios):.4f} "
         f"({len(ratios)} queries)"
     )
@@ -177,7 +180,8 @@ def main() -> None:
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs (wall times inflate under load)")
     print(
         f"navfn_256_ms={1e3 * np.median(t256):.1f} navfn_len_ratio={max(ratios):.4f} "
-        f"dwa_cycle_ms={dwa_ms:.2f} dwa_samples={dwa_n} dwa_cold_ms={cold_ms:.2f}"
+        f"dwa_cycle_ms={dwa_ms:.2f} dwa_samples={dwa_n} dwa_cold_ms={cold_ms:.2f} "
+        f"navfn_256_cpu_ms={1e3 * np.median(c256):.1f} dwa_cycle_cpu_ms={dwa_cpu_ms:.2f}"
     )
 
 

@@ -65,6 +65,14 @@ def descend(
             g = cache[q] = _cell_gradient(pot, q, cols)
         return g
 
+    blocks: dict[int, tuple | None] = {}  # upper-left cell -> its 2 x 2 gradients, None if not smooth
+
+    def block(q: int) -> tuple | None:
+        (x0, y0, s0), (x1, y1, s1), (x2, y2, s2), (x3, y3, s3) = grad(q), grad(q + 1), grad(q + cols), \
+            grad(q + cols + 1)
+        blocks[q] = b = (x0, x1, x2, x3, y0, y1, y2, y3) if s0 and s1 and s2 and s3 else None
+        return b
+
     nbrs = [dr * cols + dc for dr in (-1, 0, 1) for dc in (-1, 0, 1) if dr or dc]
     x, y = float(start_rc[1]), float(start_rc[0])
     out = [(x, y)]
@@ -77,11 +85,11 @@ def descend(
             return np.asarray(out)
         c0, r0 = int(x), int(y)  # x, y > 0 inside the padded grid, so int() is floor()
         k0 = r0 * cols + c0
-        k1, k2, k3 = k0 + 1, k0 + cols, k0 + cols + 1
         vx = vy = 0.0
         if not grid_only and not (len(out) > 2 and out[-1] == out[-3]):
-            (x0, y0, s0), (x1, y1, s1), (x2, y2, s2), (x3, y3, s3) = grad(k0), grad(k1), grad(k2), grad(k3)
-            if s0 and s1 and s2 and s3:
+            b = blocks[k0] if k0 in blocks else block(k0)
+            if b is not None:
+                x0, x1, x2, x3, y0, y1, y2, y3 = b
                 fx, fy = x - c0, y - r0
                 w0, w1, w2, w3 = (1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy
                 vx = w0 * x0 + w1 * x1 + w2 * x2 + w3 * x3

@@ -10,6 +10,10 @@ Behaviour follows ROS ``navfn``/``NavfnROS`` (and ``global_planner``'s parameter
   reachable cell (finite potential) nearest the goal within ``tolerance``.
 * the start cell is cleared like NavfnROS ``clearRobotCell`` unless it is LETHAL (StartOccupied).
 * unlike navfn the outermost map cells are usable (the solver pads the grid instead).
+* the wavefront stops, like navfn's ``calcNavFnDijkstra(atStart=true)``, soon after it reaches the goal:
+  once no pending cell could still lower the goal's potential (by more than the margin), counting
+  each pending value plus the least rise over its grid distance to the goal, so fronts elsewhere on the
+  map need not catch up first. Same potential at the goal and the same path as the global rule.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ from master_side.planning.grid import (
     in_grid,
     world_to_cell,
 )
-from master_side.planning.potential import pad_costs, propagate
+from master_side.planning.potential import INV_SQRT2, pad_costs, propagate
 
 OBSTACLE_COST = 253.0  # navfn COST_OBS - 1: the highest passable cell cost
 
@@ -54,11 +58,13 @@ class NavfnParams:
 
     def cell_costs(self, grid: np.ndarray) -> np.ndarray:
         """navfn cost array (float, inf = impassable) for a uint8 costmap grid."""
-        g = grid.astype(np.float64)
-        c = np.minimum(self.neutral_cost + self.cost_factor * g, OBSTACLE_COST)
-        c[grid >= self.lethal_cost] = np.inf
-        unknown = grid == NO_INFORMATION
-        c[unknown] = OBSTACLE_COST if self.allow_unknown else np.inf
+        return self.cost_table().take(grid)
+
+    def cost_table(self) -> np.ndarray:
+        """(256,) navfn cost of each uint8 costmap value (a lookup is cheaper than arithmetic per cell)."""
+        c = np.minimum(self.neutral_cost + self.cost_factor * np.arange(256.0), OBSTACLE_COST)
+        c[self.lethal_cost :] = np.inf
+        c[NO_INFORMATION] = OBSTACLE_COST if self.allow_unknown else np.inf
         return c
 
 
@@ -117,6 +123,7 @@ class NavFn:
             heuristic=heur,
             band=2.0 * p.neutral_cost,
             margin=3.0 * OBSTACLE_COST,
+            rise=INV_SQRT2 * p.neutral_cost,  # every passable cell costs >= neutral_cost
             max_cycles=max(h * w // 4, 4 * (h + w)),
             deadline=deadline,
         )

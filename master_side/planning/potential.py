@@ -44,14 +44,19 @@ def propagate(
     heuristic: np.ndarray | None = None,
     band: float = 0.0,
     margin: float = 0.0,
+    rise: float = 0.0,
     max_cycles: int = 1_000_000,
     deadline: float | None = None,
 ) -> tuple[np.ndarray, int]:
     """Potential from ``source`` over padded flat ``cost`` (row stride ``width``).
 
     Stops when no cell can still improve, or once ``stop`` has a potential and every pending cell
-    would get at least ``pot[stop] + margin`` (``margin`` >= 0). ``heuristic`` (flat, admissible) turns
-    on A* ordering with threshold blocks ``band`` wide. Returns (potential with inf = unreached, cycles).
+    would get at least ``pot[stop] + margin`` (``margin`` >= 0). ``rise`` > 0 (the least potential rise per
+    4-neighbour step, e.g. the smallest passable cost / sqrt 2) makes that bar local: a pending cell counts
+    with its value plus ``rise`` times its grid (L1) distance to ``stop``, a lower bound of what it could
+    still bring there, so fronts far from ``stop`` need not catch up first. ``heuristic`` (flat,
+    admissible) turns on A* ordering with threshold blocks ``band`` wide. Returns (potential with inf =
+    unreached, cycles).
     Raises PlannerTimeout past ``deadline`` (time.monotonic()).
     """
     n = cost.size
@@ -104,7 +109,7 @@ def propagate(
                 # A pending update of ``stop`` itself is below pot[stop] (so below the bar): no need to
                 # look for it separately.
                 if floor is None:
-                    floor = new.min() if new.size else np.inf
+                    floor = _floor(new, active, stop, width, rise) if new.size else np.inf
                 if floor >= ps + margin:
                     break
         better = new < pot[active]
@@ -123,3 +128,17 @@ def propagate(
         stamp[cand] = r
         active = cand[stamp[cand] == r]
     return pot, cycles
+
+
+def _floor(new: np.ndarray, active: np.ndarray, stop: int, width: int, rise: float) -> float:
+    """Least potential the pending updates could still bring to ``stop`` (see ``propagate``'s ``rise``)."""
+    if rise <= 0.0:
+        return float(new.min())
+    sr, sc = divmod(stop, width)
+    r, c = np.divmod(active, width)
+    r -= sr
+    c -= sc
+    np.abs(r, out=r)
+    np.abs(c, out=c)
+    r += c
+    return float((new + rise * r).min())

@@ -158,7 +158,7 @@ class LocalPlanner:
             return LocalResult(self._brake(ctx.vel), False, res.reason, np.zeros((0, 3)), len(trajs))
         cmd = trajs.vels[res.best]
         self.oscillation.update(cmd, ctx.pose)
-        return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.poses[res.best], len(trajs))
+        return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.row(res.best), len(trajs))
 
     def _samples(self, vel: np.ndarray) -> np.ndarray:
         raise NotImplementedError

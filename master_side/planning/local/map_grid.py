@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from master_side.costmap.costmap2d import points_in_polygon
+from master_side.planning.local.goal_cell import _PREFIXES, pushed_goal_cell
 from master_side.planning.local.grid_distance import _LATTICES, MapGrid, densify
 
 
@@ -71,7 +72,14 @@ class ScoringContext:
                 d = xy[-1] - self.pose[:2]
                 a = math.atan2(d[1], d[0])
                 xy[-1] += front * np.array([math.cos(a), math.sin(a)])
-            self._cache[key] = self._recall(("goal", xy.tobytes()), lambda: self.map_grid().goal_distance(xy))
+                # the pushed end moves with the robot; the fill only depends on the cell it leads to
+                cell = pushed_goal_cell(self.grid, self.resolution, self.origin, self.plan[:, :2], xy[-1])
+                targets = np.zeros(0, np.int64) if cell is None else np.array([cell])
+                self._cache[key] = self._recall(
+                    ("goal cell", cell), lambda: self.map_grid().lattice.fill(self.map_grid().passable, targets))
+            else:
+                self._cache[key] = self._recall(
+                    ("goal", xy.tobytes()), lambda: self.map_grid().goal_distance(xy))
         return self._cache[key]
 
     def _recall(self, what: tuple, compute):
@@ -93,6 +101,7 @@ _RECENT: dict = {}  # flood fills of the last few cycles (the arrays are read-on
 def forget_recent_fills() -> None:
     """Drop the remembered flood fills (the next cycle computes its own; for benchmarks)."""
     _RECENT.clear()
+    _PREFIXES.clear()
     for lattice in _LATTICES.values():
         lattice._recent.clear()
 

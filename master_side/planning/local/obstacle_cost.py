@@ -172,7 +172,7 @@ class ObstacleCost(CostFunction):
 
     def _start_free(self, trajs: Trajectories) -> bool:
         """The start pose (shared by all trajectories) is valid, outline included."""
-        ctx, p0 = self.ctx, trajs.poses[0, 0]
+        ctx, p0 = self.ctx, trajs.row(0)[0]
         r, c, _ = ctx.cells(p0[:2])
         reach = self.circumscribed + 2.0 * ctx.resolution
         lo, hi = ctx.origin + reach, ctx.origin + np.array(ctx.grid.shape[::-1]) * ctx.resolution - reach

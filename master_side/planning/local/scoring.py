@@ -111,7 +111,7 @@ def _branch_and_bound(trajs: Trajectories, parts: list, alive: np.ndarray, total
                       rejected: Counter) -> int:
     """Score the bounded costs exactly where needed; returns the best index (-1: all rejected).
     ``alive``, ``total`` and ``rejected`` are updated in place (``total`` exact where scored)."""
-    n, t = len(trajs), trajs.poses.shape[1]
+    n, t = len(trajs), trajs.n_poses
     exact, probed = np.zeros(n, bool), np.zeros(n, bool)
     best, best_total = -1, np.inf
     bounded = [p for p in parts if p[2]]

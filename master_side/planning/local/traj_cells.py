@@ -16,7 +16,8 @@ BIG = 1 << 20  # as in ScoringContext.cells_xy: truncation of a shifted value is
 
 
 def steps_xy(trajs: Trajectories) -> tuple[np.ndarray, ...]:
-    """(x, y, theta, cos theta, sin theta), each (T + 1, S)."""
+    """(x, y, theta, cos theta, sin theta), each (T + 1, S); theta is None for a simulated set (no cost
+    reads it)."""
     got = trajs.cache.get("xyT")
     if got is None:
         p = trajs.poses

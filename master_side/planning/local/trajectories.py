@@ -3,19 +3,45 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
 
-@dataclass(frozen=True)
 class Trajectories:
-    """S simulated trajectories: ``poses`` (S, T, 3) with row 0 the start pose, ``vels`` (S, 3) samples."""
+    """S simulated trajectories: ``poses`` (S, T, 3) with row 0 the start pose, ``vels`` (S, 3) samples.
 
-    poses: np.ndarray
-    vels: np.ndarray
-    # per-set derived arrays (cells of the poses, ...) shared by the cost functions of one cycle
-    cache: dict = field(default_factory=dict, compare=False, repr=False)
+    ``cache`` holds per-set derived arrays (cells of the poses, ...) shared by the cost functions of one
+    cycle. A set simulated at constant velocities keeps its poses in the cache's step-major arrays and
+    builds the (S, T, 3) array only when something asks for it (the scoring does not)."""
+
+    __slots__ = ("_poses", "vels", "cache", "_layout")
+
+    def __init__(self, poses: np.ndarray | None, vels: np.ndarray, cache: dict | None = None,
+                 layout: tuple | None = None):
+        self._poses, self.vels = poses, vels
+        self.cache = {} if cache is None else cache
+        self._layout = layout  # (x, y, th, inv): (T, S), (T, S), (T, W) headings per distinct w, (S,)
+
+    @property
+    def poses(self) -> np.ndarray:
+        if self._poses is None:
+            x, y, th, inv = self._layout
+            poses = np.empty((x.shape[1], x.shape[0], 3))
+            poses[:, :, 0], poses[:, :, 1], poses[:, :, 2] = x.T, y.T, th[:, inv].T
+            self._poses = poses
+        return self._poses
+
+    @property
+    def n_poses(self) -> int:
+        """Poses per trajectory (T)."""
+        return int(self._poses.shape[1] if self._poses is not None else self._layout[0].shape[0])
+
+    def row(self, i: int) -> np.ndarray:
+        """(T, 3) poses of trajectory ``i`` (without building every trajectory's)."""
+        if self._poses is not None:
+            return self._poses[i]
+        x, y, th, inv = self._layout
+        return np.column_stack((x[:, i], y[:, i], th[:, inv[i]]))
 
     def __len__(self) -> int:
         return int(self.vels.shape[0])
@@ -96,11 +122,11 @@ def _integrate(start: np.ndarray, v: np.ndarray, dt) -> np.ndarray:
 def _integrate_constant(start: np.ndarray, samples: np.ndarray, t: int, dt: float) -> Trajectories:
     """``_integrate`` for samples held constant over all ``t`` steps, with the same arithmetic (so the
     same bits): headings, their cosines and sines once per distinct rotation speed, the running sums in
-    a (step, sample) layout. The (T + 1, S) x, y, heading, cos and sin arrays go to the cache ("xyT")."""
+    a (step, sample) layout. The (T + 1, S) x, y, cos and sin arrays go to the cache ("xyT"); the
+    (S, T + 1, 3) poses are built on first use."""
     s = samples.shape[0]
-    out = Trajectories(np.empty((s, t + 1, 3)), samples)
     if s == 0:
-        return out
+        return Trajectories(np.empty((s, t + 1, 3)), samples)
     w, inv = np.unique(samples[:, 2], return_inverse=True)
     th = np.empty((len(w), t + 1))
     th[:, 0] = start[2]
@@ -125,10 +151,8 @@ def _integrate_constant(start: np.ndarray, samples: np.ndarray, t: int, dt: floa
     x[1:] += start[0]
     y[1:] += start[1]
     x[0], y[0] = start[0], start[1]
-    th_t = th.T[:, inv]
-    poses = out.poses
-    poses[:, :, 0], poses[:, :, 1], poses[:, :, 2] = x.T, y.T, th_t.T
-    out.cache["xyT"] = (x, y, th_t, cos_t, sin_t)
+    out = Trajectories(None, samples, layout=(x, y, th.T, inv))
+    out.cache["xyT"] = (x, y, None, cos_t, sin_t)  # headings: see Trajectories.row / poses
     return out
 
 
