@@ -24,17 +24,20 @@ def log_odds(p: float) -> float:
 
 class GridLevel:
     def __init__(self, resolution: float, size: int, origin: tuple[float, float],
-                 factor_free: float = 0.4, factor_occupied: float = 0.9, unknown: float = 0.5):
+                 factor_free: float = 0.4, factor_occupied: float = 0.9, unknown: float = 0.5,
+                 ignore_unknown: bool = False):
         self.res, self.size = float(resolution), int(size)
         self.ox, self.oy = float(origin[0]), float(origin[1])
         self.l_free, self.l_occ = log_odds(factor_free), log_odds(factor_occupied)
         self.logodds = np.zeros((self.size, self.size), np.float32)
+        self.ignore_unknown = ignore_unknown
         self.prob = np.full((self.size, self.size), unknown, np.float32)
         self.flat_prob = self.prob.reshape(-1)  # a view: interpolation gathers from it
 
     # -- matching ------------------------------------------------------------------------------
     def interp(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Bilinear probability at world points and its gradient (per metre); 0 outside the map."""
+        """Bilinear probability at world points and its gradient (per metre); 0 outside the map, or
+        with ``ignore_unknown`` NaN where the nearest cell was never observed (no information)."""
         inv = 1.0 / self.res
         cx = (x - self.ox) * inv - 0.5
         cy = (y - self.oy) * inv - 0.5
@@ -53,6 +56,9 @@ class GridLevel:
         dy = (gx * (i01 - i00) + fx * (i11 - i10)) * inv
         if not ok.all():
             val, dx, dy = val * ok, dx * ok, dy * ok
+        if self.ignore_unknown:
+            near = base + (fy >= 0.5) * n + (fx >= 0.5)
+            val = np.where(self.logodds.reshape(-1)[near] == 0, np.nan, val)
         return val, dx, dy
 
     # -- map update ----------------------------------------------------------------------------

@@ -24,6 +24,9 @@ def _linearise(level: GridLevel, px: np.ndarray, py: np.ndarray, pose: np.ndarra
     c, s = math.cos(pose[2]), math.sin(pose[2])
     rx, ry = c * px - s * py, s * px + c * py  # rotated points
     m, dx, dy = level.interp(pose[0] + rx, pose[1] + ry)
+    bad = np.isnan(m)  # the nearest cell never observed (ignore_unknown): no residual, no gradient
+    if bad.any():
+        m, dx, dy = np.where(bad, 1.0, m), np.where(bad, 0.0, dx), np.where(bad, 0.0, dy)
     j = np.empty((len(px), 3))
     j[:, 0], j[:, 1] = dx, dy
     j[:, 2] = -ry * dx + rx * dy
@@ -31,17 +34,19 @@ def _linearise(level: GridLevel, px: np.ndarray, py: np.ndarray, pose: np.ndarra
 
 
 def gauss_newton(level: GridLevel, pts: np.ndarray, pose: np.ndarray, iterations: int,
-                 prior_w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+                 prior_w: np.ndarray | None = None, anchor: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, float]:
     """Refine ``pose`` (x, y, θ) matching base-frame ``pts`` (N, 2) on one level.
 
     A step that raises the cost is halved (and the iteration spent) instead of taken, and a step
     moves at most ``MAX_STEP_CELLS`` cells and ``MAX_ROT_STEP`` rad: a flat or degenerate part of the
     map cannot throw the pose away. ``prior_w`` (3,): weights of a soft prior (Δx², Δy², Δθ²) keeping
-    the pose near the starting pose in directions the map does not constrain.
+    the pose near ``anchor`` (the prediction; default the starting pose) in directions the map does
+    not constrain, e.g. along a corridor whose end is out of range.
     Returns (pose, Hessian at the final pose, mean squared residual)."""
     pose = np.array(pose, float)
     px, py = pts[:, 0], pts[:, 1]
-    start = pose.copy()
+    start = pose.copy() if anchor is None else np.asarray(anchor, float)
     w = np.zeros(3) if prior_w is None else np.asarray(prior_w, float)
 
     def total(pose_: np.ndarray, r_: np.ndarray) -> float:
@@ -106,7 +111,7 @@ def presearch(level: GridLevel, pts: np.ndarray, pose: np.ndarray, linear: float
     y = pose[1] + offs[None, None, :, None] + ry[:, None, None, :]  # (A, 1, Y, N)
     x, y = np.broadcast_arrays(x, y)
     m, _, _ = level.interp(x.reshape(-1), y.reshape(-1))
-    score = m.reshape(x.shape).sum(axis=-1)  # (A, X, Y)
+    score = np.nan_to_num(m, nan=0.0).reshape(x.shape).sum(axis=-1)  # (A, X, Y); unobserved: 0
     ia, ix, iy = np.meshgrid(np.arange(-na, na + 1), np.arange(-nl, nl + 1), np.arange(-nl, nl + 1),
                              indexing="ij")
     score = score - 1e-6 * (np.abs(ia) + np.abs(ix) + np.abs(iy))
@@ -116,17 +121,20 @@ def presearch(level: GridLevel, pts: np.ndarray, pose: np.ndarray, linear: float
 
 def match(levels: list[GridLevel], pts: np.ndarray, start: np.ndarray, coarse_iterations: int = 3,
           fine_iterations: int = 5, search_linear: float = 0.0, search_angular: float = 0.0,
-          search_angular_step: float = 0.025, prior_w: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+          search_angular_step: float = 0.025, prior_w: np.ndarray | None = None
+          ) -> tuple[np.ndarray, np.ndarray]:
     """Match on the coarsest level first, then each finer one from the previous result (optionally
-    after a ``presearch`` on the coarsest level).
+    after a ``presearch`` on the coarsest level); the prior (``prior_w``) is centred on ``start``, the
+    prediction, on every level.
 
     ``levels[0]`` is the finest. Returns (pose, 3×3 covariance from the finest level's Hessian)."""
     pose = np.asarray(start, float)
+    anchor = pose.copy()
     if search_linear > 0 or search_angular > 0:
         pose = presearch(levels[-1], pts, pose, search_linear, search_angular, search_angular_step)
     h, mse = np.eye(3), 1.0
     for i in range(len(levels) - 1, -1, -1):
         pose, h, mse = gauss_newton(levels[i], pts, pose, fine_iterations if i == 0 else coarse_iterations,
-                                    prior_w)
+                                    prior_w, anchor)
     pose[2] = math.atan2(math.sin(pose[2]), math.cos(pose[2]))
     return pose, covariance(h, mse, len(pts))

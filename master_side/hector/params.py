@@ -64,6 +64,10 @@ class HectorParams:
     unknown_probability: float = param(0.5, lo=0.0, hi=1.0, doc="what the matcher reads in a never-"
                                        "observed cell (hector: 0.5, which rewards pushing scan points into "
                                        "unexplored space, e.g. past a corridor's visible end)")
+    ignore_unknown: bool = param(False, doc="a scan point whose nearest cell was never observed carries no "
+                                 "information (no residual, no gradient) instead of reading unknown_probability: "
+                                 "points the robot sees for the first time do not pull the match back to the "
+                                 "last map update's pose")
     max_scan_motion_xy: float = param(0.5, lo=0.0, unit="m", doc="a last step longer than this is not "
                                       "extrapolated (the prediction is then the last pose)")
     max_scan_motion_theta: float = param(0.5, lo=0.0, unit="rad", doc="... nor one turning more than this")

@@ -23,7 +23,8 @@ def make_levels(p: HectorParams) -> list[GridLevel]:
     for k in range(p.map_multi_res_levels):
         f = 2 ** k
         levels.append(GridLevel(p.map_resolution * f, math.ceil(p.map_size / f), origin,
-                                p.update_factor_free, p.update_factor_occupied, p.unknown_probability))
+                                p.update_factor_free, p.update_factor_occupied, p.unknown_probability,
+                                p.ignore_unknown))
     return levels
 
 

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import pytest
 
 from common.geometry import Pose2D
+from common.messages import Header, LaserScan
 from master_side.hector.params import HectorParams
 from master_side.hector.slam import make_levels
 from tests.slam.conftest import _room_scan
@@ -29,3 +33,28 @@ def room_levels(truth: Pose2D, params: HectorParams = PARAMS, passes: int = 3):
 @pytest.fixture
 def room_scan():
     return _room_scan
+
+
+def segment_scan(pose: Pose2D, segments, n: int = 181, fov: float = math.pi, max_range: float = 30.0) -> LaserScan:
+    """A scan over ``fov`` (a SICK-like 180° by default) of world line ``segments`` ((x0, y0), (x1, y1));
+    beams hitting nothing within ``max_range`` return max_range + 1 (dropped as "no return")."""
+    inc = fov / (n - 1)
+    d = np.column_stack((np.cos(-fov / 2 + inc * np.arange(n) + pose.theta),
+                         np.sin(-fov / 2 + inc * np.arange(n) + pose.theta)))
+    o = np.array([pose.x, pose.y])
+    best = np.full(n, np.inf)
+    for a, b in segments:
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        e = b - a
+        den = d[:, 0] * e[1] - d[:, 1] * e[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((a[0] - o[0]) * e[1] - (a[1] - o[1]) * e[0]) / den
+            u = ((a[0] - o[0]) * d[:, 1] - (a[1] - o[1]) * d[:, 0]) / den
+        ok = (np.abs(den) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
+        best[ok] = np.minimum(best[ok], t[ok])
+    best[best > max_range] = max_range + 1.0
+    return LaserScan(Header(0.0, "laser"), -fov / 2, fov / 2, inc, 0.0, 0.0, 0.05, max_range,
+                     best.astype(np.float32))
+
+
+CORRIDOR = [((-40.0, -1.01), (40.0, -1.01)), ((-40.0, 1.01), (40.0, 1.01))]  # no end in range
