@@ -41,8 +41,7 @@ STACK_TESTS = (
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    if not getattr(config.option, "numprocesses", None):
-        return
+    # always marked (xdist's workers run without -n; without xdist the mark does nothing)
     for item in items:
         path = Path(str(item.fspath)).resolve().relative_to(REPO).as_posix()
         if path.startswith(STACK_TESTS) or item.get_closest_marker("netns"):
