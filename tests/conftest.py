@@ -41,7 +41,8 @@ STACK_TESTS = (
 
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    # always marked (xdist's workers run without -n; without xdist the mark does nothing)
+    if not getattr(config.option, "numprocesses", None):
+        return
     for item in items:
         path = Path(str(item.fspath)).resolve().relative_to(REPO).as_posix()
         if path.startswith(STACK_TESTS) or item.get_closest_marker("netns"):
