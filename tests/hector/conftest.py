@@ -11,7 +11,7 @@ from common.geometry import Pose2D
 from common.messages import Header, LaserScan
 from master_side.hector.params import HectorParams
 from master_side.hector.slam import make_levels
-from tests.slam.conftest import _room_scan
+from tests.slam.conftest import _room_scan, ray_ranges
 
 PARAMS = HectorParams(map_resolution=0.05, map_size=256, map_multi_res_levels=3, laser_min_dist=0.05,
                       laser_max_dist=20.0)
@@ -39,19 +39,7 @@ def segment_scan(pose: Pose2D, segments, n: int = 181, fov: float = math.pi, max
     """A scan over ``fov`` (a SICK-like 180° by default) of world line ``segments`` ((x0, y0), (x1, y1));
     beams hitting nothing within ``max_range`` return max_range + 1 (dropped as "no return")."""
     inc = fov / (n - 1)
-    d = np.column_stack((np.cos(-fov / 2 + inc * np.arange(n) + pose.theta),
-                         np.sin(-fov / 2 + inc * np.arange(n) + pose.theta)))
-    o = np.array([pose.x, pose.y])
-    best = np.full(n, np.inf)
-    for a, b in segments:
-        a, b = np.asarray(a, float), np.asarray(b, float)
-        e = b - a
-        den = d[:, 0] * e[1] - d[:, 1] * e[0]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = ((a[0] - o[0]) * e[1] - (a[1] - o[1]) * e[0]) / den
-            u = ((a[0] - o[0]) * d[:, 1] - (a[1] - o[1]) * d[:, 0]) / den
-        ok = (np.abs(den) > 1e-12) & (t > 0) & (u >= 0) & (u <= 1)
-        best[ok] = np.minimum(best[ok], t[ok])
+    best = ray_ranges(pose, -fov / 2 + inc * np.arange(n) + pose.theta, segments)
     best[best > max_range] = max_range + 1.0
     return LaserScan(Header(0.0, "laser"), -fov / 2, fov / 2, inc, 0.0, 0.0, 0.05, max_range,
                      best.astype(np.float32))
