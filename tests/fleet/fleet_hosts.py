@@ -217,15 +217,25 @@ def on_host(hosts: FleetHosts, tmp: Path, host: str, argv: list[str], identity: 
     e.update(host_env(tmp / "hosts" / (identity or host) / "zenav/etc/zenav.env"), PYTHONPATH=str(REPO))
     e.update(env or {})
     limit = ["timeout", str(seconds)] if seconds else []
+    # its own process group: `timeout` forks the python, so killing the Popen alone would leave it running
     return subprocess.Popen(["ip", "netns", "exec", hosts.ns[host], *limit, sys.executable, *argv], cwd=REPO,
-                            env=e, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            env=e, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+
+
+def kill_group(p: subprocess.Popen) -> None:
+    """SIGKILL an ``on_host`` process and everything it started (its process group)."""
+    try:
+        os.killpg(p.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
 
 
 def output(p: subprocess.Popen, timeout: float = 30) -> str:
     try:
         out, err = p.communicate(timeout=timeout)
     except subprocess.TimeoutExpired:
-        p.kill()
+        kill_group(p)
         out, err = p.communicate()
     return out + err
 
