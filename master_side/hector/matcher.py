@@ -95,6 +95,14 @@ def covariance(h: np.ndarray, mse: float, n: int) -> np.ndarray:
     return 0.5 * (cov + cov.T)
 
 
+def score(levels: list[GridLevel], pts: np.ndarray, pose: np.ndarray) -> float:
+    """Σ M over the scan points at ``pose`` on every level (never-observed cells read 0): how much of
+    the scan lands on the map's walls (the coarser levels see a scan near a wall, not only on it)."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    x, y = pose[0] + c * pts[:, 0] - s * pts[:, 1], pose[1] + s * pts[:, 0] + c * pts[:, 1]
+    return float(sum(np.nan_to_num(lv.interp(x, y)[0], nan=0.0).sum() for lv in levels))
+
+
 def presearch(level: GridLevel, pts: np.ndarray, pose: np.ndarray, linear: float, angular: float,
               angular_step: float) -> np.ndarray:
     """Exhaustive search of the window ±``linear`` (steps of one cell of ``level``) × ±``angular``

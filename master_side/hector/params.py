@@ -57,6 +57,11 @@ class HectorParams:
                                  "(0: off, as hector)")
     search_angular: float = param(0.0, lo=0.0, hi=1.5, unit="rad", doc="... and ±this in angle (0: off)")
     search_angular_step: float = param(0.025, lo=0.001, hi=0.5, unit="rad", doc="angle step of that search")
+    gap_time: float = param(0.0, lo=0.0, unit="s", doc="a scan this long after the previous one (a gap in "
+                            "the scans, in which the robot may have turned far) is matched after the wider "
+                            "gap_search_* search on the coarsest level (0: off, as hector)")
+    gap_search_angular: float = param(3.14, lo=0.0, hi=3.15, unit="rad", doc="that search's angle half-width")
+    gap_search_linear: float = param(0.0, lo=0.0, hi=2.0, unit="m", doc="... and translation half-width")
     prior_sigma_xy: float = param(0.0, lo=0.0, unit="m", doc="soft prior keeping the match near its "
                                   "start (the prediction) where the map leaves it free, e.g. along a corridor "
                                   "whose end is out of range: Δxy² / this² is added to the cost (0: off, as hector)")

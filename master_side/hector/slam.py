@@ -10,7 +10,7 @@ import numpy as np
 from common.geometry import Pose2D, normalize_angle
 from common.messages import LaserScan, OccupancyGrid
 from master_side.hector.grid import GridLevel
-from master_side.hector.matcher import match
+from master_side.hector.matcher import match, score
 from master_side.hector.params import HectorParams
 
 
@@ -83,7 +83,8 @@ class HectorSlam:
             self._update_map(pose, pts)
         else:
             guess = start if start is not None else self.predict(stamp)
-            pose = self._match(pts, guess) if len(pts) >= 3 else guess
+            gap = self.p.gap_time > 0 and stamp - self._last[0] > self.p.gap_time
+            pose = self._match(pts, guess, gap) if len(pts) >= 3 else guess
             lu = self._last_update
             if (math.hypot(pose.x - lu.x, pose.y - lu.y) > self.p.map_update_distance_thresh
                     or abs(normalize_angle(pose.theta - lu.theta)) > self.p.map_update_angle_thresh):
@@ -93,10 +94,18 @@ class HectorSlam:
         self.pose = pose
         return pose
 
-    def _match(self, pts: np.ndarray, guess: Pose2D) -> Pose2D:
+    def _match(self, pts: np.ndarray, guess: Pose2D, gap: bool = False) -> Pose2D:
+        """``gap``: after a gap in the scans, also match from the best pose of the wider gap_search_*
+        window, and keep whichever match overlaps the map more (``score``)."""
         p = self.p
         est, self.covariance = match(self.levels, pts, guess.as_array(), p.coarse_iterations, p.fine_iterations,
                                      p.search_linear, p.search_angular, p.search_angular_step, self._prior_w)
+        if gap:
+            wide, cov = match(self.levels, pts, guess.as_array(), p.coarse_iterations, p.fine_iterations,
+                              max(p.search_linear, p.gap_search_linear), max(p.search_angular, p.gap_search_angular),
+                              p.search_angular_step, self._prior_w)
+            if score(self.levels, pts, wide) > score(self.levels, pts, est):
+                est, self.covariance = wide, cov
         return Pose2D(*est)
 
     def _update_velocity(self) -> None:
