@@ -225,10 +225,8 @@ def on_host(hosts: FleetHosts, tmp: Path, host: str, argv: list[str], identity: 
 
 def kill_group(p: subprocess.Popen) -> None:
     """SIGKILL an ``on_host`` process and everything it started (its process group)."""
-    try:
+    with contextlib.suppress(ProcessLookupError):
         os.killpg(p.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
 
 
 def output(p: subprocess.Popen, timeout: float = 30) -> str:
