@@ -88,8 +88,11 @@ def main(argv: list[str] | None = None) -> int:
         with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
             results = list(_progress(ex.map(_fast, jobs), len(jobs), t0))
     else:
+        from deploy.procs import terminate_as_interrupt
+
         jobs = [(w, str(work), a.master, a.robot, a.speed) for w in worlds]
-        results = list(_progress(map(_bus, jobs), len(jobs), t0))
+        with terminate_as_interrupt():  # a killed bench stops each world's robot and master agents too
+            results = list(_progress(map(_bus, jobs), len(jobs), t0))
     runs = [r["run"] for r in results]
     s = barn.summarize(runs)
     print("\n| runs | success | collision | timeout | mean time of successes (s) | score |")

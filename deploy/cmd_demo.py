@@ -63,6 +63,7 @@ def monitor_args(args) -> tuple[str, ...]:
 
 def run(args) -> int:
     from deploy.demo import Demo, DemoOptions
+    from deploy.procs import terminate_as_interrupt
 
     worlds = tuple(args.world or ("room", "corridor"))
     opts = DemoOptions(worlds=worlds, planner=args.planner, max_goals=args.goals, speed=args.speed,
@@ -73,9 +74,10 @@ def run(args) -> int:
     print(f"[demo] logs and generated configs in {demo.work}", flush=True)
     ok, error = False, ""
     try:
-        ok = demo.run()
-    except KeyboardInterrupt:
-        error = "interrupted"
+        with terminate_as_interrupt():  # SIGTERM / SIGHUP as Ctrl-C: the agents are stopped below
+            ok = demo.run()
+    except KeyboardInterrupt as e:
+        error = f"interrupted ({e})" if str(e) else "interrupted"
     except RuntimeError as e:
         error = str(e)
     finally:

@@ -1,11 +1,13 @@
 """A group of `zenav` subprocesses on a private loopback Zenoh network (the demo, the BARN bench).
 
 Each process is ``python -m deploy.cli <args> --robot R --no-multicast --connect <endpoint>`` in its
-own session (so Ctrl-C / SIGINT reaches its children), logging to ``<workdir>/<name>.log``.
+own session (so Ctrl-C / SIGINT reaches its children), logging to ``<workdir>/<name>.log``. The owner
+stops them in a ``finally`` under ``terminate_as_interrupt()``, so SIGTERM stops them too.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -14,6 +16,21 @@ import time
 from pathlib import Path
 
 from deploy import checkout_env
+
+
+@contextlib.contextmanager
+def terminate_as_interrupt():
+    """Within the block, SIGTERM and SIGHUP raise KeyboardInterrupt as Ctrl-C does, so the caller's
+    ``finally`` stops its process group (`timeout`, `kill`, a closed terminal); the old handlers after."""
+    def interrupt(signum, _frame):
+        raise KeyboardInterrupt(signal.Signals(signum).name)
+
+    old = {s: signal.signal(s, interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
 
 
 class ProcessGroup:
