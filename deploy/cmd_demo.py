@@ -32,8 +32,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--planner", choices=("dwa", "trajectory"), default="dwa", help="local planner")
     p.add_argument("--slam", nargs="?", const="gmapping", choices=("gmapping", "hector"),
                    help="no known map: map the world with SLAM while navigating (tutorial section 3.6); "
-                        "gmapping (default) or hector (hector_mapping: the scan alone, no odometry; experimental: "
-                        "the Kinect's 57-degree scan is too narrow for it, see the README)")
+                        "gmapping (default) or hector (hector_mapping: the scan alone, no odometry; the P3-AT then "
+                        "carries a 180-degree planar laser, robot_side/config/p3at_sim_laser.yaml, instead of the "
+                        "Kinect, whose 57-degree scan of a plain wall leaves hector lost; see the README)")
     p.add_argument("--amcl", action="store_true",
                    help="known map, localised with AMCL (master_side/config/p3at_amcl.yaml) instead of "
                         "the simulator's ground truth")
