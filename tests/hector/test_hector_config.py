@@ -41,3 +41,12 @@ def test_demo_slam_flag_defaults_to_gmapping_and_accepts_hector(tmp_path):
     assert "hector_mapping" in nodes and "slam_gmapping" not in nodes and "map_server" not in nodes
     nodes = yaml.safe_load(master_config("room", "dwa", tmp_path, slam=True).read_text())["nodes"]
     assert "slam_gmapping" in nodes
+
+
+def test_demo_runs_hector_on_the_planar_laser_and_gmapping_on_the_kinect():
+    from deploy.demo import ROBOT_CONFIG, robot_config
+
+    assert robot_config("hector").name == "p3at_sim_laser.yaml"
+    assert robot_config(True) == robot_config("gmapping") == robot_config(False) == ROBOT_CONFIG
+    laser = read_yaml(robot_config("hector"))["platform"]["sim"]["params"]["laser"]
+    assert laser["angle_max"] - laser["angle_min"] > 3.0  # a wide planar scan, hector's sensor
