@@ -62,43 +62,47 @@ def propagate(
     n = cost.size
     pot = np.full(n, np.inf)
     pot[source] = 0.0
-    stamp = np.zeros(n, dtype=np.intp)
-    ramp = np.arange(min(4 * n + 4, 1 << 14), dtype=np.intp)  # dedup stamps: sliced, grown on demand
+    stamp = np.empty(n, dtype=np.intp)  # dedup stamps: only read where just written
+    ramp = np.arange(min(4 * n + 4, 1 << 14), dtype=np.intp)  # sliced, grown on demand
     h2 = 2.0 * cost * cost  # the quadratic update's 2 h^2, per cell
     push = INV_SQRT2 * cost  # the push rule's least rise h / sqrt 2 (inf cost never passes)
-    offs = np.array([-1, -width, 1, width], dtype=np.intp)[:, None]
-    active = source + offs[:, 0]
+    offs = np.array([-1, -width, 1, width, 0], dtype=np.intp)[:, None]  # 4-neighbours, then the cell
+    active = source + offs[:4, 0]
     active = active[np.isfinite(cost[active])]
     use_stop = stop >= 0
     cur_t = -np.inf
     cycles = 0
+    minimum, subtract = np.minimum, np.subtract
     while active.size:
         cycles += 1
         if cycles > max_cycles:
             break
         if deadline is not None and (cycles & 31) == 0 and time.monotonic() > deadline:
             raise PlannerTimeout(f"potential propagation exceeded its time limit after {cycles} cycles")
-        v = pot[active + offs]  # (4, k): left, down, right, up
-        a, b = np.minimum(v[:2], v[2:])  # the lower neighbour along x and along y
+        idx = active + offs  # (5, k): left, down, right, up, the cell
+        v = pot[idx]
+        ab = minimum(v[:2], v[2:4])  # the lower neighbour along x (row 0) and along y (row 1)
+        a, b, old = ab[0], ab[1], v[4]
         if quadratic:
-            lo = np.minimum(a, b)
-            dc = np.subtract(a, b, out=a)
-            np.abs(dc, out=dc)
-            np.minimum(dc, cost[active], out=dc)  # |a - b| >= h degenerates to lo + h
-            new = np.sqrt(np.subtract(h2[active], dc * dc, out=b), out=b)
+            lo = minimum(a, b)
+            dc = subtract(a, b, a)
+            np.abs(dc, dc)
+            minimum(dc, cost[active], out=dc)  # |a - b| >= h degenerates to lo + h
+            new = subtract(h2[active], np.multiply(dc, dc, b), b)
+            np.sqrt(new, new)
             new += dc
             new *= 0.5
             new += lo
         else:
-            new = np.minimum(a, b, out=a)
+            new = minimum(a, b, out=a)
             new += cost[active]
         if heuristic is not None:
             key = new + heuristic[active]
             kmin = key.min()
             cur_t = max(cur_t, kmin + band)
-            take = key <= cur_t
-            waiting = active[~take]
-            active, new = active[take], new[take]
+            sel = key <= cur_t
+            waiting = active[~sel]
+            active, new, idx, old = active[sel], new[sel], idx.compress(sel, 1), old[sel]
             floor = kmin
         else:
             waiting = None
@@ -112,12 +116,12 @@ def propagate(
                     floor = _floor(new, active, stop, width, rise) if new.size else np.inf
                 if floor >= ps + margin:
                     break
-        better = new < pot[active]
-        changed = active[better]
+        better = new < old
+        nb = idx.compress(better, 1)  # (5, m): the changed cells' neighbours, then the cells
         newv = new[better]
-        pot[changed] = newv
-        nb = changed + offs  # (4, m)
-        keep = pot[nb] > newv + push[nb]  # navfn's push rule
+        pot[nb[4]] = newv
+        nb = nb[:4]
+        keep = pot[nb] > np.add(push[nb], newv)  # navfn's push rule
         cand = nb[keep]
         if waiting is not None and waiting.size:
             cand = np.concatenate((waiting, cand))
