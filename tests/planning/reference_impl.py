@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from master_side.planning.local.cost_base import REJECT
@@ -97,3 +99,54 @@ def map_grid_score_reference(cost, trajs):
         bad = np.zeros(len(last), bool)
         last = np.where(np.isfinite(last), last, ctx.grid.size * ctx.resolution)
     return np.where(off | bad, REJECT, last)
+
+
+def descend_reference(pot2d, start_rc, done_below, *, step=0.5, grid_only=False, max_steps=100_000):
+    """navfn calcPath without caches: per step the four cells' gradCell, bilinear interpolation, else the
+    lowest 8-neighbour; (N, 2) padded (col, row) points or None."""
+    rows, cols = pot2d.shape
+    pot = pot2d.ravel()
+    inf = math.inf
+
+    def grad(k):
+        cv = float(pot[k])
+        if cv == inf:
+            return 0.0, 0.0, False
+        nb = [float(pot[k + d]) for d in (-cols - 1, -cols, -cols + 1, -1, 1, cols - 1, cols, cols + 1)]
+        le, ri, up, dn = nb[3], nb[4], nb[1], nb[6]
+        dx = (le - cv if le < inf else 0.0) + (cv - ri if ri < inf else 0.0)
+        dy = (up - cv if up < inf else 0.0) + (cv - dn if dn < inf else 0.0)
+        n = math.hypot(dx, dy)
+        return (0.0, 0.0, max(nb) < inf) if n == 0.0 else (dx / n, dy / n, max(nb) < inf)
+
+    x, y = float(start_rc[1]), float(start_rc[0])
+    out = [(x, y)]
+    for _ in range(max_steps):
+        r, c = int(y + 0.5), int(x + 0.5)
+        if not (0 < r < rows - 1 and 0 < c < cols - 1):
+            return None
+        k = r * cols + c
+        if pot[k] < done_below:
+            return np.asarray(out)
+        c0, r0 = int(x), int(y)
+        vx = vy = 0.0
+        if not grid_only and not (len(out) > 2 and out[-1] == out[-3]):
+            g = [grad(r0 * cols + c0 + d) for d in (0, 1, cols, cols + 1)]
+            if all(s for _, _, s in g):
+                fx, fy = x - c0, y - r0
+                w = ((1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy)
+                vx = w[0] * g[0][0] + w[1] * g[1][0] + w[2] * g[2][0] + w[3] * g[3][0]
+                vy = w[0] * g[0][1] + w[1] * g[1][1] + w[2] * g[2][1] + w[3] * g[3][1]
+        norm = math.hypot(vx, vy)
+        if norm > 1e-6:
+            x, y = x + step * vx / norm, y + step * vy / norm
+        else:
+            best, bk = pot[k], k
+            for d in (-cols - 1, -cols, -cols + 1, -1, 1, cols - 1, cols, cols + 1):
+                if pot[k + d] < best:
+                    best, bk = pot[k + d], k + d
+            if bk == k:
+                return None
+            y, x = float(bk // cols), float(bk % cols)
+        out.append((x, y))
+    return None

@@ -7,9 +7,10 @@ import math
 import numpy as np
 import pytest
 from planning_helpers import P3AT_FOOTPRINT, inflate
-from reference_impl import integrate_reference, map_grid_score_reference, propagate_reference
+from reference_impl import descend_reference, integrate_reference, map_grid_score_reference, propagate_reference
 
 from common.geometry import Pose2D
+from master_side.planning.gradient_path import descend
 from master_side.planning.grid import LETHAL, NO_INFORMATION
 from master_side.planning.local import DWAPlanner, DWAPlannerParams
 from master_side.planning.local.costs import GoalAlign, GoalDistance, PathAlign, PathDistance
@@ -51,6 +52,25 @@ def test_potential_matches_the_reference_wavefront(seed):
         ref, ref_cyc = propagate_reference(cost, wp, src, stop, **kw)
         np.testing.assert_array_equal(got, ref)
         assert cyc == ref_cyc
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_path_descent_matches_the_reference_descent(seed):
+    rng = np.random.default_rng(50 + seed)
+    grid = _random_map(rng, int(rng.integers(30, 70)), 0.05, unknown=seed % 2 == 1)
+    h, w = grid.shape
+    p = NavfnParams()
+    free = np.argwhere(grid < 253)
+    sr, sc = free[rng.integers(len(free))]
+    pot, _ = propagate(pad_costs(p.cell_costs(grid)), w + 2, (sr + 1) * (w + 2) + sc + 1)
+    pot2d = pot.reshape(h + 2, w + 2)
+    for gr, gc in free[rng.integers(len(free), size=6)]:
+        for kw in ({}, {"grid_only": True}, {"step": 0.3}, {"max_steps": 7}):
+            got = descend(pot2d, (gr + 1, gc + 1), 0.999 * p.neutral_cost, **kw)
+            ref = descend_reference(pot2d, (gr + 1, gc + 1), 0.999 * p.neutral_cost, **kw)
+            assert (got is None) == (ref is None)
+            if ref is not None:
+                np.testing.assert_array_equal(got, ref)
 
 
 def test_constant_velocity_simulation_is_bit_identical():
