@@ -25,6 +25,7 @@ from master_side.slam.params import GMappingParams
 __all__ = ["COARSE", "Field", "FieldSet", "MotionPrior", "ScanMatcher", "make_field"]
 FINE_HALF = COARSE // 2 + 1  # fine search half-width in cells
 MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+TURNS = np.array([0, 0, 0, 0, 1, 2])  # MOVES' heading: unchanged, +step, -step
 
 
 @dataclass(frozen=True)
@@ -58,31 +59,55 @@ def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray,
     assert 2 * half + 1 <= pad
     rx, ry = _rotated(pts, thetas)  # (P, A, B)
     e = (slice(None), None, None)
-    qx = np.floor((rx + poses[:, 0][e]) / cell - ox[e]).astype(np.int64)
-    qy = np.floor((ry + poses[:, 1][e]) / cell - oy[e]).astype(np.int64)
-    np.clip(qx, -half - 1, (nx + half)[e], out=qx)
-    np.clip(qy, -half - 1, (ny + half)[e], out=qy)
-    base = (qy + pad) * w[e] + (qx + pad) + off[e]  # (P, A, B)
+    base = None
+    for q, p0, o, n in ((ry, poses[:, 1], oy, ny), (rx, poses[:, 0], ox, nx)):  # in place, same rounding
+        q += p0[e]
+        q /= cell
+        q -= o[e]
+        np.floor(q, out=q)
+        qi = q.astype(np.int64)
+        np.clip(qi, -half - 1, (n + half)[e], out=qi)
+        qi += pad
+        if base is None:
+            base = qi * w[e]
+        else:
+            base += qi
+    base += off[e]  # (P, A, B) flat index of each beam at shift 0
     r = np.arange(-half, half + 1)
     tx, ty = np.repeat(r, r.size), np.tile(r, r.size)
     shift = ty[None, :] * w[:, None] + tx[None, :]  # (P, T)
-    idx = base[:, :, None, :] + shift[:, None, :, None]  # (P, A, T, B)
-    scores = flat.take(idx).sum(axis=-1)
+    # one shift at a time: small buffers that stay in cache (the sums are those of the full gather)
+    scores = np.empty(base.shape[:2] + (r.size**2,), np.float32)
+    idx, vals = np.empty_like(base), np.empty(base.shape, np.float32)
+    for k in range(r.size**2):
+        np.add(base, shift[:, k, None, None], out=idx)
+        flat.take(idx, out=vals)
+        vals.sum(axis=-1, out=scores[:, :, k])
     return scores, np.column_stack((tx, ty)) * cell
 
 
-def _bilinear_scores(fs: FieldSet, poses: np.ndarray, pts: np.ndarray, sel: np.ndarray | None = None) -> np.ndarray:
-    """Per-beam bilinearly interpolated field values for poses (P, K, 3) of fields ``sel``: (P, K, B)."""
+def _bilinear_scores(fs: FieldSet, poses: np.ndarray, pts: np.ndarray, sel: np.ndarray | None = None,
+                     rotated: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """Per-beam bilinearly interpolated field values for poses (P, K, 3) of fields ``sel``: (P, K, B).
+    ``rotated``: ``_rotated(pts, poses[..., 2])`` if at hand (overwritten)."""
     c = fs.consts if sel is None else fs.consts[sel]  # (P, 6): ix0, iy0, nx - 2, ny - 2, w, base
     ix0, iy0, nxm2, nym2, w, base = (c[:, i, None, None] for i in range(6))
-    rx, ry = _rotated(pts, poses[..., 2])
-    u = (rx + poses[..., :1]) / fs.res - ix0 - 0.5
-    v = (ry + poses[..., 1:2]) / fs.res - iy0 - 0.5
-    u0, v0 = np.floor(u), np.floor(v)
-    fu, fv = (u - u0).astype(np.float32), (v - v0).astype(np.float32)
-    i0, j0 = u0.astype(np.int64), v0.astype(np.int64)
-    np.minimum(np.maximum(i0, 0, out=i0), nxm2, out=i0)
-    np.minimum(np.maximum(j0, 0, out=j0), nym2, out=j0)
+    u, v = _rotated(pts, poses[..., 2]) if rotated is None else rotated
+    i0 = j0 = None
+    for q, p0, o, m in ((u, poses[..., :1], ix0, nxm2), (v, poses[..., 1:2], iy0, nym2)):
+        q += p0  # in place: the same operations as (q + p0) / res - o - 0.5
+        q /= fs.res
+        q -= o
+        q -= 0.5
+        q0 = np.floor(q)
+        q -= q0
+        qi = q0.astype(np.int64)
+        np.minimum(np.maximum(qi, 0, out=qi), m, out=qi)
+        if i0 is None:
+            i0 = qi
+        else:
+            j0 = qi
+    fu, fv = u.astype(np.float32), v.astype(np.float32)
     k = j0 * w
     k += i0
     k += base
@@ -90,8 +115,16 @@ def _bilinear_scores(fs: FieldSet, poses: np.ndarray, pts: np.ndarray, sel: np.n
     a, b = f.take(k), f.take(k + 1)
     k += w
     cc, d = f.take(k), f.take(k + 1)
-    gu = 1 - fu
-    return (a * gu + b * fu) * (1 - fv) + (cc * gu + d * fu) * fv
+    a *= 1 - fu  # (a (1 - fu) + b fu) (1 - fv) + (cc (1 - fu) + d fu) fv, with fewer temporaries
+    b *= fu
+    a += b
+    cc *= 1 - fu
+    d *= fu
+    cc += d
+    a *= 1 - fv
+    cc *= fv
+    a += cc
+    return a
 
 
 class ScanMatcher:
@@ -200,7 +233,10 @@ class ScanMatcher:
                 break
             sub = self.sub_prior(prior, active)
             cand = pose[active][:, None, :] + MOVES[None] * steps[active][:, None, :]
-            sc = (_bilinear_scores(fs, cand, pts, active).sum(axis=-1)
+            # three headings per particle: rotate the beams once per heading, not once per move
+            rx, ry = _rotated(pts, cand[:, 3:, 2])
+            rot = (rx.take(TURNS, axis=1), ry.take(TURNS, axis=1))
+            sc = (_bilinear_scores(fs, cand, pts, active, rot).sum(axis=-1)
                   - self._penalty(cand, pose0[active], n, window, sub))
             k = sc.argmax(axis=1)
             top = sc[np.arange(active.size), k]
