@@ -16,6 +16,7 @@ from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
 
 TILE = 64  # cells per tile side
+TILE_BITS = 6  # TILE == 1 << TILE_BITS: tile of a (non-negative) cell index by a shift
 L_OCC, L_FREE, L_MIN, L_MAX = 0.9, -0.35, -3.0, 4.0  # log-odds increments and clamps
 
 
@@ -86,7 +87,8 @@ class TiledGrid:
         ``flipped``: the cells whose occupancy changed (None: any may have)."""
         nx = win.data.shape[1]
         ntx = nx // TILE
-        ids = (touched // nx // TILE) * ntx + (touched % nx) // TILE
+        row = touched // nx
+        ids = (row >> TILE_BITS) * ntx + ((touched - row * nx) >> TILE_BITS)
         tiles = np.flatnonzero(np.bincount(ids, minlength=1))
         parts = None if flipped is None else _flipped_parts(flipped, nx, self.halo)
         for j, i in zip(*np.divmod(tiles, ntx)):

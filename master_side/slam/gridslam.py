@@ -87,23 +87,28 @@ def integrate(win: Window, pose: np.ndarray, beams: Beams) -> np.ndarray:
 def integrate_flips(win: Window, pose: np.ndarray, beams: Beams) -> tuple[np.ndarray, np.ndarray]:
     """``integrate``, also returning the cells whose occupancy (log-odds > 0) changed."""
     ny, nx = win.data.shape
-    idx, val = [], []
-    for pts, value in ((beams.free, L_FREE), (beams.hits, L_OCC)):
-        c, s = math.cos(pose[2]), math.sin(pose[2])
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    idx = []
+    for pts in (beams.free, beams.hits):
         x = pose[0] + c * pts[:, 0] - s * pts[:, 1]
         y = pose[1] + s * pts[:, 0] + c * pts[:, 1]
-        ix, iy = win.cells(np.column_stack((x, y)))
-        ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-        idx.append(iy[ok] * nx + ix[ok])
-        val.append(np.full(int(ok.sum()), value, np.float32))
+        ix = np.floor(x / win.res).astype(np.int64) - win.ix0  # Window.cells
+        iy = np.floor(y / win.res).astype(np.int64) - win.iy0
+        if len(ix) and (ix.min() < 0 or iy.min() < 0 or ix.max() >= nx or iy.max() >= ny):
+            ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+            ix, iy = ix[ok], iy[ok]
+        iy *= nx
+        iy += ix
+        idx.append(iy)
     mark = np.zeros(ny * nx, np.float32)
-    for i, v in zip(idx, val):
-        mark[i] = v  # hits overwrite free marks of the same cell
+    mark[idx[0]] = L_FREE
+    mark[idx[1]] = L_OCC  # hits overwrite free marks of the same cell
     cells = np.concatenate(idx)
     flat = win.data.ravel()
     # duplicates in ``cells`` all write the same value: each cell changes once per scan
     old = flat[cells]
-    new = np.clip(old + mark[cells], L_MIN, L_MAX)
+    new = old + mark[cells]
+    np.clip(new, L_MIN, L_MAX, out=new)
     flat[cells] = new
     return cells, cells[(old > 0) != (new > 0)]
 
