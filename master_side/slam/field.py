@@ -24,21 +24,37 @@ PAD_C = 24  # zero cells around a coarse field (>= 2 * coarse search half-width 
 def squared_distance_field(occ: np.ndarray, radius: int) -> np.ndarray:
     """Squared cell distance to the nearest occupied cell (uint8), FAR beyond ``radius`` cells.
 
-    Separable (squared distances add): a row pass then a column pass of shifted minima.
-    Works on (..., ny, nx) stacks.
+    Works on (..., ny, nx) stacks (the same as ``inner_squared_distances`` of the stack padded with
+    ``radius`` free cells: cells beyond the edge are never nearer than FAR).
     """
-    sq = np.arange(radius + 1, dtype=np.uint8) ** 2
+    pad = [(0, 0)] * (occ.ndim - 2) + [(radius, radius)] * 2
+    return inner_squared_distances(np.pad(occ, pad), radius)
+
+
+def inner_squared_distances(occ: np.ndarray, radius: int) -> np.ndarray:
+    """``squared_distance_field`` of the cells ``radius`` or more from the edge of (..., ny, nx)
+    stacks: (..., ny - 2 radius, nx - 2 radius).
+
+    Separable (squared distances add): a row pass then a column pass of shifted minima.
+    """
+    r = radius
+    sq = np.arange(r + 1, dtype=np.uint8) ** 2
     f = np.where(occ, np.uint8(0), np.uint8(FAR))
-    g = f.copy()
-    for d in range(1, radius + 1):
-        np.minimum(g[..., d:], f[..., :-d] + sq[d], out=g[..., d:])
-        np.minimum(g[..., :-d], f[..., d:] + sq[d], out=g[..., :-d])
+    nx, ny = f.shape[-1] - 2 * r, f.shape[-2] - 2 * r
+    g = f[..., r:r + nx].copy()
+    tmp = np.empty_like(g)
+    for d in range(1, r + 1):
+        for lo in (r - d, r + d):
+            np.add(f[..., lo:lo + nx], sq[d], out=tmp)
+            np.minimum(g, tmp, out=g)
     np.minimum(g, FAR, out=g)
-    h = g.copy()
-    for d in range(1, radius + 1):
-        np.minimum(h[..., d:, :], g[..., :-d, :] + sq[d], out=h[..., d:, :])
-        np.minimum(h[..., :-d, :], g[..., d:, :] + sq[d], out=h[..., :-d, :])
-    h[h > radius * radius] = FAR
+    h = g[..., r:r + ny, :].copy()
+    tmp = tmp[..., :ny, :]
+    for d in range(1, r + 1):
+        for lo in (r - d, r + d):
+            np.add(g[..., lo:lo + ny, :], sq[d], out=tmp)
+            np.minimum(h, tmp, out=h)
+    h[h > r * r] = FAR
     return h
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-from master_side.slam.field import COARSE, PAD_C, PAD_F, FieldSet, coarse_of, kernel_table, squared_distance_field
+from master_side.slam.field import COARSE, PAD_C, PAD_F, FieldSet, coarse_of, inner_squared_distances, kernel_table
 from master_side.slam.grid import TILE, TiledGrid, Window
 from master_side.slam.params import GMappingParams
 
@@ -103,7 +103,7 @@ class FieldCache:
                 jj = np.array([keys[i][2] - ty0 - 1 for i in rows])
                 ii = np.array([keys[i][1] - tx0 - 1 for i in rows])
                 occ[rows] = blocks[jj, ii] > 0.0
-        d = squared_distance_field(occ, r)[:, r:r + TILE, r:r + TILE]
+        d = inner_squared_distances(occ, r)
         fine, coarse = self.table[d], self.table[coarse_of(d)]
         slots = self._alloc(m)
         self.fine[slots] = fine
