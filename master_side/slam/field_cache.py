@@ -104,7 +104,7 @@ class FieldCache:
                 ii = np.array([keys[i][1] - tx0 - 1 for i in rows])
                 occ[rows] = blocks[jj, ii] > 0.0
         d = inner_squared_distances(occ, r)
-        fine, coarse = self.table[d], self.table[coarse_of(d)]
+        fine, coarse = self.table.take(d), self.table.take(coarse_of(d))
         slots = self._alloc(m)
         self.fine[slots] = fine
         self.coarse[slots] = coarse

@@ -75,14 +75,16 @@ def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray,
     base += off[e]  # (P, A, B) flat index of each beam at shift 0
     r = np.arange(-half, half + 1)
     tx, ty = np.repeat(r, r.size), np.tile(r, r.size)
-    shift = ty[None, :] * w[:, None] + tx[None, :]  # (P, T)
-    # one shift at a time: small buffers that stay in cache (the sums are those of the full gather)
+    # one shift at a time: small buffers that stay in cache (the sums are those of the full gather);
+    # shift (tx, ty) reads flat[idx + tx] with idx = base + ty * w, i.e. the slice flat[tx:] at idx
     scores = np.empty(base.shape[:2] + (r.size**2,), np.float32)
     idx, vals = np.empty_like(base), np.empty(base.shape, np.float32)
-    for k in range(r.size**2):
-        np.add(base, shift[:, k, None, None], out=idx)
-        flat.take(idx, out=vals)
-        vals.sum(axis=-1, out=scores[:, :, k])
+    base -= half
+    for j, dy in enumerate(r):
+        np.add(base, (dy * w)[e], out=idx)
+        for i in range(r.size):  # tx = r[i]: flat[half + tx:]
+            flat[i:].take(idx, out=vals)
+            vals.sum(axis=-1, out=scores[:, :, i * r.size + j])
     return scores, np.column_stack((tx, ty)) * cell
 
 
