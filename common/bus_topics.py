@@ -31,6 +31,38 @@ def topic_key(robot: str, topic: str) -> str:
     return f"zenav/{robot}/{topic}"
 
 
+LATCHED_RETRY_S = (0.5, 1.0, 2.0, 4.0)  # waits before asking again when a new publisher gave no reply
+
+
+def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sample], None],
+                  retry: bool = False, closed: Callable[[], bool] = lambda: False, attempt: int = 0) -> None:
+    """Ask every latched publisher of ``key`` for its last message (``on_ok`` per answer).
+
+    ``retry`` (the query follows a publisher's liveliness token): when no one answered, ask again after
+    ``LATCHED_RETRY_S``. The token can arrive before the publisher's queryable is routable (it may travel
+    another way through the peers), and that publisher announces itself only once: without a second
+    query its latched map would never come (seen on a loaded machine)."""
+    answered = [False]
+
+    def on_reply(reply: zenoh.Reply) -> None:
+        if reply.ok is not None:
+            answered[0] = True
+            on_ok(reply.ok)
+
+    def on_done() -> None:
+        if retry and not answered[0] and attempt < len(LATCHED_RETRY_S) and not closed():
+            t = threading.Timer(LATCHED_RETRY_S[attempt], fetch_latched,
+                                (session, key, on_ok, True, closed, attempt + 1))
+            t.daemon = True
+            t.start()
+
+    try:
+        session.get(key, zenoh.handlers.Callback(on_reply, on_done), target=zenoh.QueryTarget.ALL,
+                    consolidation=zenoh.ConsolidationMode.NONE)
+    except zenoh.ZError as e:  # the session is closing
+        log.debug("latched query on %s failed: %s", key, e)
+
+
 class Publisher:
     def __init__(self, node: Node, topic: str, latched: bool, reliable: bool) -> None:
         self.topic, self.key, self._node, self.latched = topic, topic_key(node.robot, topic), node, latched
@@ -97,18 +129,13 @@ class Subscription:
         self._pub_watch = node.session.liveliness().declare_subscriber(
             f"zenavlive/{node.robot}/pub/*/{topic.strip('/')}", self._on_publisher)
 
-    def _fetch_latched(self) -> None:
+    def _fetch_latched(self, retry: bool = False) -> None:
         if not self._closed:
-            self._node.session.get(self.key, self._on_reply, target=zenoh.QueryTarget.ALL,
-                                   consolidation=zenoh.ConsolidationMode.NONE)
+            fetch_latched(self._node.session, self.key, self._on_sample, retry, lambda: self._closed)
 
     def _on_publisher(self, sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
-            self._fetch_latched()
-
-    def _on_reply(self, reply: zenoh.Reply) -> None:
-        if reply.ok is not None:
-            self._ingest(reply.ok.payload.to_bytes(), reply.ok.attachment)
+            self._fetch_latched(retry=True)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         self._ingest(sample.payload.to_bytes(), sample.attachment)

@@ -85,6 +85,7 @@ class Recorder:
         self._last_hash: dict[str, int] = {}  # topic -> hash of its last payload
         self._latched: dict[str, set[int]] = {}  # topic -> hashes of the latched replies recorded
         self._handles: list = []
+        self._closing = False
         self._thread = threading.Thread(target=self._loop, name="record-writer", daemon=True)
 
     def start(self) -> None:
@@ -110,11 +111,10 @@ class Recorder:
             if str(sample.key_expr) in self._queried:
                 return
             self._queried.add(str(sample.key_expr))
-        try:
-            self.session.get(self.prefix + parts[4], lambda r: r.ok is not None and self._on_sample(r.ok, True),
-                             target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE)
-        except zenoh.ZError as e:  # session closing
-            log.debug("latched query failed: %s", e)
+        from common.bus_topics import fetch_latched
+
+        fetch_latched(self.session, self.prefix + parts[4], lambda s: self._on_sample(s, True), retry=True,
+                      closed=lambda: self._closing)
 
     def _wanted(self, topic: str) -> bool:
         return not topic.startswith("srv/") and (self.topics is None or topic in self.topics)
@@ -183,6 +183,7 @@ class Recorder:
             self.writer.write(*item)
 
     def close(self) -> None:
+        self._closing = True  # no more latched retries
         close_quietly(*self._handles)
         self.q.put(False)
         self._thread.join(timeout=60)

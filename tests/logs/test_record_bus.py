@@ -165,8 +165,11 @@ def test_all_topics_until_sigterm_then_a_complete_file_and_bad_paths_exit_2(tmp_
     th = threading.Thread(target=publish, daemon=True)
     th.start()
     try:
-        wait_until(lambda: any("scan=" in line and "map=" in line for line in lines) or proc.poll() is not None,
-                   60, "a progress line counting scans and the map")
+        try:
+            wait_until(lambda: any("scan=" in line and "map=" in line for line in lines) or proc.poll() is not None,
+                       60, "a progress line counting scans and the map")
+        except AssertionError as e:
+            raise AssertionError(f"{e}; zenav record said: {lines[-3:]}") from None
         assert other.call("ping", m.Empty(), timeout=10) == m.Empty()
         assert proc.poll() is None, "".join(lines)
         proc.send_signal(signal.SIGTERM)
