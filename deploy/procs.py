@@ -17,15 +17,37 @@ from pathlib import Path
 
 from deploy import checkout_env
 
+_deferral = {"depth": 0, "pending": 0}  # a signal that came inside _deferred_interrupts()
+
+
+def _interrupt(signum, _frame) -> None:
+    if _deferral["depth"]:
+        _deferral["pending"] = signum
+        return
+    raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+@contextlib.contextmanager
+def _deferred_interrupts():
+    """Inside: a signal handled by terminate_as_interrupt() waits until the block is over, so a process
+    is never started without being recorded for the stop (a SIGTERM right after the child's exec, still
+    inside Popen, left a master agent and its nodes running)."""
+    _deferral["depth"] += 1
+    try:
+        yield
+    finally:
+        _deferral["depth"] -= 1
+        signum, _deferral["pending"] = _deferral["pending"], 0
+        if signum and not _deferral["depth"]:
+            raise KeyboardInterrupt(signal.Signals(signum).name)
+
 
 @contextlib.contextmanager
 def terminate_as_interrupt():
-    """Within the block, SIGTERM and SIGHUP raise KeyboardInterrupt as Ctrl-C does, so the caller's
-    ``finally`` stops its process group (`timeout`, `kill`, a closed terminal); the old handlers after."""
-    def interrupt(signum, _frame):
-        raise KeyboardInterrupt(signal.Signals(signum).name)
-
-    old = {s: signal.signal(s, interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
+    """Within the block, SIGINT, SIGTERM and SIGHUP raise KeyboardInterrupt (named after the signal), so
+    the caller's ``finally`` stops its process group (Ctrl-C, `timeout`, `kill`, a closed terminal); the
+    old handlers after."""
+    old = {s: signal.signal(s, _interrupt) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
     try:
         yield
     finally:
@@ -43,9 +65,11 @@ class ProcessGroup:
 
     def spawn(self, name: str, args: list[str]) -> subprocess.Popen:
         log = open(self.work / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
-        p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self.bus_args()], stdout=log,
-                             stderr=subprocess.STDOUT, env=checkout_env(), start_new_session=True, cwd=self.work)
-        self.procs.append((name, p))
+        with _deferred_interrupts():  # started => recorded, so stop() reaches it
+            p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self.bus_args()], stdout=log,
+                                 stderr=subprocess.STDOUT, env=checkout_env(), start_new_session=True,
+                                 cwd=self.work)
+            self.procs.append((name, p))
         return p
 
     def stop(self, name: str | None = None, grace: float = 10.0) -> None:
