@@ -9,13 +9,9 @@ is compared with the simulator's world (``deploy.map_check``).
 
 from __future__ import annotations
 
-import math
-
 import pytest
-import yaml
 
-from deploy.demo import Demo, DemoOptions
-from deploy.world_maps import world_path
+from tests.slam_e2e.slam_demo import run_slam_demo, wall_length
 
 # fraction of occupied map cells within two cells of a true wall: the bound (measured 100 % in
 # the room and the corridor; 78-83 % with the Kinect's 57-degree scan, the robot 1-2 m off by then)
@@ -23,25 +19,15 @@ WITHIN_TWO_CELLS = 0.95
 CELL = 0.05  # hector_p3at.yaml's map_resolution
 
 
-def _wall_length(world: str) -> float:
-    spec = yaml.safe_load(world_path(world).read_text())
-    return sum(math.dist(w["from"], w["to"]) for w in spec["walls"])
-
 
 @pytest.mark.slow
 def test_hector_demo_maps_the_room_with_its_walls_within_two_cells(robot_name, tmp_path):
     # the corridor (measured 100 %) is left out for the suite's time: `zenav demo --slam hector`
-    demo = Demo(DemoOptions(worlds=("room",), slam="hector", monitor_args=(), robot=robot_name,
-                            workdir=str(tmp_path)), echo=print)
-    try:
-        ok = demo.run()
-    finally:
-        demo.close()
-    goals = [f"{r.name}: {r.reason} ({r.xy_error:.2f} m)" for r in demo.o.results]
+    ok, results, acc = run_slam_demo("room", "hector", robot_name, tmp_path)
+    goals = [f"{r.name}: {r.reason} ({r.xy_error:.2f} m)" for r in results]
     assert ok, f"the loop was not driven: {goals} (logs in {tmp_path})"
-    acc = demo.map_accuracy.get("room")
     assert acc is not None, f"no SLAM map received (logs in {tmp_path})"
     print(f"room: {acc}")
     # the laser sees most of the walls: a map of a few lucky cells must not pass
-    assert acc.occupied_cells * CELL >= 0.5 * _wall_length("room"), acc
+    assert acc.occupied_cells * CELL >= 0.5 * wall_length("room"), acc
     assert acc.within_two_cells >= WITHIN_TWO_CELLS, f"{acc} (map: {tmp_path / 'slam_room.pgm'})"

@@ -9,13 +9,9 @@ with the simulator's world (``deploy.map_check``).
 
 from __future__ import annotations
 
-import math
-
 import pytest
-import yaml
 
-from deploy.demo import Demo, DemoOptions
-from deploy.world_maps import world_path
+from tests.slam_e2e.slam_demo import run_slam_demo, wall_length
 
 # fraction of occupied map cells within two cells of a true wall. room: the issue's acceptance
 # (measured 99.8-100 %; 60 % before the matcher's motion prior). corridor: mapped "decently" (measured
@@ -24,30 +20,20 @@ WITHIN_TWO_CELLS = {"room": 0.95, "corridor": 0.85}
 CELL = 0.05  # gmapping's delta (the tutorial's file keeps the default)
 
 
-def _wall_length(world: str) -> float:
-    spec = yaml.safe_load(world_path(world).read_text())
-    return sum(math.dist(w["from"], w["to"]) for w in spec["walls"])
-
 
 @pytest.mark.slow
 # the corridor (bound 85 %, measured 93-100 %) is left out of the suite for time:
 # `zenav demo --slam --world corridor` runs it; WITHIN_TWO_CELLS keeps its bound
 @pytest.mark.parametrize("world", ["room"])
 def test_slam_e2e_map_of_a_loop_has_its_walls_within_two_cells(world, robot_name, tmp_path):
-    demo = Demo(DemoOptions(worlds=(world,), slam=True, monitor_args=(), robot=robot_name,
-                            workdir=str(tmp_path)), echo=print)
-    try:
-        ok = demo.run()
-    finally:
-        demo.close()
-    goals = [f"{r.name}: {r.reason}" for r in demo.o.results]
+    ok, results, acc = run_slam_demo(world, True, robot_name, tmp_path)
+    goals = [f"{r.name}: {r.reason}" for r in results]
     # the room loop is the acceptance; in the corridor a navigation failure (move_base's business,
     # seen once in ~5 runs) still leaves a map worth checking, so only the map is asserted there
     if world == "room":
         assert ok, f"the loop was not driven: {goals} (logs in {tmp_path})"
-    acc = demo.map_accuracy.get(world)
     assert acc is not None, f"no SLAM map received (logs in {tmp_path})"
     print(f"{world}: {acc}")
     # the loop sees most of the walls: a map of a few lucky cells must not pass
-    assert acc.occupied_cells * CELL >= 0.5 * _wall_length(world), acc
+    assert acc.occupied_cells * CELL >= 0.5 * wall_length(world), acc
     assert acc.within_two_cells >= WITHIN_TWO_CELLS[world], f"{acc} (map: {tmp_path / f'slam_{world}.pgm'})"
