@@ -37,8 +37,8 @@ def _deferred_interrupts():
         yield
     finally:
         _deferral["depth"] -= 1
-        signum, _deferral["pending"] = _deferral["pending"], 0
-        if signum and not _deferral["depth"]:
+        if not _deferral["depth"] and _deferral["pending"]:  # an inner block keeps it for the outer one
+            signum, _deferral["pending"] = _deferral["pending"], 0
             raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
