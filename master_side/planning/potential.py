@@ -3,27 +3,32 @@
 navfn propagates a potential from a source cell with priority buffers and, per cell, the update from
 the two lowest 4-neighbours (one per axis): ``(u - a)^2 + (u - b)^2 = h^2`` (a first-order Eikonal
 step; navfn uses a polynomial fit of its root), or ``u = min(a, b) + h`` when ``|a - b| >= h``.
-Here the whole wavefront is updated at once with numpy (a label-correcting "fast iterative method"):
-every cell whose potential dropped re-activates its neighbours, exactly navfn's push rule, so the
-result is the fixed point navfn converges to, and a Python loop turn costs the same for 10 or 2000
-cells. With ``heuristic`` (A*) only cells whose ``potential + heuristic`` is within a band above the
-current minimum are committed, as navfn's ``propNavFnAstar`` threshold blocks do.
+Here the wavefront is updated one turn at a time (a label-correcting "fast iterative method"): every
+cell of the front gets its update from the potentials of the previous turn, then every cell whose
+potential dropped re-activates the neighbours navfn's push rule would push (``pot > new + h / sqrt 2``),
+so the result is the fixed point navfn converges to. With ``heuristic`` (A*) only cells whose
+``potential + heuristic`` is within a band above the current minimum are committed, as navfn's
+``propNavFnAstar`` threshold blocks do; the rest wait for a later turn.
+
+The turns run in a compiled kernel (``common.jit``), one cell at a time as navfn does, a few hundred
+turns per call between deadline checks; ``tests/planning/reference_impl.py`` keeps the numpy version
+(whole front per numpy call) and the tests require the same bits from both.
 
 Arrays are flat and padded: ``cost`` has an impassable (inf) ring so neighbours need no bounds checks.
-A loop turn is a fixed, short list of numpy calls (the per-cell terms ``2 h^2`` and ``h / sqrt 2`` are
-computed once per call), since at a few hundred wavefront cells the call count, not the cell count,
-sets the time.
 """
 
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
 
+from common.jit import kernel
 from master_side.planning.errors import PlannerTimeout
 
 INV_SQRT2 = 0.7071067811865476
+TURNS_PER_CALL = 512  # wavefront turns between deadline checks
 
 
 def pad_costs(cell_cost: np.ndarray) -> np.ndarray:
@@ -59,90 +64,107 @@ def propagate(
     unreached, cycles).
     Raises PlannerTimeout past ``deadline`` (time.monotonic()).
     """
+    cost = np.ascontiguousarray(cost, dtype=np.float64)
     n = cost.size
     pot = np.full(n, np.inf)
     pot[source] = 0.0
-    stamp = np.empty(n, dtype=np.intp)  # dedup stamps: only read where just written
-    ramp = np.arange(min(4 * n + 4, 1 << 14), dtype=np.intp)  # sliced, grown on demand
-    h2 = 2.0 * cost * cost  # the quadratic update's 2 h^2, per cell
-    push = INV_SQRT2 * cost  # the push rule's least rise h / sqrt 2 (inf cost never passes)
-    offs = np.array([-1, -width, 1, width, 0], dtype=np.intp)[:, None]  # 4-neighbours, then the cell
-    active = source + offs[:4, 0]
-    active = active[np.isfinite(cost[active])]
-    use_stop = stop >= 0
-    cur_t = -np.inf
-    cycles = 0
-    minimum, subtract = np.minimum, np.subtract
-    while active.size:
-        cycles += 1
-        if cycles > max_cycles:
-            break
-        if deadline is not None and (cycles & 31) == 0 and time.monotonic() > deadline:
+    mark = np.zeros(n, dtype=np.int64)  # the turn that last queued a cell (dedup)
+    front, spare, changed = (np.empty(n, dtype=np.int64) for _ in range(3))
+    new = np.empty(n)
+    k = 0
+    for q in (source - 1, source - width, source + 1, source + width):
+        if math.isfinite(cost[q]):
+            front[k] = q
+            k += 1
+    use_heur = heuristic is not None
+    heur = np.ascontiguousarray(heuristic, dtype=np.float64) if use_heur else cost[:1]
+    cycles, cur_t, done = 0, -math.inf, False
+    while not done:
+        if deadline is not None and cycles and time.monotonic() > deadline:
             raise PlannerTimeout(f"potential propagation exceeded its time limit after {cycles} cycles")
-        idx = active + offs  # (5, k): left, down, right, up, the cell
-        v = pot[idx]
-        ab = minimum(v[:2], v[2:4])  # the lower neighbour along x (row 0) and along y (row 1)
-        a, b, old = ab[0], ab[1], v[4]
-        if quadratic:
-            lo = minimum(a, b)
-            dc = subtract(a, b, a)
-            np.abs(dc, dc)
-            minimum(dc, cost[active], out=dc)  # |a - b| >= h degenerates to lo + h
-            new = subtract(h2[active], np.multiply(dc, dc, b), b)
-            np.sqrt(new, new)
-            new += dc
-            new *= 0.5
-            new += lo
-        else:
-            new = minimum(a, b, out=a)
-            new += cost[active]
-        if heuristic is not None:
-            key = new + heuristic[active]
-            kmin = key.min()
-            cur_t = max(cur_t, kmin + band)
-            sel = key <= cur_t
-            waiting = active[~sel]
-            active, new, idx, old = active[sel], new[sel], idx.compress(sel, 1), old[sel]
-            floor = kmin
-        else:
-            waiting = None
-            floor = None
-        if use_stop:
-            ps = pot[stop]
-            if ps < np.inf:
-                # A pending update of ``stop`` itself is below pot[stop] (so below the bar): no need to
-                # look for it separately.
-                if floor is None:
-                    floor = _floor(new, active, stop, width, rise) if new.size else np.inf
-                if floor >= ps + margin:
-                    break
-        better = new < old
-        nb = idx.compress(better, 1)  # (5, m): the changed cells' neighbours, then the cells
-        newv = new[better]
-        pot[nb[4]] = newv
-        nb = nb[:4]
-        keep = pot[nb] > np.add(push[nb], newv)  # navfn's push rule
-        cand = nb[keep]
-        if waiting is not None and waiting.size:
-            cand = np.concatenate((waiting, cand))
-        k = cand.size
-        if k > ramp.size:
-            ramp = np.arange(2 * k, dtype=np.intp)
-        r = ramp[:k]
-        stamp[cand] = r
-        active = cand[stamp[cand] == r]
+        k, cycles, cur_t, done, swapped = _turns(
+            cost, pot, mark, front, spare, changed, new, k, width, stop, quadratic, use_heur, heur,
+            band, margin, rise, cycles, max_cycles, cur_t, TURNS_PER_CALL,
+        )
+        if swapped:  # the front ended in the other buffer
+            front, spare = spare, front
     return pot, cycles
 
 
-def _floor(new: np.ndarray, active: np.ndarray, stop: int, width: int, rise: float) -> float:
-    """Least potential the pending updates could still bring to ``stop`` (see ``propagate``'s ``rise``)."""
-    if rise <= 0.0:
-        return float(new.min())
-    sr, sc = divmod(stop, width)
-    r, c = np.divmod(active, width)
-    r -= sr
-    c -= sc
-    np.abs(r, out=r)
-    np.abs(c, out=c)
-    r += c
-    return float((new + rise * r).min())
+@kernel
+def _turns(cost, pot, mark, front, spare, changed, new, k, width, stop, quadratic, use_heur, heur, band,
+           margin, rise, cycles, max_cycles, cur_t, budget):
+    """Up to ``budget`` wavefront turns on the ``k`` cells in ``front``.
+
+    Returns (front size, cycles, cur_t, done, whether the front now sits in ``spare``).
+    """
+    cur, nxt = front, spare
+    swapped = False
+    sr, sc = (stop // width, stop % width) if stop >= 0 else (0, 0)
+    for _ in range(budget):
+        if k == 0:
+            return k, cycles, cur_t, True, swapped
+        cycles += 1
+        if cycles > max_cycles:
+            return k, cycles, cur_t, True, swapped
+        kmin = math.inf
+        for i in range(k):  # every front cell's update from the last turn's potentials
+            c = cur[i]
+            a, b = pot[c - 1], pot[c + width]
+            x, y = pot[c + 1], pot[c - width]
+            a = x if x < a else a  # np.minimum: the lower neighbour along x, then along y
+            b = y if y < b else b
+            h = cost[c]
+            if quadratic:
+                lo = b if b < a else a
+                dc = abs(a - b)
+                if dc > h:  # |a - b| >= h degenerates to lo + h
+                    dc = h
+                v = ((math.sqrt(2.0 * h * h - dc * dc) + dc) * 0.5) + lo
+            else:
+                v = (b if b < a else a) + h
+            new[i] = v
+            if use_heur:
+                kmin = min(kmin, v + heur[c])
+        m = 0  # the next front: cells left waiting by the A* band come first
+        if use_heur:
+            cur_t = max(cur_t, kmin + band)
+            floor = kmin
+            for i in range(k):
+                c = cur[i]
+                if new[i] + heur[c] > cur_t:
+                    new[i] = math.nan  # not committed this turn
+                    if mark[c] != cycles:
+                        mark[c] = cycles
+                        nxt[m] = c
+                        m += 1
+        if stop >= 0 and pot[stop] < math.inf:
+            if not use_heur:
+                floor = math.inf
+                for i in range(k):
+                    v = new[i]
+                    if rise > 0.0:
+                        c = cur[i]
+                        v = v + rise * (abs(c // width - sr) + abs(c % width - sc))
+                    floor = min(floor, v)
+            if floor >= pot[stop] + margin:
+                return k, cycles, cur_t, True, swapped
+        nc = 0
+        for i in range(k):  # commit the drops (nan, the waiting cells, never compares lower)
+            c = cur[i]
+            if new[i] < pot[c]:
+                pot[c] = new[i]
+                changed[nc] = c
+                nc += 1
+        for j in range(nc):  # navfn's push rule, against the potentials after this turn
+            c = changed[j]
+            v = pot[c]
+            for q in (c - 1, c - width, c + 1, c + width):
+                if pot[q] > INV_SQRT2 * cost[q] + v and mark[q] != cycles:
+                    mark[q] = cycles
+                    nxt[m] = q
+                    m += 1
+        cur, nxt = nxt, cur
+        swapped = not swapped
+        k = m
+    return k, cycles, cur_t, k == 0, swapped

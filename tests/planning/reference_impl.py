@@ -116,7 +116,7 @@ def descend_reference(pot2d, start_rc, done_below, *, step=0.5, grid_only=False,
         le, ri, up, dn = nb[3], nb[4], nb[1], nb[6]
         dx = (le - cv if le < inf else 0.0) + (cv - ri if ri < inf else 0.0)
         dy = (up - cv if up < inf else 0.0) + (cv - dn if dn < inf else 0.0)
-        n = math.hypot(dx, dy)
+        n = float(np.hypot(dx, dy))  # libm's hypot, as the compiled walk (math.hypot rounds otherwise)
         return (0.0, 0.0, max(nb) < inf) if n == 0.0 else (dx / n, dy / n, max(nb) < inf)
 
     x, y = float(start_rc[1]), float(start_rc[0])
@@ -137,7 +137,7 @@ def descend_reference(pot2d, start_rc, done_below, *, step=0.5, grid_only=False,
                 w = ((1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy)
                 vx = w[0] * g[0][0] + w[1] * g[1][0] + w[2] * g[2][0] + w[3] * g[3][0]
                 vy = w[0] * g[0][1] + w[1] * g[1][1] + w[2] * g[2][1] + w[3] * g[3][1]
-        norm = math.hypot(vx, vy)
+        norm = float(np.hypot(vx, vy))
         if norm > 1e-6:
             x, y = x + step * vx / norm, y + step * vy / norm
         else:
