@@ -120,12 +120,12 @@ def _counts(stats: dict[str, NodeStats]) -> dict[tuple[str, int, str, str], dict
             for n, s in stats.items() for i, t in enumerate(s.topics)}
 
 
-def _wait(cond, timeout: float, what: str, log) -> None:
+def _wait(cond, timeout: float, what: str, log, period: float = 0.2) -> None:
     end = time.monotonic() + timeout
     while not cond():
         if time.monotonic() > end:
             raise AssertionError(f"timed out after {timeout:.0f} s: {what}")
-        time.sleep(0.2)
+        time.sleep(period)
 
 
 def _start(g: Group, tmp: Path, env: dict) -> None:
@@ -167,11 +167,13 @@ def run(per_topic: int, tmp: Path, log=print, expect_nodes: int = 0) -> tuple[li
         t0 = time.monotonic()
         try:
             _start(g, tmp, env)
-            rows += _fuzz_group(g, per_topic, log, problems, env)
+            rows += _fuzz_group(g, per_topic, log, problems, env, t0)
             dead = [" ".join(p.args[-4:]) for p in g.procs if p.poll() is not None]
             problems += [f"group {g.name}: process ended: {d}" for d in dead]
         finally:
+            t1 = time.monotonic()
             _stop(g)
+            log(f"group {g.name}: stopped in {time.monotonic() - t1:.1f} s")
         log(f"group {g.name}: done in {time.monotonic() - t0:.0f} s")
     return rows, problems
 
@@ -180,7 +182,7 @@ def _nodes(node: Node, robot: str) -> list[str]:
     return sorted({k.rsplit("/", 1)[-1] for k in list_live(node.session, robot, "node")} - {"fuzzer"})
 
 
-def _fuzz_group(g: Group, per_topic: int, log, problems: list[str], env: dict) -> list[Row]:
+def _fuzz_group(g: Group, per_topic: int, log, problems: list[str], env: dict, tstart: float = 0.0) -> list[Row]:
     with Node("fuzzer", robot=g.robot, use_sim_time=False) as node:
         def up():
             names = _nodes(node, g.robot)
@@ -191,6 +193,7 @@ def _fuzz_group(g: Group, per_topic: int, log, problems: list[str], env: dict) -
             problems.append(f"{e}; up: {_nodes(node, g.robot)}")
             return []
         names = _nodes(node, g.robot)
+        log(f"group {g.name}: up after {time.monotonic() - tstart:.1f} s")
         before = _stats(node, names)
         time.sleep(2.0)
         before2 = _stats(node, names)
@@ -206,7 +209,24 @@ def _fuzz_group(g: Group, per_topic: int, log, problems: list[str], env: dict) -
                     topics[topic] = t.msg_type
         log(f"group {g.name} (robot {g.robot}): {len(names)} nodes, {len(topics)} subscribed topics")
         sent: dict[str, dict] = {}
+
+        def expected(topic: str) -> dict:  # sent so far to a subscription's topic (tf+tf_static: both)
+            parts = [sent.get(t, {}) for t in (("tf", "tf_static") if topic == "tf+tf_static" else (topic,))]
+            return {k: sum(p.get(k, 0) for p in parts) for k in ("valid", "invalid", "malformed")}
+
+        def deltas(only: list[str] | None = None):
+            c2 = _counts(_stats(node, only if only is not None else names))
+            return {k: {m: c2[k][m] - c1[k][m] for m in c1[k]} for k in c1 if k in c2}
+
+        def counted(keys) -> bool:
+            d = deltas(sorted({k[0] for k in keys}))
+            return all(k in d and d[k]["malformed"] + d[k]["invalid"] >= expected(k[2])["malformed"]
+                       + expected(k[2])["invalid"] and d[k]["received"] >= expected(k[2])["valid"] for k in keys)
+
+        def all_counted():
+            return counted(list(c1))
         t0 = time.monotonic()
+        slow: list[str] = []
         for topic, kind in sorted(topics.items()):
             cls = REGISTRY[kind].cls if kind != "*" else None
             data, labels = payloads(cls, per_topic, now, seed=zlib.crc32(topic.encode()))
@@ -215,23 +235,19 @@ def _fuzz_group(g: Group, per_topic: int, log, problems: list[str], env: dict) -
                 pub.put(b)
             pub.undeclare()
             sent[topic] = labels
-        log(f"group {g.name}: {per_topic * len(topics)} payloads published in {time.monotonic() - t0:.1f} s")
-
-        def expected(topic: str) -> dict:
-            if topic == "tf+tf_static":
-                a, b = sent["tf"], sent["tf_static"]
-                return {k: a[k] + b[k] for k in a}
-            return sent[topic]
-
-        def deltas():
-            c2 = _counts(_stats(node, names))
-            return {k: {m: c2[k][m] - c1[k][m] for m in c1[k]} for k in c1 if k in c2}
-
-        def all_counted():
-            d = deltas()
-            return len(d) == len(c1) and all(
-                d[k]["malformed"] + d[k]["invalid"] >= expected(k[2])["malformed"] + expected(k[2])["invalid"]
-                and d[k]["received"] >= expected(k[2])["valid"] for k in d)
+            # One topic in flight at a time: the next burst waits until every subscriber of this one counted
+            # it, so a node busy elsewhere (slam_gmapping in a scan update) never has every topic's payloads
+            # queued towards it at once. A blocked reliable publisher makes Zenoh close the link after a
+            # while and drop what was queued; that is the likely cause of a loaded run in which slam_gmapping
+            # counted 17 % of the tf+tf_static payloads while the simulator's TF kept arriving.
+            # Not counted in time: go on; the final count below says what is short.
+            keys = [k for k in c1 if k[2] == topic or (k[2] == "tf+tf_static" and topic in ("tf", "tf_static"))]
+            try:
+                _wait(lambda keys=keys: counted(keys), 60, f"'{topic}' counted", log, period=0.02)
+            except AssertionError:
+                slow.append(topic)
+        log(f"group {g.name}: {per_topic * len(topics)} payloads published in {time.monotonic() - t0:.1f} s"
+            + (f" (not counted within 60 s of their burst: {slow})" if slow else ""))
         quiet = {"counts": None, "since": time.monotonic()}
 
         def settled():  # every payload counted, or the counters stopped moving (the rows then say what is short)
