@@ -19,13 +19,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from master_side.slam import kernels
 from master_side.slam.field import COARSE, PAD_C, PAD_F, Field, FieldSet, make_field
 from master_side.slam.params import GMappingParams
 
 __all__ = ["COARSE", "Field", "FieldSet", "MotionPrior", "ScanMatcher", "make_field"]
 FINE_HALF = COARSE // 2 + 1  # fine search half-width in cells
-MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
-TURNS = np.array([0, 0, 0, 0, 1, 2])  # MOVES' heading: unchanged, +step, -step
 
 
 @dataclass(frozen=True)
@@ -57,35 +56,10 @@ def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray,
         flat, off, w, nx, ny, pad = fs.fine, fs.off_f, fs.w_f, fs.nx_f, fs.ny_f, PAD_F
         cell, ox, oy = fs.res, fs.ix0.astype(float), fs.iy0.astype(float)
     assert 2 * half + 1 <= pad
-    rx, ry = _rotated(pts, thetas)  # (P, A, B)
-    e = (slice(None), None, None)
-    base = None
-    for q, p0, o, n in ((ry, poses[:, 1], oy, ny), (rx, poses[:, 0], ox, nx)):  # in place, same rounding
-        q += p0[e]
-        q /= cell
-        q -= o[e]
-        np.floor(q, out=q)
-        qi = q.astype(np.int64)
-        np.clip(qi, -half - 1, (n + half)[e], out=qi)
-        qi += pad
-        if base is None:
-            base = qi * w[e]
-        else:
-            base += qi
-    base += off[e]  # (P, A, B) flat index of each beam at shift 0
+    scores = kernels.grid_search(flat, off, w, nx, ny, ox, oy, pad, cell, poses, np.cos(thetas), np.sin(thetas),
+                                 pts, half)
     r = np.arange(-half, half + 1)
-    tx, ty = np.repeat(r, r.size), np.tile(r, r.size)
-    # one shift at a time: small buffers that stay in cache (the sums are those of the full gather);
-    # shift (tx, ty) reads flat[idx + tx] with idx = base + ty * w, i.e. the slice flat[tx:] at idx
-    scores = np.empty(base.shape[:2] + (r.size**2,), np.float32)
-    idx, vals = np.empty_like(base), np.empty(base.shape, np.float32)
-    base -= half
-    for j, dy in enumerate(r):
-        np.add(base, (dy * w)[e], out=idx)
-        for i in range(r.size):  # tx = r[i]: flat[half + tx:]
-            flat[i:].take(idx, out=vals)
-            vals.sum(axis=-1, out=scores[:, :, i * r.size + j])
-    return scores, np.column_stack((tx, ty)) * cell
+    return scores, np.column_stack((np.repeat(r, r.size), np.tile(r, r.size))) * cell
 
 
 def _bilinear_scores(fs: FieldSet, poses: np.ndarray, pts: np.ndarray, sel: np.ndarray | None = None,
@@ -220,37 +194,16 @@ class ScanMatcher:
     def _hill_climb(self, fs: FieldSet, pose: np.ndarray, pose0: np.ndarray, pts: np.ndarray,
                     window: tuple[float, float], prior: MotionPrior | None) -> tuple[np.ndarray, np.ndarray]:
         """gmapping's optimizer: try +-x, +-y, +-theta; halve the steps when nothing improves
-        (each particle on its own schedule; the finished ones drop out of the batch)."""
-        n, P = len(pts), len(pose)
+        (each particle on its own schedule; ``kernels.hill_climb``)."""
         lstep, astep = min(self.p.lstep, fs.res) / 2, min(self.p.astep, math.radians(0.25)) / 2
-        pose = pose.copy()
-        cur = (_bilinear_scores(fs, pose[:, None], pts)[:, 0].sum(axis=-1)
-               - self._penalty(pose[:, None], pose0, n, window, prior)[:, 0])
-        steps = np.tile(np.array([lstep, lstep, astep]), (P, 1))
-        refinements = np.zeros(P, np.int64)
-        active = np.arange(P)
-        for _ in range(200):
-            active = active[refinements[active] <= self.p.iterations]
-            if active.size == 0:
-                break
-            sub = self.sub_prior(prior, active)
-            cand = pose[active][:, None, :] + MOVES[None] * steps[active][:, None, :]
-            # three headings per particle: rotate the beams once per heading, not once per move
-            rx, ry = _rotated(pts, cand[:, 3:, 2])
-            rot = (rx.take(TURNS, axis=1), ry.take(TURNS, axis=1))
-            sc = (_bilinear_scores(fs, cand, pts, active, rot).sum(axis=-1)
-                  - self._penalty(cand, pose0[active], n, window, sub))
-            k = sc.argmax(axis=1)
-            top = sc[np.arange(active.size), k]
-            up = top > cur[active]
-            a_up = active[up]
-            pose[a_up] = cand[up, k[up]]
-            cur[a_up] = top[up]
-            a_down = active[~up]
-            steps[a_down] /= 2
-            refinements[a_down] += 1
-        pose[:, 2] = (pose[:, 2] + np.pi) % (2 * np.pi) - np.pi
-        return pose, _bilinear_scores(fs, pose[:, None], pts)[:, 0].sum(axis=-1)
+        if prior is None:
+            pr = np.empty((0, 5))
+        else:
+            pr = np.column_stack((prior.mean, prior.translation_weight, prior.rotation_weight))
+        lin, ang = window
+        return kernels.hill_climb(fs.fine, fs.consts, np.ascontiguousarray(pose, float),
+                                  np.ascontiguousarray(pose0, float), np.ascontiguousarray(pts, float), fs.res,
+                                  lstep, astep, self.p.iterations, max(lin, 1e-3) ** 2, max(ang, 1e-3), pr)
 
     @staticmethod
     def sub_prior(prior: MotionPrior | None, idx: np.ndarray | slice) -> MotionPrior | None:

@@ -1,0 +1,131 @@
+"""The numpy matcher the compiled kernels replaced (master_side/slam/scan_matcher.py before
+``kernels``), kept as the reference the kernels must equal bit for bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from master_side.slam.field import COARSE, PAD_C, PAD_F, FieldSet
+from master_side.slam.scan_matcher import FINE_HALF, MotionPrior, ScanMatcher, _bilinear_scores, _rotated
+
+MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
+TURNS = np.array([0, 0, 0, 0, 1, 2])  # MOVES' heading: unchanged, +step, -step
+
+
+def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray, thetas: np.ndarray,
+                 half: int) -> tuple[np.ndarray, np.ndarray]:
+    """Score pose_p + (i*cell, j*cell, theta) for |i|,|j| <= half, theta in thetas[p] (P, A).
+
+    Cells outside a particle's window score 0 (its border is FAR and the buffer is padded).
+    Returns (scores (P, A, T), translations (T, 2) in metres).
+    """
+    if coarse:
+        flat, off, w, nx, ny, pad = fs.coarse, fs.off_c, fs.w_c, fs.nx_c, fs.ny_c, PAD_C
+        cell, ox, oy = fs.res * COARSE, fs.ix0 / COARSE, fs.iy0 / COARSE
+    else:
+        flat, off, w, nx, ny, pad = fs.fine, fs.off_f, fs.w_f, fs.nx_f, fs.ny_f, PAD_F
+        cell, ox, oy = fs.res, fs.ix0.astype(float), fs.iy0.astype(float)
+    assert 2 * half + 1 <= pad
+    rx, ry = _rotated(pts, thetas)  # (P, A, B)
+    e = (slice(None), None, None)
+    base = None
+    for q, p0, o, n in ((ry, poses[:, 1], oy, ny), (rx, poses[:, 0], ox, nx)):  # in place, same rounding
+        q += p0[e]
+        q /= cell
+        q -= o[e]
+        np.floor(q, out=q)
+        qi = q.astype(np.int64)
+        np.clip(qi, -half - 1, (n + half)[e], out=qi)
+        qi += pad
+        if base is None:
+            base = qi * w[e]
+        else:
+            base += qi
+    base += off[e]  # (P, A, B) flat index of each beam at shift 0
+    r = np.arange(-half, half + 1)
+    tx, ty = np.repeat(r, r.size), np.tile(r, r.size)
+    # one shift at a time: small buffers that stay in cache (the sums are those of the full gather);
+    # shift (tx, ty) reads flat[idx + tx] with idx = base + ty * w, i.e. the slice flat[tx:] at idx
+    scores = np.empty(base.shape[:2] + (r.size**2,), np.float32)
+    idx, vals = np.empty_like(base), np.empty(base.shape, np.float32)
+    base -= half
+    for j, dy in enumerate(r):
+        np.add(base, (dy * w)[e], out=idx)
+        for i in range(r.size):  # tx = r[i]: flat[half + tx:]
+            flat[i:].take(idx, out=vals)
+            vals.sum(axis=-1, out=scores[:, :, i * r.size + j])
+    return scores, np.column_stack((tx, ty)) * cell
+
+
+class NumpyMatcher(ScanMatcher):
+    """``ScanMatcher`` with the numpy correlative search and hill climb."""
+
+    def match_many(self, fs: FieldSet, pose0: np.ndarray, pts: np.ndarray,
+                   window: tuple[float, float] | None = None,
+                   prior: MotionPrior | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """``match`` of pose p (P, 3) in field p for every particle at once: (poses (P, 3), scores (P,)).
+        ``prior``: mean (P, 3), weights (P,)."""
+        p, res = self.p, fs.res
+        window = window or (p.search_linear, p.search_angular)
+        lin, ang = window
+        n = len(pts)
+        pose0 = np.asarray(pose0, float)
+        if n == 0:
+            return pose0.copy(), np.zeros(len(pose0))
+        best = pose0.copy()
+        rows = np.arange(len(best))
+        if lin > 0 or ang > 0:
+            # coarse: COARSE*res cells, 1 degree steps over the whole window
+            half = int(math.ceil(lin / (res * COARSE)))
+            na = int(math.ceil(ang / math.radians(1.0)))
+            for coarse, th, h in ((True, np.arange(-na, na + 1) * math.radians(1.0), half),
+                                  # fine: res cells, quarter-degree steps around the coarse winner
+                                  (False, np.arange(-4, 5) * math.radians(0.25), FINE_HALF)):
+                th = best[:, 2:3] + th[None, :]
+                sc, tr = _grid_search(fs, coarse, best, pts, th, h)
+                cand = np.empty(sc.shape + (3,))
+                cand[..., 0] = best[:, None, None, 0] + tr[None, None, :, 0]
+                cand[..., 1] = best[:, None, None, 1] + tr[None, None, :, 1]
+                cand[..., 2] = th[:, :, None]
+                sc = sc - self._penalty(cand, pose0, n, window, prior)
+                k = sc.reshape(len(sc), -1).argmax(axis=1)
+                best = cand.reshape(len(sc), -1, 3)[rows, k].copy()
+        return self._hill_climb(fs, best, pose0, pts, window, prior)
+
+    def _hill_climb(self, fs: FieldSet, pose: np.ndarray, pose0: np.ndarray, pts: np.ndarray,
+                    window: tuple[float, float], prior: MotionPrior | None) -> tuple[np.ndarray, np.ndarray]:
+        """gmapping's optimizer: try +-x, +-y, +-theta; halve the steps when nothing improves
+        (each particle on its own schedule; the finished ones drop out of the batch)."""
+        n, P = len(pts), len(pose)
+        lstep, astep = min(self.p.lstep, fs.res) / 2, min(self.p.astep, math.radians(0.25)) / 2
+        pose = pose.copy()
+        cur = (_bilinear_scores(fs, pose[:, None], pts)[:, 0].sum(axis=-1)
+               - self._penalty(pose[:, None], pose0, n, window, prior)[:, 0])
+        steps = np.tile(np.array([lstep, lstep, astep]), (P, 1))
+        refinements = np.zeros(P, np.int64)
+        active = np.arange(P)
+        for _ in range(200):
+            active = active[refinements[active] <= self.p.iterations]
+            if active.size == 0:
+                break
+            sub = self.sub_prior(prior, active)
+            cand = pose[active][:, None, :] + MOVES[None] * steps[active][:, None, :]
+            # three headings per particle: rotate the beams once per heading, not once per move
+            rx, ry = _rotated(pts, cand[:, 3:, 2])
+            rot = (rx.take(TURNS, axis=1), ry.take(TURNS, axis=1))
+            sc = (_bilinear_scores(fs, cand, pts, active, rot).sum(axis=-1)
+                  - self._penalty(cand, pose0[active], n, window, sub))
+            k = sc.argmax(axis=1)
+            top = sc[np.arange(active.size), k]
+            up = top > cur[active]
+            a_up = active[up]
+            pose[a_up] = cand[up, k[up]]
+            cur[a_up] = top[up]
+            a_down = active[~up]
+            steps[a_down] /= 2
+            refinements[a_down] += 1
+        pose[:, 2] = (pose[:, 2] + np.pi) % (2 * np.pi) - np.pi
+        return pose, _bilinear_scores(fs, pose[:, None], pts)[:, 0].sum(axis=-1)
+

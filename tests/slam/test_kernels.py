@@ -1,0 +1,68 @@
+"""The compiled kernels give the bits of the numpy code they replaced (tests/slam/numpy_reference.py)."""
+
+import numpy as np
+import pytest
+
+from common.geometry import Pose2D
+from master_side.slam import kernels
+from master_side.slam.grid import TiledGrid
+from master_side.slam.gridslam import integrate, prepare_beams
+from master_side.slam.params import GMappingParams
+from master_side.slam.scan_matcher import FieldSet, MotionPrior, ScanMatcher, make_field
+from tests.slam.numpy_reference import NumpyMatcher
+
+P = GMappingParams(maxUrange=20.0, maxRange=25.0, search_linear=0.4, search_angular=0.15)
+BOX = (-6, -5, 6, 5)
+
+
+def _grid(room_scan, truth: Pose2D) -> TiledGrid:
+    grid = TiledGrid(P.delta, halo=P.field_radius)
+    beams = prepare_beams(room_scan(truth), P, Pose2D())
+    for _ in range(3):
+        win = grid.window(*BOX)
+        grid.store(win, integrate(win, truth.as_array(), beams))
+    return grid
+
+
+def test_pairwise_sum_is_numpys_float32_sum():
+    rng = np.random.default_rng(0)
+    for n in [1, 2, 7, 8, 9, 15, 16, 17, 127, 128, 129, 130, 180, 248, 249, 257, 361, 1000, 1929, kernels.MAX_SUM]:
+        rows = (rng.random((4, n)) * rng.choice([1.0, 100.0, 1e4])).astype(np.float32)
+        ref = rows.sum(axis=-1)
+        got = np.array([kernels.pairwise_sum(r, 0, n) for r in rows], np.float32)
+        assert np.array_equal(got, ref), n
+        assert kernels.pairwise_sum(rows.ravel(), n, n) == ref[1]  # an offset into a buffer
+
+
+@pytest.mark.parametrize("with_prior", [True, False])
+@pytest.mark.parametrize("window", [(0.3, 0.12), (0.9, 0.4), (0.0, 0.1), (0.2, 0.0)])
+def test_match_many_equals_the_numpy_matcher(room_scan, with_prior, window):
+    truth = Pose2D(0.3, -0.2, 0.1)
+    grids = [_grid(room_scan, Pose2D(0.3 + 0.04 * i, -0.2, 0.1 - 0.02 * i)) for i in range(3)]
+    scan = room_scan(truth)
+    scan.ranges[::7] = np.inf  # missing beams: an odd beam count
+    pts = prepare_beams(scan, P, Pose2D()).match
+    rng = np.random.default_rng(7)
+    n = 7
+    starts = truth.as_array() + rng.normal(0, [0.1, 0.1, 0.05], (n, 3))
+    starts[-1, :2] += 4.0  # far off the map: beams beyond the window's edge
+    fs = FieldSet([make_field(grids[i % 3].window(*BOX), P) for i in range(n)])
+    prior = MotionPrior(starts + rng.normal(0, 0.02, (n, 3)), rng.uniform(0.1, 1, n), rng.uniform(1, 3, n)) \
+        if with_prior else None
+    got = ScanMatcher(P).match_many(fs, starts, pts, window, prior)
+    ref = NumpyMatcher(P).match_many(fs, starts, pts, window, prior)
+    assert np.array_equal(got[0], ref[0]) and np.array_equal(got[1], ref[1])
+    assert got[1].dtype == ref[1].dtype
+    moved = np.abs(got[0] - starts).max(axis=1)
+    assert (moved > 0).sum() >= n - 1  # the test exercises the search, not a no-op
+
+
+def test_single_match_equals_the_numpy_matcher(room_scan):
+    truth = Pose2D(-0.5, 0.4, -0.3)
+    fld = make_field(_grid(room_scan, truth).window(*BOX), P)
+    pts = prepare_beams(room_scan(truth), P, Pose2D()).match
+    start = truth.as_array() + [0.12, -0.08, 0.04]
+    pose, score = ScanMatcher(P).match(fld, start, pts)
+    ref_pose, ref_score = NumpyMatcher(P).match(fld, start, pts)
+    assert np.array_equal(pose, ref_pose) and score == ref_score
+    assert np.abs(pose[:2] - [truth.x, truth.y]).max() < 0.03
