@@ -10,9 +10,9 @@ field tile, computed once, and a particle's field window is assembled from cache
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 
-from master_side.slam.field import COARSE, PAD_C, PAD_F, FieldSet, coarse_of, inner_squared_distances, kernel_table
+from master_side.slam import kernels
+from master_side.slam.field import COARSE, FAR, PAD_C, PAD_F, FieldSet, kernel_table
 from master_side.slam.grid import TILE, TiledGrid, Window
 from master_side.slam.params import GMappingParams
 
@@ -75,45 +75,42 @@ class FieldCache:
         fs = FieldSet.empty(shapes_f, shapes_c, ix0, iy0, self.res)
         for i, sl in enumerate(slot_arrays):
             f, c = fs.views(i)
-            _fill(f, self.fine[sl], PAD_F)
-            _fill(c, self.coarse[sl], PAD_C)
+            _fill(f, self.fine, sl, PAD_F)
+            _fill(c, self.coarse, sl, PAD_C)
         return fs
 
     def _build(self, todo: dict[bytes, tuple[TiledGrid, int, int, int]],
                ranges: list[tuple[int, int, int, int]], windows: list[Window] | None) -> None:
         r, m = self.radius, len(todo)
-        occ = np.empty((m, TILE + 2 * r, TILE + 2 * r), bool)
-        inner: dict[int, list[int]] = {}  # window -> rows of occ for its tiles off the window's edge
-        for i, (g, tx, ty, n) in enumerate(todo.values()):
+        slots = self._alloc(m)
+        inner: dict[int, list[int]] = {}  # window -> tiles off the window's edge: read from the window
+        patched = []  # the others: their neighbourhood copied from the grid's tiles
+        items = list(todo.values())
+        for i, (_, tx, ty, n) in enumerate(items):
             tx0, ty0, tx1, ty1 = ranges[n]
             if windows is not None and tx0 < tx < tx1 - 1 and ty0 < ty < ty1 - 1:
                 inner.setdefault(n, []).append(i)
             else:
-                self._patch(occ[i], g, tx, ty)
-        if inner:
-            keys = list(todo.values())
-            for n, rows in inner.items():
-                tx0, ty0 = ranges[n][:2]
-                data = windows[n].data
-                s0, s1 = data.strides
-                start = data[TILE - r:, TILE - r:]
-                shape = ((data.shape[0] - TILE) // TILE - 1, (data.shape[1] - TILE) // TILE - 1,
-                         TILE + 2 * r, TILE + 2 * r)
-                blocks = as_strided(start, shape, (s0 * TILE, s1 * TILE, s0, s1))
-                jj = np.array([keys[i][2] - ty0 - 1 for i in rows])
-                ii = np.array([keys[i][1] - tx0 - 1 for i in rows])
-                occ[rows] = blocks[jj, ii] > 0.0
-        d = inner_squared_distances(occ, r)
-        fine, coarse = self.table.take(d), self.table.take(coarse_of(d))
-        slots = self._alloc(m)
-        self.fine[slots] = fine
-        self.coarse[slots] = coarse
+                patched.append(i)
+        args = (r, FAR, self.table, COARSE, self.fine, self.coarse)
+        if patched:
+            occ = np.empty((len(patched), TILE + 2 * r, TILE + 2 * r), np.float32)
+            for k, i in enumerate(patched):
+                g, tx, ty, _ = items[i]
+                self._patch(occ[k], g, tx, ty)
+            at = np.full(len(patched), r, np.int64)
+            kernels.tile_fields(occ, np.arange(len(patched)), at, at, *args, slots[patched])
+        for n, rows in inner.items():
+            tx0, ty0 = ranges[n][:2]
+            tiles = np.array([items[i][1:3] for i in rows], np.int64)
+            kernels.tile_fields(windows[n].data[None], np.zeros(len(rows), np.int64), (tiles[:, 1] - ty0) * TILE,
+                                (tiles[:, 0] - tx0) * TILE, *args, slots[rows])
         for key, s in zip(todo, slots.tolist()):
             self.slots[key] = s
         self.built += m
 
     def _patch(self, out: np.ndarray, g: TiledGrid, tx: int, ty: int) -> None:
-        """Occupancy of tile (tx, ty) with a field_radius border from its neighbours."""
+        """Log-odds of tile (tx, ty) with a field_radius border from its neighbours (0: no tile)."""
         r = self.radius
         src = {-1: slice(TILE - r, TILE), 0: slice(0, TILE), 1: slice(0, r)}
         dst = {-1: slice(0, r), 0: slice(r, r + TILE), 1: slice(r + TILE, TILE + 2 * r)}
@@ -122,9 +119,9 @@ class FieldCache:
             for dx in (-1, 0, 1):
                 t = get((tx + dx, ty + dy))
                 if t is None:
-                    out[dst[dy], dst[dx]] = False
+                    out[dst[dy], dst[dx]] = 0.0
                 else:
-                    np.greater(t.data[src[dy], src[dx]], 0.0, out=out[dst[dy], dst[dx]])
+                    out[dst[dy], dst[dx]] = t.data[src[dy], src[dx]]
 
     def _alloc(self, m: int) -> np.ndarray:
         if len(self.free) < m:  # forget the fields not used by this call
@@ -145,17 +142,6 @@ class FieldCache:
         return out
 
 
-def _fill(view: np.ndarray, tiles: np.ndarray, pad: int) -> None:
-    """Write tiles (nty, ntx, t, t) into the padded 2-D view; zero the padding and the border."""
-    nty, ntx, t, _ = tiles.shape
-    h, w = view.shape
-    view[:pad + 1] = 0.0
-    view[h - pad - 1:] = 0.0
-    view[:, :pad + 1] = 0.0
-    view[:, w - pad - 1:] = 0.0
-    inner = view[pad:pad + nty * t, pad:pad + ntx * t]
-    s0, s1 = inner.strides
-    blocks = as_strided(inner, (nty, t, ntx, t), (s0 * t, s0, s1 * t, s1))
-    blocks[...] = tiles.transpose(0, 2, 1, 3)
-    inner[0, :] = inner[-1, :] = 0.0
-    inner[:, 0] = inner[:, -1] = 0.0
+def _fill(view: np.ndarray, tiles: np.ndarray, slots: np.ndarray, pad: int) -> None:
+    """Write tiles[slots] (nty, ntx) into the padded 2-D view; zero the padding and the border."""
+    kernels.fill_field(view, tiles, slots, pad)

@@ -233,3 +233,63 @@ def grid_search(flat, off, w, nx, ny, ox, oy, pad, cell, poses, c, s, pts, half)
                         vals[b] = flat[base[b] + shift]
                     scores[p, a, i * R + j] = pairwise_sum(vals, 0, n)
     return scores
+
+
+@kernel
+def tile_fields(src, which, rows, cols, r, far, table, coarse_n, fine_out, coarse_out, slots):
+    """Likelihood fields of m tiles: tile t's occupancy (log-odds > 0) is src[which[t]] over rows
+    rows[t] - r .. rows[t] + T + r and the same columns (its field_radius border from the
+    neighbours); writes table[squared cell distance to the nearest occupied cell] (``far`` beyond
+    r cells) to fine_out[slots[t]] (T, T) and table[min over coarse_n^2 blocks] to coarse_out."""
+    T = fine_out.shape[1]
+    rr = r * r
+    d = np.empty((T, T), np.uint8)
+    for t in range(len(slots)):
+        s = src[which[t]]
+        y0, x0 = rows[t] - r, cols[t] - r
+        d[:, :] = far
+        for y in range(T + 2 * r):
+            for x in range(T + 2 * r):
+                if s[y0 + y, x0 + x] > 0.0:
+                    for dy in range(-r, r + 1):
+                        oy = y - r + dy
+                        if oy < 0 or oy >= T:
+                            continue
+                        for dx in range(-r, r + 1):
+                            ox = x - r + dx
+                            q = dx * dx + dy * dy
+                            if q <= rr and 0 <= ox < T and q < d[oy, ox]:
+                                d[oy, ox] = q
+        f = fine_out[slots[t]]
+        for y in range(T):
+            for x in range(T):
+                f[y, x] = table[d[y, x]]
+        c = coarse_out[slots[t]]
+        for cy in range(T // coarse_n):
+            for cx in range(T // coarse_n):
+                m = far
+                for y in range(cy * coarse_n, (cy + 1) * coarse_n):
+                    for x in range(cx * coarse_n, (cx + 1) * coarse_n):
+                        m = min(m, d[y, x])
+                c[cy, cx] = table[m]
+
+
+@kernel
+def fill_field(view, tiles, slots, pad):
+    """Field window from cached tiles: view (padded 2-D) = zeros around tiles[slots] (nty, ntx),
+    whose outermost cells are also zeroed (a window's border scores 0)."""
+    h, w = view.shape
+    t = tiles.shape[1]
+    nty, ntx = slots.shape
+    view[:, :] = 0.0
+    for j in range(nty):
+        for i in range(ntx):
+            src = tiles[slots[j, i]]
+            for y in range(t):
+                row = pad + j * t + y
+                view[row, pad + i * t:pad + (i + 1) * t] = src[y]
+    y1, x1 = pad + nty * t - 1, pad + ntx * t - 1
+    view[pad, pad:x1 + 1] = 0.0
+    view[y1, pad:x1 + 1] = 0.0
+    view[pad:y1 + 1, pad] = 0.0
+    view[pad:y1 + 1, x1] = 0.0

@@ -66,3 +66,20 @@ def test_single_match_equals_the_numpy_matcher(room_scan):
     ref_pose, ref_score = NumpyMatcher(P).match(fld, start, pts)
     assert np.array_equal(pose, ref_pose) and score == ref_score
     assert np.abs(pose[:2] - [truth.x, truth.y]).max() < 0.03
+
+
+def test_tile_fields_equal_the_numpy_distance_transform():
+    from master_side.slam.field import COARSE, FAR, coarse_of, inner_squared_distances, kernel_table
+
+    rng = np.random.default_rng(11)
+    r, t = P.field_radius, 64
+    occ = rng.random((5, t + 2 * r, t + 2 * r)) < np.array([0.0, 0.002, 0.02, 0.2, 1.0])[:, None, None]
+    logodds = np.where(occ, rng.uniform(0.01, 4, occ.shape), rng.uniform(-3, 0, occ.shape)).astype(np.float32)
+    table = kernel_table(P.delta, P)
+    fine, coarse = np.full((8, t, t), -1, np.float32), np.full((8, t // COARSE, t // COARSE), -1, np.float32)
+    slots = np.array([6, 1, 3, 0, 7])
+    at = np.full(5, r, np.int64)
+    kernels.tile_fields(logodds, np.arange(5), at, at, r, FAR, table, COARSE, fine, coarse, slots)
+    d = inner_squared_distances(occ, r)
+    assert np.array_equal(fine[slots], table[d]) and np.array_equal(coarse[slots], table[coarse_of(d)])
+    assert len(np.unique(fine[slots[2]])) > 5  # distances of every size occur
