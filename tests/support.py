@@ -14,7 +14,7 @@ import pytest
 
 from deploy import free_port
 
-__all__ = ["free_port", "ip", "two_netns", "wait_until"]
+__all__ = ["free_port", "ip", "listening", "two_netns", "wait_until"]
 
 
 def wait_until(cond: Callable[[], Any], timeout: float, what: str = "condition", period: float = 0.01,
@@ -31,6 +31,16 @@ def wait_until(cond: Callable[[], Any], timeout: float, what: str = "condition",
             raise AssertionError(f"{dead} while waiting for {what}")
         time.sleep(period)
     raise AssertionError(f"timed out after {timeout} s waiting for {what}")
+
+
+def listening(port: int) -> bool:
+    """Whether some process listens on TCP ``port`` of 127.0.0.1 (or any IPv4 address) — read from
+    /proc/net/tcp, without connecting. Start a Zenoh peer that connects to a child's port after this:
+    a connect that finds no listener is retried after 1, 2, 4 s (Zenoh's backoff), and a loaded machine
+    that starts the listening child slower than the connecting one then pays those seconds."""
+    want = {f"0100007F:{port:04X}", f"00000000:{port:04X}"}
+    with open("/proc/net/tcp") as f:
+        return any(w[1] in want and w[3] == "0A" for w in (line.split() for line in list(f)[1:]))
 
 
 def ip(*args: str, check: bool = True) -> subprocess.CompletedProcess:

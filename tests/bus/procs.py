@@ -17,7 +17,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 import numpy as np  # noqa: E402
 
-from common.bus import Node  # noqa: E402
+from common.bus import Node, list_live  # noqa: E402
 from common.messages import Header, LaserScan, Text  # noqa: E402
 
 
@@ -46,6 +46,7 @@ def scan_sub(a) -> int:
     """Queue-mode subscriber: announces 'ready' (latched) once subscribed, receives N scans, checks them."""
     node = Node("scan_sub")
     sub = node.subscribe("scan", LaserScan, mode="queue", queue_size=a.n + 10)
+    bye = node.subscribe("bye", Text)  # before 'done' goes out, so the publisher's 'bye' finds it declared
     ready = node.publisher("ready", latched=True)
     ready.publish(Text(Header(time.time()), "ready"))
     seqs, bad = [], 0
@@ -72,10 +73,14 @@ def scan_sub(a) -> int:
                 }
             )
         )
-        # Let the publisher read 'done' (it waits for it) before the session goes away.
-        node.subscribe("bye", Text).wait_first(timeout=10.0)
-    except TimeoutError:
-        pass
+        # Let the publisher read 'done' (it waits for it) before the session goes away: until its 'bye',
+        # or until it has left the bus (it closes right after 'bye'; subscribing to 'bye' only now, as
+        # before, raced with that close and then waited the whole 10 s, seen under load).
+        end = time.monotonic() + 10.0
+        while not bye.received and time.monotonic() < end:
+            if f"{node.robot}/node/scan_pub" not in list_live(node.session, node.robot, timeout=0.5):
+                break
+            time.sleep(0.02)
     finally:
         node.close()
     return 0

@@ -10,6 +10,7 @@ from bushelp import child_env, free_port, proc_argv, wait_for
 
 from common.bus import list_live
 from common.zenoh_config import BusConfig
+from tests.support import listening
 
 
 def test_two_processes_exchange_1000_laserscans_with_none_lost(spawn, robot_name):
@@ -19,6 +20,8 @@ def test_two_processes_exchange_1000_laserscans_with_none_lost(spawn, robot_name
         proc_argv("scan_sub", "--n", "1000", "--beams", "720"),
         child_env(robot_name, multicast=False, listen=(ep,)),
     )
+    # the publisher connects once the subscriber listens (not into Zenoh's 1-2-4 s connect retries)
+    wait_for(lambda: listening(port) or sub.proc.poll() is not None, timeout=120, what="the subscriber listening")
     pub = spawn(
         proc_argv("scan_pub", "--n", "1000", "--beams", "720"),
         child_env(robot_name, multicast=False, connect=(ep,)),
