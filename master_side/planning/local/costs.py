@@ -16,7 +16,7 @@ from master_side.planning.local.map_grid import (
     angle_diff,
 )
 from master_side.planning.local.obstacle_cost import ObstacleCost  # noqa: F401 (re-exported)
-from master_side.planning.local.traj_cells import all_inside, last_cells, point_cells
+from master_side.planning.local.traj_cells import all_inside, finite_end_values, last_cells, point_cells
 from master_side.planning.local.trajectories import Trajectories
 
 
@@ -42,11 +42,7 @@ class MapGridCost(CostFunction):
         d, res = self.distances().ravel(), ctx.resolution
         if self.stop_on_failure:  # every point must be on the map and on a reachable cell
             flat, inside = point_cells(trajs, ctx, self.forward)  # (T + 1, S)
-            vals = d[flat]
-            ok = np.isfinite(vals)
-            if inside is not None:
-                ok &= inside
-            return np.where(ok.all(axis=0), vals[-1] * res, REJECT)
+            return finite_end_values(d, flat, inside, res, REJECT)
         # off-map still rejects; an impossible end point costs what ROS gives it (the map size)
         flat, inside = last_cells(trajs, ctx, self.forward)
         last = (d[flat] if inside is None else np.where(inside, d[flat], np.inf)) * res

@@ -14,10 +14,11 @@ import zlib
 import numpy as np
 from scipy import ndimage
 
+from common.jit import kernel
 from master_side.planning.grid import INSCRIBED, LETHAL
 from master_side.planning.local.cost_base import REJECT, CostFunction
 from master_side.planning.local.map_grid import ScoringContext, footprint_outline, footprint_radii
-from master_side.planning.local.traj_cells import flat_cells, point_cells, steps_xy
+from master_side.planning.local.traj_cells import BIG, max_cell_values, point_cells, steps_xy
 from master_side.planning.local.trajectories import Trajectories
 
 
@@ -116,14 +117,11 @@ class ObstacleCost(CostFunction):
         when the start pose is already in contact (``score``'s escape rule then applies)."""
         ctx = self.ctx
         flat, inside = point_cells(trajs, ctx, 0.0)
-        centre = ctx.grid.ravel()[flat]
-        bad = centre >= INSCRIBED
-        if inside is not None:
-            bad |= ~inside
-        if bad.size == 0 or bad[0].any() or not self._start_free(trajs):
+        if flat.size == 0:
             return None
-        out = centre.max(axis=0).astype(float)
-        out[bad.any(axis=0)] = REJECT
+        out, start_bad = max_cell_values(ctx.grid.ravel(), flat, inside, INSCRIBED, REJECT)
+        if start_bad or not self._start_free(trajs):
+            return None
         return out
 
     def pose_scores(self, trajs: Trajectories, steps: np.ndarray, rows: np.ndarray
@@ -134,36 +132,15 @@ class ObstacleCost(CostFunction):
         beyond; a trajectory's score is its poses' max cost, or REJECT if any pose is bad."""
         ctx = self.ctx
         flat, inside = point_cells(trajs, ctx, 0.0)  # (T + 1, S)
-        f = flat[steps, rows]
-        g = ctx.grid.ravel()
-        centre = g[f]
-        bad = centre >= INSCRIBED
-        if inside is not None:
-            bad |= ~inside[steps, rows]
-        cost = centre.astype(float)
-        clear = self.clear.ravel()[f]
-        band = self.circumscribed + 1.5 * ctx.resolution
-        reach = self.circumscribed + 2.0 * ctx.resolution  # an outline stays this close to its pose
-        lo, hi = ctx.origin + reach, ctx.origin + np.array(ctx.grid.shape[::-1]) * ctx.resolution - reach
         x, y, _, c, sn = steps_xy(trajs)
-        for near, outline in ((clear <= band, self.outline),
-                              ((clear > band) & (clear <= band + self.extent), self.outline[::2])):
-            near = np.flatnonzero(near)
-            if near.size == 0:
-                continue
-            st, ro = steps[near], rows[near]
-            px, py = x[st, ro][:, None], y[st, ro][:, None]
-            cs, ss = c[st, ro][:, None], sn[st, ro][:, None]
-            ox, oy = outline[:, 0][None, :], outline[:, 1][None, :]
-            on_map = bool(px.min() >= lo[0] and py.min() >= lo[1] and px.max() <= hi[0] and py.max() <= hi[1])
-            of, oin = flat_cells(ctx, px + cs * ox - ss * oy, py + ss * ox + cs * oy, on_map)
-            oc = g[of]
-            obad = oc >= LETHAL
-            if oin is not None:
-                obad |= ~oin
-            bad[near] |= obad.any(axis=1)
-            cost[near] = np.maximum(cost[near], oc.max(axis=1))
-        return cost, bad
+        has_inside = inside is not None
+        band = self.circumscribed + 1.5 * ctx.resolution
+        h, w = ctx.grid.shape
+        return _outline_scores(
+            ctx.grid.ravel(), self.clear.ravel(), flat, inside if has_inside else np.ones((1, 1), np.bool_),
+            has_inside, x, y, c, sn, np.asarray(steps, np.intp), np.asarray(rows, np.intp), self.outline,
+            band, band + self.extent, float(ctx.origin[0]), float(ctx.origin[1]), 1.0 / ctx.resolution, h, w,
+            INSCRIBED, LETHAL)
 
     def probe_steps(self, trajs: Trajectories, rows: np.ndarray) -> np.ndarray:
         """Per trajectory, the pose nearest to a lethal cell (its max cost is usually there)."""
@@ -193,3 +170,43 @@ def _allow_escape(bad: np.ndarray, clear: np.ndarray) -> None:
     closer = np.concatenate((np.zeros((len(bad), 1), bool), steps < -1e-9), axis=1) & lead
     ok = (n_lead < bad.shape[1] / 2) & ~closer.any(axis=1)
     bad[ok[:, None] & lead] = False
+
+
+@kernel
+def _outline_scores(g, clear, flat, inside, has_inside, x, y, c, sn, steps, rows, outline, band, far, ox, oy,
+                    inv, h, w, inscribed, lethal):
+    """``pose_scores``, one pose at a time: the centre cell, then every outline point where the nearest
+    lethal cell is within ``band`` (every other point within ``far``), with ``flat_cells``' cell
+    arithmetic; an outline point off the map reads cell 0 and is bad."""
+    m = steps.size
+    cost = np.empty(m)
+    bad = np.empty(m, np.bool_)
+    for i in range(m):
+        st, ro = steps[i], rows[i]
+        f = flat[st, ro]
+        cv = g[f]
+        b = cv >= inscribed or (has_inside and not inside[st, ro])
+        cst = float(cv)
+        cl = clear[f]
+        stride = 1 if cl <= band else (2 if cl <= far else 0)
+        if stride:
+            px, py, cs, ss = x[st, ro], y[st, ro], c[st, ro], sn[st, ro]
+            top = g[0]
+            first = True
+            for o in range(0, outline.shape[0], stride):
+                qx, qy = outline[o, 0], outline[o, 1]
+                cx = np.int32(((px + cs * qx - ss * qy) - ox) * inv + BIG) - BIG
+                cy = np.int32(((py + ss * qx + cs * qy) - oy) * inv + BIG) - BIG
+                if 0 <= cx < w and 0 <= cy < h:
+                    v = g[cy * w + cx]
+                else:
+                    v = g[0]
+                    b = True
+                if v >= lethal:
+                    b = True
+                if first or v > top:
+                    top, first = v, False
+            cst = max(cst, float(top))
+        cost[i] = cst
+        bad[i] = b
+    return cost, bad

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from common.jit import kernel
 from master_side.planning.local.map_grid import ScoringContext
 from master_side.planning.local.trajectories import Trajectories
 
@@ -48,19 +49,89 @@ def flat_cells(ctx: ScoringContext, x: np.ndarray, y: np.ndarray, inside_known: 
                ) -> tuple[np.ndarray, np.ndarray | None]:
     """(flat cell index, inside) of world points; inside None when every point is inside (or the caller
     knows they are: ``inside_known``); the index is 0 where outside."""
-    inv = 1.0 / ctx.resolution
     h, w = ctx.grid.shape
-    cx = ((x - ctx.origin[0]) * inv + BIG).astype(np.int32)  # exact: |values| < 2^31
-    cy = ((y - ctx.origin[1]) * inv + BIG).astype(np.int32)
-    cx -= BIG
-    cy -= BIG
-    flat = cy * w
-    flat += cx
-    if inside_known or cx.size == 0 or (cx.min() >= 0 and cx.max() < w and cy.min() >= 0 and cy.max() < h):
+    shape = np.shape(x)
+    flat, inside, n_out = _cells(np.ravel(x), np.ravel(y), float(ctx.origin[0]), float(ctx.origin[1]),
+                                 1.0 / ctx.resolution, h, w)
+    flat = flat.reshape(shape)
+    if inside_known or n_out == 0:
         return flat, None
-    inside = (cx >= 0) & (cx < w) & (cy >= 0) & (cy < h)
-    flat[~inside] = 0
-    return flat, inside
+    return flat, inside.reshape(shape)
+
+
+@kernel
+def _cells(x, y, ox, oy, inv, h, w):
+    """flat cell index (0 where outside), inside flags and the count of points outside, in one pass;
+    the cell of a coordinate is ``int32((v - origin) * inv + BIG) - BIG`` as in ``cells_xy``."""
+    n = x.size
+    flat = np.empty(n, np.int32)
+    inside = np.empty(n, np.bool_)
+    n_out = 0
+    for i in range(n):
+        cx = np.int32((x[i] - ox) * inv + BIG) - BIG
+        cy = np.int32((y[i] - oy) * inv + BIG) - BIG
+        ok = 0 <= cx < w and 0 <= cy < h
+        inside[i] = ok
+        if ok:
+            flat[i] = cy * w + cx
+        else:
+            flat[i] = 0
+            n_out += 1
+    return flat, inside, n_out
+
+
+def finite_end_values(d: np.ndarray, flat: np.ndarray, inside: np.ndarray | None, scale: float,
+                      reject: float) -> np.ndarray:
+    """(S,) ``d`` at each trajectory's last cell times ``scale``, or ``reject`` where any of its (T + 1, S)
+    cells is outside (``inside`` False) or has a non-finite ``d``: one compiled pass, the values of
+    ``where(all(isfinite(d[flat]) & inside), d[flat[-1]] * scale, reject)``."""
+    has_inside = inside is not None
+    return _finite_end_values(d, flat, inside if has_inside else np.ones((1, 1), np.bool_), has_inside,
+                              float(scale), float(reject))
+
+
+@kernel
+def _finite_end_values(d, flat, inside, has_inside, scale, reject):
+    t1, s = flat.shape
+    ok = np.ones(s, np.bool_)
+    for k in range(t1):
+        for j in range(s):
+            if not np.isfinite(d[flat[k, j]]) or (has_inside and not inside[k, j]):
+                ok[j] = False
+    out = np.empty(s)
+    for j in range(s):
+        out[j] = d[flat[t1 - 1, j]] * scale if ok[j] else reject
+    return out
+
+
+def max_cell_values(g: np.ndarray, flat: np.ndarray, inside: np.ndarray | None, limit: int, reject: float
+                    ) -> tuple[np.ndarray, bool]:
+    """(S,) each trajectory's largest ``g`` over its (T + 1, S) cells as float, ``reject`` where a cell
+    is outside or ``g >= limit``; and whether any first-row (start) cell is such a bad cell."""
+    has_inside = inside is not None
+    return _max_cell_values(g, flat, inside if has_inside else np.ones((1, 1), np.bool_), has_inside,
+                            limit, float(reject))
+
+
+@kernel
+def _max_cell_values(g, flat, inside, has_inside, limit, reject):
+    t1, s = flat.shape
+    top = np.zeros(s, g.dtype)
+    bad = np.zeros(s, np.bool_)
+    start_bad = False
+    for k in range(t1):
+        for j in range(s):
+            v = g[flat[k, j]]
+            if v > top[j]:
+                top[j] = v
+            if v >= limit or (has_inside and not inside[k, j]):
+                bad[j] = True
+                if k == 0:
+                    start_bad = True
+    out = np.empty(s)
+    for j in range(s):
+        out[j] = reject if bad[j] else float(top[j])
+    return out, start_bad
 
 
 def point_cells(trajs: Trajectories, ctx: ScoringContext, forward: float = 0.0):

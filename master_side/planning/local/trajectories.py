@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from common.jit import kernel
+
 
 class Trajectories:
     """S simulated trajectories: ``poses`` (S, T, 3) with row 0 the start pose, ``vels`` (S, 3) samples.
@@ -132,25 +134,9 @@ def _integrate_constant(start: np.ndarray, samples: np.ndarray, t: int, dt: floa
     th[:, 0] = start[2]
     np.cumsum(np.repeat((w * dt)[:, None], t, axis=1), axis=1, out=th[:, 1:])
     th[:, 1:] += start[2]
-    cos_t, sin_t = np.cos(th).T[:, inv], np.sin(th).T[:, inv]  # (T + 1, S)
-    c, sn = cos_t[:-1], sin_t[:-1]
-    vx, vy = np.ascontiguousarray(samples[:, 0]), np.ascontiguousarray(samples[:, 1])
-    d = np.empty((2, t, s))  # per step dx, dy
-    if vy.any():
-        np.subtract(vx * c, vy * sn, out=d[0])
-        np.add(vx * sn, vy * c, out=d[1])
-    else:  # vx * c - 0 * sn == vx * c (up to the sign of a zero)
-        np.multiply(vx, c, out=d[0])
-        np.multiply(vx, sn, out=d[1])
-    d *= dt
-    xy = np.empty((2, t + 1, s))
-    xy[:, 1] = d[:, 0]
-    for k in range(1, t):  # cumsum along the steps, one vector add per step
-        np.add(xy[:, k], d[:, k], out=xy[:, k + 1])
-    x, y = xy
-    x[1:] += start[0]
-    y[1:] += start[1]
-    x[0], y[0] = start[0], start[1]
+    cos_t, sin_t, x, y = _rollout(np.cos(th), np.sin(th), inv, np.ascontiguousarray(samples[:, 0]),
+                                  np.ascontiguousarray(samples[:, 1]), bool(samples[:, 1].any()), float(dt),
+                                  float(start[0]), float(start[1]))
     out = Trajectories(None, samples, layout=(x, y, th.T, inv))
     out.cache["xyT"] = (x, y, None, cos_t, sin_t)  # headings: see Trajectories.row / poses
     return out
@@ -203,3 +189,31 @@ def num_steps(
     trans = float(np.max(np.hypot(samples[:, 0], samples[:, 1]))) * sim_time
     rot = float(np.max(np.abs(samples[:, 2]))) * sim_time
     return max(1, math.ceil(max(trans / sim_granularity, rot / angular_granularity)))
+
+
+@kernel
+def _rollout(cos_w, sin_w, inv, vx, vy, use_vy, dt, x0, y0):
+    """``_integrate_constant``'s per-sample part, compiled: (T + 1, S) cos, sin (gathered from the
+    per-speed (W, T + 1) tables), x and y. Same operations in the same order as the numpy form (step
+    ``(vx c - vy s) dt``, or ``vx c dt`` when no sample moves sideways; running sums, then the start
+    added), so the same bits."""
+    t1, s = cos_w.shape[1], inv.size
+    cos_t, sin_t = np.empty((t1, s)), np.empty((t1, s))
+    x, y = np.empty((t1, s)), np.empty((t1, s))
+    for j in range(s):
+        w = inv[j]
+        a, b = vx[j], vy[j]
+        sx = sy = 0.0
+        x[0, j], y[0, j] = x0, y0
+        for k in range(t1):
+            c, sn = cos_w[w, k], sin_w[w, k]
+            cos_t[k, j], sin_t[k, j] = c, sn
+            if k + 1 < t1:
+                if use_vy:
+                    dx, dy = (a * c - b * sn) * dt, (a * sn + b * c) * dt
+                else:
+                    dx, dy = (a * c) * dt, (a * sn) * dt
+                sx = dx if k == 0 else sx + dx
+                sy = dy if k == 0 else sy + dy
+                x[k + 1, j], y[k + 1, j] = sx + x0, sy + y0
+    return cos_t, sin_t, x, y
