@@ -27,4 +27,5 @@ extra=""
 (( want_test )) && extra="[test]"
 python3 -m pip install -q --disable-pip-version-check -e ".${extra}" 2>&1 | grep -v "Running pip as the 'root' user" || true
 python3 -c "import zenoh, numpy, scipy, serial, msgpack, rerun, yaml, numba" || { echo "zenav install: import check failed" >&2; exit 1; }
+python3 -m deploy.warm_kernels || { echo "zenav install: compiling the numba kernels failed" >&2; exit 1; }
 echo "zenav install: ok ($(command -v zenav || echo 'zenav not on PATH: use python3 -m deploy.cli'))" >&2

@@ -60,6 +60,8 @@ def install_host(inv: Inventory, r: Remote, echo=print, upload: bool = True) -> 
     check = f"import zenoh, numpy, yaml, deploy.cli; assert deploy.cli.__file__.startswith({p['src']!r} + '/')"
     r.run(f"cd / && {q['python']} -c {shlex.quote(check)}",
           what="import check in the venv (zenoh, numpy, yaml, and zenav from src)", timeout=300)
+    r.run(f"cd {q['src']} && {q['python']} -m deploy.warm_kernels", what="compile the numba kernels (once)",
+          timeout=600)
     if not dry:
         echo(f"[{h.name}] venv {p['venv']}: zenav {'already installed' if 'unchanged' in out else 'installed'}")
     _files(inv, r)
