@@ -10,6 +10,7 @@ field tile, computed once, and a particle's field window is assembled from cache
 from __future__ import annotations
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 
 from master_side.slam import kernels
 from master_side.slam.field import COARSE, FAR, PAD_C, PAD_F, FieldSet, kernel_table
@@ -75,8 +76,8 @@ class FieldCache:
         fs = FieldSet.empty(shapes_f, shapes_c, ix0, iy0, self.res)
         for i, sl in enumerate(slot_arrays):
             f, c = fs.views(i)
-            _fill(f, self.fine, sl, PAD_F)
-            _fill(c, self.coarse, sl, PAD_C)
+            _fill(f, self.fine[sl], PAD_F)
+            _fill(c, self.coarse[sl], PAD_C)
         return fs
 
     def _build(self, todo: dict[bytes, tuple[TiledGrid, int, int, int]],
@@ -142,6 +143,17 @@ class FieldCache:
         return out
 
 
-def _fill(view: np.ndarray, tiles: np.ndarray, slots: np.ndarray, pad: int) -> None:
-    """Write tiles[slots] (nty, ntx) into the padded 2-D view; zero the padding and the border."""
-    kernels.fill_field(view, tiles, slots, pad)
+def _fill(view: np.ndarray, tiles: np.ndarray, pad: int) -> None:
+    """Write tiles (nty, ntx, t, t) into the padded 2-D view; zero the padding and the border."""
+    nty, ntx, t, _ = tiles.shape
+    h, w = view.shape
+    view[:pad + 1] = 0.0
+    view[h - pad - 1:] = 0.0
+    view[:, :pad + 1] = 0.0
+    view[:, w - pad - 1:] = 0.0
+    inner = view[pad:pad + nty * t, pad:pad + ntx * t]
+    s0, s1 = inner.strides
+    blocks = as_strided(inner, (nty, t, ntx, t), (s0 * t, s0, s1 * t, s1))
+    blocks[...] = tiles.transpose(0, 2, 1, 3)
+    inner[0, :] = inner[-1, :] = 0.0
+    inner[:, 0] = inner[:, -1] = 0.0

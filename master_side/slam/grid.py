@@ -14,6 +14,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
+from master_side.slam import kernels
 
 TILE = 64  # cells per tile side
 TILE_BITS = 6  # TILE == 1 << TILE_BITS: tile of a (non-negative) cell index by a shift
@@ -85,13 +86,13 @@ class TiledGrid:
     def store(self, win: Window, touched: np.ndarray, flipped: np.ndarray | None = None) -> None:
         """Write back the tiles of ``win`` holding any of the ``touched`` flat cell indices;
         ``flipped``: the cells whose occupancy changed (None: any may have)."""
-        nx = win.data.shape[1]
+        ny, nx = win.data.shape
         ntx = nx // TILE
-        row = touched // nx
-        ids = (row >> TILE_BITS) * ntx + ((touched - row * nx) >> TILE_BITS)
-        tiles = np.flatnonzero(np.bincount(ids, minlength=1))
-        parts = None if flipped is None else _flipped_parts(flipped, nx, self.halo)
-        for j, i in zip(*np.divmod(tiles, ntx)):
+        tiles, parts = kernels.tile_parts(touched, touched[:0] if flipped is None else flipped, nx, ntx, ny // TILE,
+                                          TILE, self.halo)
+        if flipped is None:
+            parts = None
+        for j, i in zip(*np.divmod(np.flatnonzero(tiles), ntx)):
             key = (win.tx0 + int(i), win.ty0 + int(j))
             block = win.data[j * TILE:(j + 1) * TILE, i * TILE:(i + 1) * TILE]
             t = self.tiles.get(key)
@@ -100,8 +101,8 @@ class TiledGrid:
                 continue
             occ = t.occ
             if parts is not None:
-                m = parts.get((int(j), int(i)))
-                if m is not None:
+                m = parts[j * ntx + i]
+                if m.any():
                     occ = occ.copy()
                     occ[m] = next(_STAMPS)
             else:
@@ -147,24 +148,6 @@ class TiledGrid:
 
     def memory_bytes(self) -> int:
         return sum(t.data.nbytes for t in self.tiles.values())
-
-
-def _flipped_parts(cells: np.ndarray, nx: int, halo: int) -> dict[tuple[int, int], np.ndarray]:
-    """(tile row, tile col) -> mask (9,) of the tile parts holding any of the window cells."""
-    if cells.size == 0:
-        return {}
-    r, c = cells // nx, cells % nx
-    lr, lc = r % TILE, c % TILE
-    ys = (lr < halo, np.ones(r.shape, bool), lr >= TILE - halo)
-    xs = (lc < halo, np.ones(r.shape, bool), lc >= TILE - halo)
-    mask = np.stack([ys[a] & xs[b] for a in range(3) for b in range(3)], axis=1)
-    tid = (r // TILE) * (nx // TILE) + c // TILE
-    order = np.argsort(tid, kind="stable")
-    tid, mask = tid[order], mask[order]
-    starts = np.flatnonzero(np.r_[True, tid[1:] != tid[:-1]])
-    any_ = np.logical_or.reduceat(mask, starts, axis=0)
-    ntx = nx // TILE
-    return {(int(t) // ntx, int(t) % ntx): m for t, m in zip(tid[starts], any_)}
 
 
 def unique_tile_bytes(grids: list[TiledGrid]) -> int:

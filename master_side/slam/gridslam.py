@@ -9,12 +9,14 @@ trajectories share their ancestry (a tree of ``TNode``).
 from __future__ import annotations
 
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
 from common.geometry import Pose2D
 from common.messages import LaserScan, OccupancyGrid
+from master_side.slam import kernels
 from master_side.slam.field_cache import FieldCache
 from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TILE, TiledGrid, Window, unique_tile_bytes
 from master_side.slam.motion_model import MotionModel, compose_many
@@ -87,30 +89,16 @@ def integrate(win: Window, pose: np.ndarray, beams: Beams) -> np.ndarray:
 def integrate_flips(win: Window, pose: np.ndarray, beams: Beams) -> tuple[np.ndarray, np.ndarray]:
     """``integrate``, also returning the cells whose occupancy (log-odds > 0) changed."""
     ny, nx = win.data.shape
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    idx = []
-    for pts in (beams.free, beams.hits):
-        x = pose[0] + c * pts[:, 0] - s * pts[:, 1]
-        y = pose[1] + s * pts[:, 0] + c * pts[:, 1]
-        ix = np.floor(x / win.res).astype(np.int64) - win.ix0  # Window.cells
-        iy = np.floor(y / win.res).astype(np.int64) - win.iy0
-        if len(ix) and (ix.min() < 0 or iy.min() < 0 or ix.max() >= nx or iy.max() >= ny):
-            ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
-            ix, iy = ix[ok], iy[ok]
-        iy *= nx
-        iy += ix
-        idx.append(iy)
-    mark = np.zeros(ny * nx, np.float32)
-    mark[idx[0]] = L_FREE
-    mark[idx[1]] = L_OCC  # hits overwrite free marks of the same cell
-    cells = np.concatenate(idx)
-    flat = win.data.ravel()
-    # duplicates in ``cells`` all write the same value: each cell changes once per scan
-    old = flat[cells]
-    new = old + mark[cells]
-    np.clip(new, L_MIN, L_MAX, out=new)
-    flat[cells] = new
-    return cells, cells[(old > 0) != (new > 0)]
+    mark = getattr(_scratch, "mark", None)
+    if mark is None or mark.size < ny * nx:
+        mark = _scratch.mark = np.zeros(max(ny * nx, 1 << 20), np.uint8)
+    return kernels.integrate_scan(win.data.reshape(-1), nx, ny, win.ix0, win.iy0, win.res, float(pose[0]),
+                                  float(pose[1]), math.cos(pose[2]), math.sin(pose[2]), beams.free, beams.hits,
+                                  mark, *_LOG_ODDS)
+
+
+_LOG_ODDS = tuple(np.float32(v) for v in (L_FREE, L_OCC, L_MIN, L_MAX))
+_scratch = threading.local()  # integrate_flips' zeroed cell marks, one buffer per thread
 
 
 class GridSlam:

@@ -240,56 +240,121 @@ def tile_fields(src, which, rows, cols, r, far, table, coarse_n, fine_out, coars
     """Likelihood fields of m tiles: tile t's occupancy (log-odds > 0) is src[which[t]] over rows
     rows[t] - r .. rows[t] + T + r and the same columns (its field_radius border from the
     neighbours); writes table[squared cell distance to the nearest occupied cell] (``far`` beyond
-    r cells) to fine_out[slots[t]] (T, T) and table[min over coarse_n^2 blocks] to coarse_out."""
+    r cells) to fine_out[slots[t]] (T, T) and table[min over coarse_n^2 blocks] to coarse_out.
+    As ``field.inner_squared_distances``: a row pass (the nearest occupied cell left and right),
+    then a column pass over the rows within r."""
     T = fine_out.shape[1]
+    W = T + 2 * r
     rr = r * r
-    d = np.empty((T, T), np.uint8)
+    g = np.empty((W, T), np.uint8)
+    h = np.empty((T, T), np.uint8)
+    row_any = np.empty(W, np.bool_)
     for t in range(len(slots)):
         s = src[which[t]]
         y0, x0 = rows[t] - r, cols[t] - r
-        d[:, :] = far
-        for y in range(T + 2 * r):
-            for x in range(T + 2 * r):
-                if s[y0 + y, x0 + x] > 0.0:
-                    for dy in range(-r, r + 1):
-                        oy = y - r + dy
-                        if oy < 0 or oy >= T:
-                            continue
-                        for dx in range(-r, r + 1):
-                            ox = x - r + dx
-                            q = dx * dx + dy * dy
-                            if q <= rr and 0 <= ox < T and q < d[oy, ox]:
-                                d[oy, ox] = q
+        for y in range(W):
+            line = s[y0 + y, x0:x0 + W]
+            found = False
+            last = -2 * W
+            for p in range(T + r):
+                if line[p] > 0.0:
+                    last = p
+                    found = True
+                if p >= r:
+                    dd = p - last
+                    g[y, p - r] = dd * dd if dd <= r else far
+            nxt = 4 * W
+            for p in range(W - 1, r - 1, -1):
+                if line[p] > 0.0:
+                    nxt = p
+                    found = True
+                if p < T + r:
+                    dd = nxt - p
+                    if dd <= r and dd * dd < g[y, p - r]:
+                        g[y, p - r] = dd * dd
+            row_any[y] = found
+        h[:, :] = far
+        for y in range(T):
+            hy = h[y]
+            for dy in range(-r, r + 1):
+                if not row_any[y + r + dy]:
+                    continue
+                gy = g[y + r + dy]
+                q = np.uint8(dy * dy)
+                for x in range(T):
+                    hy[x] = min(hy[x], gy[x] + q)
         f = fine_out[slots[t]]
         for y in range(T):
             for x in range(T):
-                f[y, x] = table[d[y, x]]
+                v = h[y, x]
+                if v > rr:
+                    h[y, x] = v = far
+                f[y, x] = table[v]
         c = coarse_out[slots[t]]
         for cy in range(T // coarse_n):
             for cx in range(T // coarse_n):
                 m = far
                 for y in range(cy * coarse_n, (cy + 1) * coarse_n):
                     for x in range(cx * coarse_n, (cx + 1) * coarse_n):
-                        m = min(m, d[y, x])
+                        m = min(m, h[y, x])
                 c[cy, cx] = table[m]
 
 
 @kernel
-def fill_field(view, tiles, slots, pad):
-    """Field window from cached tiles: view (padded 2-D) = zeros around tiles[slots] (nty, ntx),
-    whose outermost cells are also zeroed (a window's border scores 0)."""
-    h, w = view.shape
-    t = tiles.shape[1]
-    nty, ntx = slots.shape
-    view[:, :] = 0.0
-    for j in range(nty):
-        for i in range(ntx):
-            src = tiles[slots[j, i]]
-            for y in range(t):
-                row = pad + j * t + y
-                view[row, pad + i * t:pad + (i + 1) * t] = src[y]
-    y1, x1 = pad + nty * t - 1, pad + ntx * t - 1
-    view[pad, pad:x1 + 1] = 0.0
-    view[y1, pad:x1 + 1] = 0.0
-    view[pad:y1 + 1, pad] = 0.0
-    view[pad:y1 + 1, x1] = 0.0
+def integrate_scan(flat, nx, ny, ix0, iy0, res, x, y, c, s, free, hits, mark, l_free, l_occ, l_min, l_max):
+    """Add a scan to the log-odds window ``flat`` (ny * nx): the cells of the free points
+    (F, 2) gain l_free, those of the hits (H, 2) l_occ instead, each cell once, clamped to
+    [l_min, l_max]; points off the window are dropped. ``mark``: zeroed uint8 scratch of >= ny * nx
+    (left zeroed). Returns (touched cells, cells whose occupancy (> 0) changed)."""
+    cells = np.empty(free.shape[0] + hits.shape[0], np.int64)
+    count = 0
+    for kind in range(2):
+        pts = free if kind == 0 else hits
+        for b in range(pts.shape[0]):
+            px, py = pts[b, 0], pts[b, 1]
+            ix = int(math.floor((x + c * px - s * py) / res)) - ix0
+            iy = int(math.floor((y + s * px + c * py) / res)) - iy0
+            if ix < 0 or iy < 0 or ix >= nx or iy >= ny:
+                continue
+            k = iy * nx + ix
+            if mark[k] == 0:
+                cells[count] = k
+                count += 1
+            mark[k] = kind + 1
+    flipped = np.empty(count, np.int64)
+    nf = 0
+    for q in range(count):
+        k = cells[q]
+        old = flat[k]
+        new = old + (l_occ if mark[k] == 2 else l_free)
+        new = min(max(new, l_min), l_max)
+        flat[k] = new
+        mark[k] = 0
+        if (old > 0) != (new > 0):
+            flipped[nf] = k
+            nf += 1
+    return cells[:count], flipped[:nf]
+
+
+@kernel
+def tile_parts(cells, flipped, nx, ntx, nty, tile, halo):
+    """For a window of ntx x nty tiles (nx cells per row): which tiles hold any of ``cells``
+    (nty * ntx,) and, per tile, which of its nine parts (low halo / all / high halo rows x the
+    same for columns) hold any of ``flipped`` (nty * ntx, 9)."""
+    touched = np.zeros(nty * ntx, np.bool_)
+    for k in cells:
+        r = k // nx
+        touched[(r // tile) * ntx + (k - r * nx) // tile] = True
+    parts = np.zeros((nty * ntx, 9), np.bool_)
+    for k in flipped:
+        r, c = k // nx, k % nx
+        t = (r // tile) * ntx + c // tile
+        lr, lc = r % tile, c % tile
+        for a in range(3):
+            if (a == 0 and lr >= halo) or (a == 2 and lr < tile - halo):
+                continue
+            for b in range(3):
+                if (b == 0 and lc >= halo) or (b == 2 and lc < tile - halo):
+                    continue
+                parts[t, 3 * a + b] = True
+    return touched, parts

@@ -1,5 +1,5 @@
-"""The numpy matcher the compiled kernels replaced (master_side/slam/scan_matcher.py before
-``kernels``), kept as the reference the kernels must equal bit for bit."""
+"""The numpy code the compiled kernels replaced (master_side/slam/scan_matcher.py, gridslam.py and
+grid.py before ``kernels``), kept as the reference the kernels must equal bit for bit."""
 
 from __future__ import annotations
 
@@ -8,6 +8,8 @@ import math
 import numpy as np
 
 from master_side.slam.field import COARSE, PAD_C, PAD_F, FieldSet
+from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TILE, Window
+from master_side.slam.gridslam import Beams
 from master_side.slam.scan_matcher import FINE_HALF, MotionPrior, ScanMatcher, _bilinear_scores, _rotated
 
 MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
@@ -129,3 +131,49 @@ class NumpyMatcher(ScanMatcher):
         pose[:, 2] = (pose[:, 2] + np.pi) % (2 * np.pi) - np.pi
         return pose, _bilinear_scores(fs, pose[:, None], pts)[:, 0].sum(axis=-1)
 
+
+def integrate_flips(win: Window, pose: np.ndarray, beams: Beams) -> tuple[np.ndarray, np.ndarray]:
+    """``integrate``, also returning the cells whose occupancy (log-odds > 0) changed."""
+    ny, nx = win.data.shape
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    idx = []
+    for pts in (beams.free, beams.hits):
+        x = pose[0] + c * pts[:, 0] - s * pts[:, 1]
+        y = pose[1] + s * pts[:, 0] + c * pts[:, 1]
+        ix = np.floor(x / win.res).astype(np.int64) - win.ix0  # Window.cells
+        iy = np.floor(y / win.res).astype(np.int64) - win.iy0
+        if len(ix) and (ix.min() < 0 or iy.min() < 0 or ix.max() >= nx or iy.max() >= ny):
+            ok = (ix >= 0) & (ix < nx) & (iy >= 0) & (iy < ny)
+            ix, iy = ix[ok], iy[ok]
+        iy *= nx
+        iy += ix
+        idx.append(iy)
+    mark = np.zeros(ny * nx, np.float32)
+    mark[idx[0]] = L_FREE
+    mark[idx[1]] = L_OCC  # hits overwrite free marks of the same cell
+    cells = np.concatenate(idx)
+    flat = win.data.ravel()
+    # duplicates in ``cells`` all write the same value: each cell changes once per scan
+    old = flat[cells]
+    new = old + mark[cells]
+    np.clip(new, L_MIN, L_MAX, out=new)
+    flat[cells] = new
+    return cells, cells[(old > 0) != (new > 0)]
+
+
+def _flipped_parts(cells: np.ndarray, nx: int, halo: int) -> dict[tuple[int, int], np.ndarray]:
+    """(tile row, tile col) -> mask (9,) of the tile parts holding any of the window cells."""
+    if cells.size == 0:
+        return {}
+    r, c = cells // nx, cells % nx
+    lr, lc = r % TILE, c % TILE
+    ys = (lr < halo, np.ones(r.shape, bool), lr >= TILE - halo)
+    xs = (lc < halo, np.ones(r.shape, bool), lc >= TILE - halo)
+    mask = np.stack([ys[a] & xs[b] for a in range(3) for b in range(3)], axis=1)
+    tid = (r // TILE) * (nx // TILE) + c // TILE
+    order = np.argsort(tid, kind="stable")
+    tid, mask = tid[order], mask[order]
+    starts = np.flatnonzero(np.r_[True, tid[1:] != tid[:-1]])
+    any_ = np.logical_or.reduceat(mask, starts, axis=0)
+    ntx = nx // TILE
+    return {(int(t) // ntx, int(t) % ntx): m for t, m in zip(tid[starts], any_)}

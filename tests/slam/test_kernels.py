@@ -9,7 +9,7 @@ from master_side.slam.grid import TiledGrid
 from master_side.slam.gridslam import integrate, prepare_beams
 from master_side.slam.params import GMappingParams
 from master_side.slam.scan_matcher import FieldSet, MotionPrior, ScanMatcher, make_field
-from tests.slam.numpy_reference import NumpyMatcher
+from tests.slam.numpy_reference import NumpyMatcher, _flipped_parts, integrate_flips
 
 P = GMappingParams(maxUrange=20.0, maxRange=25.0, search_linear=0.4, search_angular=0.15)
 BOX = (-6, -5, 6, 5)
@@ -83,3 +83,35 @@ def test_tile_fields_equal_the_numpy_distance_transform():
     d = inner_squared_distances(occ, r)
     assert np.array_equal(fine[slots], table[d]) and np.array_equal(coarse[slots], table[coarse_of(d)])
     assert len(np.unique(fine[slots[2]])) > 5  # distances of every size occur
+
+
+def test_integration_equals_numpy(room_scan):
+    from master_side.slam.grid import TILE
+    from master_side.slam.gridslam import integrate_flips as compiled
+
+    rng = np.random.default_rng(2)
+    grid = TiledGrid(P.delta, halo=P.field_radius)
+    win = grid.window(*BOX)
+    ref = grid.window(*BOX)
+    changed = 0
+    for k in range(12):
+        truth = Pose2D(*rng.normal(0, [0.5, 0.5, 1.0]))
+        beams = prepare_beams(room_scan(truth), P, Pose2D(0.1, 0.0, 0.05))
+        pose = truth.as_array()
+        if k == 11:
+            pose[:2] += 5.0  # beams off the window
+        cells, flipped = compiled(win, pose, beams)
+        ref_cells, ref_flipped = integrate_flips(ref, pose, beams)
+        assert np.array_equal(win.data, ref.data)
+        assert np.array_equal(np.sort(cells), np.unique(ref_cells))  # each touched cell, once
+        assert np.array_equal(np.sort(flipped), np.unique(ref_flipped))
+        changed += len(flipped)
+        nx, ny = win.data.shape[1], win.data.shape[0]
+        touched, parts = kernels.tile_parts(cells, flipped, nx, nx // TILE, ny // TILE, TILE, P.field_radius)
+        ids = (ref_cells // nx // TILE) * (nx // TILE) + (ref_cells % nx) // TILE
+        assert np.array_equal(np.flatnonzero(touched), np.unique(ids))
+        ref_parts = _flipped_parts(ref_flipped, nx, P.field_radius)
+        assert {divmod(int(t), nx // TILE) for t in np.flatnonzero(parts.any(axis=1))} == set(ref_parts)
+        for (j, i), m in ref_parts.items():
+            assert np.array_equal(parts[j * (nx // TILE) + i], m)
+    assert changed > 100 and (win.data > 0).any() and (win.data < 0).any()
