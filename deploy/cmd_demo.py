@@ -21,6 +21,10 @@ reached without a collision (1 otherwise, with the reason).
 Watching: with a display the Rerun viewer opens (--spawn); without one the run is saved to
 zenav-demo.rrd (open it with `rerun zenav-demo.rrd`, or serve it to a browser with
 `rerun --serve-web zenav-demo.rrd`). --serve-web PORT shows it live in a browser instead.
+
+Bus: --robot names the robot (default "demo"); --connect / --listen / --mode / --no-multicast are refused
+(the network is private). The demo prints its endpoint, e.g. for `zenav --robot demo --no-multicast
+--connect tcp/127.0.0.1:PORT topic hz scan` in another terminal.
 """
 
 
@@ -66,13 +70,24 @@ def run(args) -> int:
     from deploy.demo import Demo, DemoOptions
     from deploy.procs import terminate_as_interrupt
 
+    given = [o for o, v in (("--connect", getattr(args, "connect", None)), ("--listen", getattr(args, "listen", None)),
+                            ("--mode", getattr(args, "mode", None)),
+                            ("--no-multicast", getattr(args, "no_multicast", False))) if v]
+    if given:
+        print(f"zenav demo: {', '.join(given)} does not apply: the demo runs on its own private loopback network "
+              "(multicast off), so it never talks to robots on the LAN; it prints that network's endpoint "
+              "for other zenav commands to join", file=sys.stderr)
+        return 2
     worlds = tuple(args.world or ("room", "corridor"))
     opts = DemoOptions(worlds=worlds, planner=args.planner, max_goals=args.goals, speed=args.speed,
                        goal_timeout=args.goal_timeout, monitor_args=monitor_args(args),
-                       workdir=args.workdir or "", slam=args.slam or "", amcl=args.amcl)
+                       workdir=args.workdir or "", slam=args.slam or "", amcl=args.amcl,
+                       robot=getattr(args, "robot", None) or "demo")
     t0 = time.monotonic()
     demo = Demo(opts, echo=lambda s: print(s, flush=True))
     print(f"[demo] logs and generated configs in {demo.work}", flush=True)
+    print(f"[demo] bus: {demo.endpoint} (another terminal can join: zenav --robot {opts.robot} --no-multicast "
+          f"--connect {demo.endpoint} topic list)", flush=True)
     ok, error = False, ""
     try:
         with terminate_as_interrupt():  # SIGTERM / SIGHUP as Ctrl-C: the agents are stopped below
