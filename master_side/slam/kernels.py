@@ -200,22 +200,67 @@ def hill_climb(fine, consts, pose, p0, pts, res, lstep, astep, iterations, lin2,
 
 
 @kernel
+def _leaf_sums(flat, base, lo, n, shifts, acc, res):
+    """res[s] = numpy's block sum (n <= 128 values) of flat[base[lo:lo + n] + shifts[s]] for every
+    shift s, beams in the outer loop (the shifts of one beam are neighbouring cells): each of the
+    eight accumulators, then the tail, sees its values in numpy's order."""
+    S = shifts.shape[0]
+    m = n - n % 8 if n >= 8 else 0
+    for i in range(n):
+        k = base[lo + i]
+        if i < 8 and m > 0:
+            for q in range(S):
+                acc[q, i] = flat[k + shifts[q]]
+            continue
+        if i == m:  # first value after the blocks of eight: fold the accumulators
+            for q in range(S):
+                if m > 0:
+                    r = acc[q]
+                    res[q] = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+                else:
+                    res[q] = np.float32(0.0)
+        if i < m:
+            j = i % 8
+            for q in range(S):
+                acc[q, j] += flat[k + shifts[q]]
+        else:
+            for q in range(S):
+                res[q] += flat[k + shifts[q]]
+    if n == m:
+        for q in range(S):
+            if m > 0:
+                r = acc[q]
+                res[q] = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+            else:
+                res[q] = np.float32(0.0)
+
+
+@kernel
 def grid_search(flat, off, w, nx, ny, ox, oy, pad, cell, poses, c, s, pts, half):
     """Scores (P, A, T) float32 of pose_p + (i cell, j cell) with heading (c, s)[p, a], T = (2 half
     + 1)^2 shifts in the order i * (2 half + 1) + j, beams read from the padded field p (flat
     buffer from off[p], row length w[p], nx[p] x ny[p] cells, map cell of its origin ox, oy in
-    this level's cells); a beam's cell is clipped to one cell beyond the border (zeros)."""
+    this level's cells); a beam's cell is clipped to one cell beyond the border (zeros).
+    The sum over beams is numpy's pairwise float32 sum (``pairwise_sum``)."""
     P, A, n = c.shape[0], c.shape[1], pts.shape[0]
     R = 2 * half + 1
-    scores = np.empty((P, A, R * R), np.float32)
+    S = R * R
+    scores = np.empty((P, A, S), np.float32)
     base = np.empty(n, np.int64)
     vals = np.empty(n, np.float32)
+    shifts = np.empty(S, np.int64)
+    acc = np.empty((S, 8), np.float32)
+    left, right = np.empty(S, np.float32), np.empty(S, np.float32)
+    h = n // 2 - (n // 2) % 8  # numpy's split of a row of 129..248 values
     for p in range(P):
+        for i in range(R):
+            for j in range(R):
+                shifts[i * R + j] = (i - half) + (j - half) * w[p]
         for a in range(A):
             ca, sa = c[p, a], s[p, a]
             for b in range(n):
                 px, py = pts[b, 0], pts[b, 1]
-                qy = s[p, a] * px + ca * py
+                qy = sa * px + ca * py
                 qy += poses[p, 1]
                 qy /= cell
                 qy -= oy[p]
@@ -226,12 +271,18 @@ def grid_search(flat, off, w, nx, ny, ox, oy, pad, cell, poses, c, s, pts, half)
                 qx -= ox[p]
                 ix = min(max(int(math.floor(qx)), -half - 1), nx[p] + half) + pad
                 base[b] = iy * w[p] + ix + off[p]
-            for i in range(R):
-                for j in range(R):
-                    shift = (i - half) + (j - half) * w[p]
+            if n <= 128:
+                _leaf_sums(flat, base, 0, n, shifts, acc, scores[p, a])
+            elif n <= 248:
+                _leaf_sums(flat, base, 0, h, shifts, acc, left)
+                _leaf_sums(flat, base, h, n - h, shifts, acc, right)
+                for q in range(S):
+                    scores[p, a, q] = left[q] + right[q]
+            else:
+                for q in range(S):
                     for b in range(n):
-                        vals[b] = flat[base[b] + shift]
-                    scores[p, a, i * R + j] = pairwise_sum(vals, 0, n)
+                        vals[b] = flat[base[b] + shifts[q]]
+                    scores[p, a, q] = pairwise_sum(vals, 0, n)
     return scores
 
 

@@ -34,14 +34,16 @@ def test_pairwise_sum_is_numpys_float32_sum():
         assert kernels.pairwise_sum(rows.ravel(), n, n) == ref[1]  # an offset into a buffer
 
 
+@pytest.mark.parametrize("stride", [1, 2, 3, 40, 60])  # beam counts 308, 154, 103, 8, 6: the sums' code paths
 @pytest.mark.parametrize("with_prior", [True, False])
 @pytest.mark.parametrize("window", [(0.3, 0.12), (0.9, 0.4), (0.0, 0.1), (0.2, 0.0)])
-def test_match_many_equals_the_numpy_matcher(room_scan, with_prior, window):
+def test_match_many_equals_the_numpy_matcher(room_scan, with_prior, window, stride):
     truth = Pose2D(0.3, -0.2, 0.1)
     grids = [_grid(room_scan, Pose2D(0.3 + 0.04 * i, -0.2, 0.1 - 0.02 * i)) for i in range(3)]
     scan = room_scan(truth)
     scan.ranges[::7] = np.inf  # missing beams: an odd beam count
-    pts = prepare_beams(scan, P, Pose2D()).match
+    pts = prepare_beams(scan, P, Pose2D()).match[::stride]
+    assert len(pts) == {1: 308, 2: 154, 3: 103, 40: 8, 60: 6}[stride]
     rng = np.random.default_rng(7)
     n = 7
     starts = truth.as_array() + rng.normal(0, [0.1, 0.1, 0.05], (n, 3))
