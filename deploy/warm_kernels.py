@@ -9,6 +9,7 @@ costs a few seconds per component. Prints one line per component.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 
@@ -46,7 +47,31 @@ def _planners() -> None:
             planner.compute_velocity(Pose2D(x, 1.0, 0.1), (0.2, 0.0, 0.1), grid, 0.025, (0.0, 0.0), square)
 
 
-COMPONENTS = {"planners (navfn, DWA, trajectory rollout)": _planners}
+def _room_scan(x: float, y: float, th: float, n: int = 181):
+    """A 180-degree scan from (x, y, th) inside a 6 m x 6 m box room centred on the origin."""
+    from common.messages import LaserScan
+
+    ang = th + np.linspace(-math.pi / 2, math.pi / 2, n)
+    c, s = np.cos(ang), np.sin(ang)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        tx = np.where(c > 0, (3.0 - x) / c, np.where(c < 0, (-3.0 - x) / c, np.inf))
+        ty = np.where(s > 0, (3.0 - y) / s, np.where(s < 0, (-3.0 - y) / s, np.inf))
+    return LaserScan(angle_min=-math.pi / 2, angle_max=math.pi / 2, angle_increment=math.pi / (n - 1),
+                     range_min=0.1, range_max=30.0, ranges=np.minimum(tx, ty).astype(np.float32))
+
+
+def _slam() -> None:
+    from master_side.slam.gridslam import GridSlam
+    from master_side.slam.params import load_gmapping
+
+    slam = GridSlam(load_gmapping(particles=4))
+    for k in range(8):
+        x, th = -1.0 + 0.3 * k, 0.1 * k
+        slam.process(float(k), Pose2D(x, 0.2, th), _room_scan(x, 0.2, th))
+    slam.occupancy_grid()
+
+
+COMPONENTS = {"planners (navfn, DWA, trajectory rollout)": _planners, "SLAM (gmapping filter)": _slam}
 
 
 def main() -> int:
