@@ -292,62 +292,45 @@ def tile_fields(src, which, rows, cols, r, far, table, coarse_n, fine_out, coars
     rows[t] - r .. rows[t] + T + r and the same columns (its field_radius border from the
     neighbours); writes table[squared cell distance to the nearest occupied cell] (``far`` beyond
     r cells) to fine_out[slots[t]] (T, T) and table[min over coarse_n^2 blocks] to coarse_out.
-    As ``field.inner_squared_distances``: a row pass (the nearest occupied cell left and right),
-    then a column pass over the rows within r."""
+    The distances of ``field.inner_squared_distances``, scattered from the occupied cells (each
+    lowers the cells of its disc of radius r)."""
     T = fine_out.shape[1]
     W = T + 2 * r
-    rr = r * r
-    g = np.empty((W, T), np.uint8)
-    h = np.empty((T, T), np.uint8)
-    row_any = np.empty(W, np.bool_)
+    span = np.empty(2 * r + 1, np.int64)  # half-width of the disc's row dy
+    for dy in range(-r, r + 1):
+        span[dy + r] = int(math.floor(math.sqrt(r * r - dy * dy)))
+        while (span[dy + r] + 1) ** 2 + dy * dy <= r * r:
+            span[dy + r] += 1
+    hp = np.empty((T + 4 * r, T + 4 * r), np.uint8)  # cell (oy, ox) of the tile at hp[oy + 2r, ox + 2r]
     for t in range(len(slots)):
         s = src[which[t]]
         y0, x0 = rows[t] - r, cols[t] - r
+        hp[:, :] = far
         for y in range(W):
             line = s[y0 + y, x0:x0 + W]
-            found = False
-            last = -2 * W
-            for p in range(T + r):
-                if line[p] > 0.0:
-                    last = p
-                    found = True
-                if p >= r:
-                    dd = p - last
-                    g[y, p - r] = dd * dd if dd <= r else far
-            nxt = 4 * W
-            for p in range(W - 1, r - 1, -1):
-                if line[p] > 0.0:
-                    nxt = p
-                    found = True
-                if p < T + r:
-                    dd = nxt - p
-                    if dd <= r and dd * dd < g[y, p - r]:
-                        g[y, p - r] = dd * dd
-            row_any[y] = found
-        h[:, :] = far
-        for y in range(T):
-            hy = h[y]
-            for dy in range(-r, r + 1):
-                if not row_any[y + r + dy]:
-                    continue
-                gy = g[y + r + dy]
-                q = np.uint8(dy * dy)
-                for x in range(T):
-                    hy[x] = min(hy[x], gy[x] + q)
+            for x in range(W):
+                if line[x] > 0.0:
+                    for dy in range(-r, r + 1):
+                        row = hp[y + r + dy]
+                        q0 = dy * dy
+                        for dx in range(-span[dy + r], span[dy + r] + 1):
+                            q = q0 + dx * dx
+                            if q < row[x + r + dx]:
+                                row[x + r + dx] = q
         f = fine_out[slots[t]]
         for y in range(T):
+            hy = hp[y + 2 * r]
+            fy = f[y]
             for x in range(T):
-                v = h[y, x]
-                if v > rr:
-                    h[y, x] = v = far
-                f[y, x] = table[v]
+                fy[x] = table[hy[x + 2 * r]]
         c = coarse_out[slots[t]]
         for cy in range(T // coarse_n):
             for cx in range(T // coarse_n):
                 m = far
-                for y in range(cy * coarse_n, (cy + 1) * coarse_n):
-                    for x in range(cx * coarse_n, (cx + 1) * coarse_n):
-                        m = min(m, h[y, x])
+                for y in range(cy * coarse_n + 2 * r, (cy + 1) * coarse_n + 2 * r):
+                    hy = hp[y]
+                    for x in range(cx * coarse_n + 2 * r, (cx + 1) * coarse_n + 2 * r):
+                        m = min(m, hy[x])
                 c[cy, cx] = table[m]
 
 
