@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-from master_side.slam import kernels
+from master_side.slam import map_kernels
 from master_side.slam.field import COARSE, FAR, PAD_C, PAD_F, FieldSet, kernel_table
 from master_side.slam.grid import TILE, TiledGrid, Window
 from master_side.slam.params import GMappingParams
@@ -100,11 +100,11 @@ class FieldCache:
                 g, tx, ty, _ = items[i]
                 self._patch(occ[k], g, tx, ty)
             at = np.full(len(patched), r, np.int64)
-            kernels.tile_fields(occ, np.arange(len(patched)), at, at, *args, slots[patched])
+            map_kernels.tile_fields(occ, np.arange(len(patched)), at, at, *args, slots[patched])
         for n, rows in inner.items():
             tx0, ty0 = ranges[n][:2]
             tiles = np.array([items[i][1:3] for i in rows], np.int64)
-            kernels.tile_fields(windows[n].data[None], np.zeros(len(rows), np.int64), (tiles[:, 1] - ty0) * TILE,
+            map_kernels.tile_fields(windows[n].data[None], np.zeros(len(rows), np.int64), (tiles[:, 1] - ty0) * TILE,
                                 (tiles[:, 0] - tx0) * TILE, *args, slots[rows])
         for key, s in zip(todo, slots.tolist()):
             self.slots[key] = s

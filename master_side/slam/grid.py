@@ -14,7 +14,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
-from master_side.slam import kernels
+from master_side.slam import map_kernels
 
 TILE = 64  # cells per tile side
 TILE_BITS = 6  # TILE == 1 << TILE_BITS: tile of a (non-negative) cell index by a shift
@@ -88,7 +88,7 @@ class TiledGrid:
         ``flipped``: the cells whose occupancy changed (None: any may have)."""
         ny, nx = win.data.shape
         ntx = nx // TILE
-        tiles, parts = kernels.tile_parts(touched, touched[:0] if flipped is None else flipped, nx, ntx, ny // TILE,
+        tiles, parts = map_kernels.tile_parts(touched, touched[:0] if flipped is None else flipped, nx, ntx, ny // TILE,
                                           TILE, self.halo)
         if flipped is None:
             parts = None

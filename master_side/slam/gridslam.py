@@ -16,7 +16,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from common.messages import LaserScan, OccupancyGrid
-from master_side.slam import kernels
+from master_side.slam import map_kernels
 from master_side.slam.field_cache import FieldCache
 from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TILE, TiledGrid, Window, unique_tile_bytes
 from master_side.slam.motion_model import MotionModel, compose_many
@@ -92,7 +92,7 @@ def integrate_flips(win: Window, pose: np.ndarray, beams: Beams) -> tuple[np.nda
     mark = getattr(_scratch, "mark", None)
     if mark is None or mark.size < ny * nx:
         mark = _scratch.mark = np.zeros(max(ny * nx, 1 << 20), np.uint8)
-    return kernels.integrate_scan(win.data.reshape(-1), nx, ny, win.ix0, win.iy0, win.res, float(pose[0]),
+    return map_kernels.integrate_scan(win.data.reshape(-1), nx, ny, win.ix0, win.iy0, win.res, float(pose[0]),
                                   float(pose[1]), math.cos(pose[2]), math.sin(pose[2]), beams.free, beams.hits,
                                   mark, *_LOG_ODDS)
 

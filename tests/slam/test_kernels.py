@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from common.geometry import Pose2D
-from master_side.slam import kernels
+from master_side.slam import kernels, map_kernels
 from master_side.slam.grid import TiledGrid
 from master_side.slam.gridslam import integrate, prepare_beams
 from master_side.slam.params import GMappingParams
@@ -81,7 +81,7 @@ def test_tile_fields_equal_the_numpy_distance_transform():
     fine, coarse = np.full((8, t, t), -1, np.float32), np.full((8, t // COARSE, t // COARSE), -1, np.float32)
     slots = np.array([6, 1, 3, 0, 7])
     at = np.full(5, r, np.int64)
-    kernels.tile_fields(logodds, np.arange(5), at, at, r, FAR, table, COARSE, fine, coarse, slots)
+    map_kernels.tile_fields(logodds, np.arange(5), at, at, r, FAR, table, COARSE, fine, coarse, slots)
     d = inner_squared_distances(occ, r)
     assert np.array_equal(fine[slots], table[d]) and np.array_equal(coarse[slots], table[coarse_of(d)])
     assert len(np.unique(fine[slots[2]])) > 5  # distances of every size occur
@@ -109,7 +109,7 @@ def test_integration_equals_numpy(room_scan):
         assert np.array_equal(np.sort(flipped), np.unique(ref_flipped))
         changed += len(flipped)
         nx, ny = win.data.shape[1], win.data.shape[0]
-        touched, parts = kernels.tile_parts(cells, flipped, nx, nx // TILE, ny // TILE, TILE, P.field_radius)
+        touched, parts = map_kernels.tile_parts(cells, flipped, nx, nx // TILE, ny // TILE, TILE, P.field_radius)
         ids = (ref_cells // nx // TILE) * (nx // TILE) + (ref_cells % nx) // TILE
         assert np.array_equal(np.flatnonzero(touched), np.unique(ids))
         ref_parts = _flipped_parts(ref_flipped, nx, P.field_radius)

@@ -1,0 +1,120 @@
+"""Compiled per-cell loops of the map side (numba, ``common.jit.kernel``): likelihood-field tiles and
+the integration of a scan into a log-odds window. Same bits as the numpy code they replaced
+(``tests/slam/test_kernels.py`` against ``tests/slam/numpy_reference.py``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from common.jit import kernel
+
+
+@kernel
+def tile_fields(src, which, rows, cols, r, far, table, coarse_n, fine_out, coarse_out, slots):
+    """Likelihood fields of m tiles: tile t's occupancy (log-odds > 0) is src[which[t]] over rows
+    rows[t] - r .. rows[t] + T + r and the same columns (its field_radius border from the
+    neighbours); writes table[squared cell distance to the nearest occupied cell] (``far`` beyond
+    r cells) to fine_out[slots[t]] (T, T) and table[min over coarse_n^2 blocks] to coarse_out.
+    The distances of ``field.inner_squared_distances``, scattered from the occupied cells (each
+    lowers the cells of its disc of radius r)."""
+    T = fine_out.shape[1]
+    W = T + 2 * r
+    span = np.empty(2 * r + 1, np.int64)  # half-width of the disc's row dy
+    for dy in range(-r, r + 1):
+        span[dy + r] = int(math.floor(math.sqrt(r * r - dy * dy)))
+        while (span[dy + r] + 1) ** 2 + dy * dy <= r * r:
+            span[dy + r] += 1
+    hp = np.empty((T + 4 * r, T + 4 * r), np.uint8)  # cell (oy, ox) of the tile at hp[oy + 2r, ox + 2r]
+    for t in range(len(slots)):
+        s = src[which[t]]
+        y0, x0 = rows[t] - r, cols[t] - r
+        hp[:, :] = far
+        for y in range(W):
+            line = s[y0 + y, x0:x0 + W]
+            for x in range(W):
+                if line[x] > 0.0:
+                    for dy in range(-r, r + 1):
+                        row = hp[y + r + dy]
+                        q0 = dy * dy
+                        for dx in range(-span[dy + r], span[dy + r] + 1):
+                            q = q0 + dx * dx
+                            if q < row[x + r + dx]:
+                                row[x + r + dx] = q
+        f = fine_out[slots[t]]
+        for y in range(T):
+            hy = hp[y + 2 * r]
+            fy = f[y]
+            for x in range(T):
+                fy[x] = table[hy[x + 2 * r]]
+        c = coarse_out[slots[t]]
+        for cy in range(T // coarse_n):
+            for cx in range(T // coarse_n):
+                m = far
+                for y in range(cy * coarse_n + 2 * r, (cy + 1) * coarse_n + 2 * r):
+                    hy = hp[y]
+                    for x in range(cx * coarse_n + 2 * r, (cx + 1) * coarse_n + 2 * r):
+                        m = min(m, hy[x])
+                c[cy, cx] = table[m]
+
+
+@kernel
+def integrate_scan(flat, nx, ny, ix0, iy0, res, x, y, c, s, free, hits, mark, l_free, l_occ, l_min, l_max):
+    """Add a scan to the log-odds window ``flat`` (ny * nx): the cells of the free points
+    (F, 2) gain l_free, those of the hits (H, 2) l_occ instead, each cell once, clamped to
+    [l_min, l_max]; points off the window are dropped. ``mark``: zeroed uint8 scratch of >= ny * nx
+    (left zeroed). Returns (touched cells, cells whose occupancy (> 0) changed)."""
+    cells = np.empty(free.shape[0] + hits.shape[0], np.int64)
+    count = 0
+    for kind in range(2):
+        pts = free if kind == 0 else hits
+        for b in range(pts.shape[0]):
+            px, py = pts[b, 0], pts[b, 1]
+            ix = int(math.floor((x + c * px - s * py) / res)) - ix0
+            iy = int(math.floor((y + s * px + c * py) / res)) - iy0
+            if ix < 0 or iy < 0 or ix >= nx or iy >= ny:
+                continue
+            k = iy * nx + ix
+            if mark[k] == 0:
+                cells[count] = k
+                count += 1
+            mark[k] = kind + 1
+    flipped = np.empty(count, np.int64)
+    nf = 0
+    for q in range(count):
+        k = cells[q]
+        old = flat[k]
+        new = old + (l_occ if mark[k] == 2 else l_free)
+        new = min(max(new, l_min), l_max)
+        flat[k] = new
+        mark[k] = 0
+        if (old > 0) != (new > 0):
+            flipped[nf] = k
+            nf += 1
+    return cells[:count], flipped[:nf]
+
+
+@kernel
+def tile_parts(cells, flipped, nx, ntx, nty, tile, halo):
+    """For a window of ntx x nty tiles (nx cells per row): which tiles hold any of ``cells``
+    (nty * ntx,) and, per tile, which of its nine parts (low halo / all / high halo rows x the
+    same for columns) hold any of ``flipped`` (nty * ntx, 9)."""
+    touched = np.zeros(nty * ntx, np.bool_)
+    for k in cells:
+        r = k // nx
+        touched[(r // tile) * ntx + (k - r * nx) // tile] = True
+    parts = np.zeros((nty * ntx, 9), np.bool_)
+    for k in flipped:
+        r, c = k // nx, k % nx
+        t = (r // tile) * ntx + c // tile
+        lr, lc = r % tile, c % tile
+        for a in range(3):
+            if (a == 0 and lr >= halo) or (a == 2 and lr < tile - halo):
+                continue
+            for b in range(3):
+                if (b == 0 and lc >= halo) or (b == 2 and lc < tile - halo):
+                    continue
+                parts[t, 3 * a + b] = True
+    return touched, parts
