@@ -131,12 +131,17 @@ class FieldSet:
                                        PAD_F * self.w_f + PAD_F + self.off_f))
 
     @classmethod
-    def empty(cls, shapes_f, shapes_c, ix0, iy0, res: float) -> FieldSet:
-        """Uninitialised buffers (fill every field through ``views``)."""
+    def empty(cls, shapes_f, shapes_c, ix0, iy0, res: float,
+              scratch: tuple[np.ndarray, np.ndarray] | None = None) -> FieldSet:
+        """Uninitialised buffers (fill every field through ``views``); ``scratch``: (fine, coarse)
+        float32 buffers to use if large enough (fresh pages cost more than the fill)."""
         fs = cls.__new__(cls)
         fs._layout(shapes_f, shapes_c, ix0, iy0, res)
-        fs.fine = np.empty(int(fs.end_f[-1]), np.float32)
-        fs.coarse = np.empty(int(fs.end_c[-1]), np.float32)
+        nf, nc = int(fs.end_f[-1]), int(fs.end_c[-1])
+        if scratch is not None and scratch[0].size >= nf and scratch[1].size >= nc:
+            fs.fine, fs.coarse = scratch[0][:nf], scratch[1][:nc]
+        else:
+            fs.fine, fs.coarse = np.empty(nf, np.float32), np.empty(nc, np.float32)
         return fs
 
     def views(self, i: int) -> tuple[np.ndarray, np.ndarray]:

@@ -32,12 +32,14 @@ class FieldCache:
         self.free = list(range(capacity - 1, 0, -1))
         self.gen = 0
         self.built = 0  # field tiles computed so far
+        self._scratch = (np.empty(0, np.float32), np.empty(0, np.float32))
 
     def fieldset(self, grids: list[TiledGrid], ranges: list[tuple[int, int, int, int]],
-                 windows: list[Window] | None = None) -> FieldSet:
+                 windows: list[Window] | None = None, scratch: bool = False) -> FieldSet:
         """The fields of ``grids[i]`` over tile ranges (tx0, ty0, tx1, ty1), as one FieldSet
         (window border cells score 0, as a window's own field would). ``windows``: the grids'
-        log-odds over the same ranges if at hand (faster builds)."""
+        log-odds over the same ranges if at hand (faster builds). ``scratch``: the FieldSet lives
+        in buffers the next ``scratch`` call reuses."""
         self.gen += 1
         slot_grids, todo = [], {}
         for n, (g, (tx0, ty0, tx1, ty1)) in enumerate(zip(grids, ranges)):
@@ -73,7 +75,11 @@ class FieldCache:
             shapes_c.append((nty * CT + 2 * PAD_C, ntx * CT + 2 * PAD_C))
             ix0.append(tx0 * TILE)
             iy0.append(ty0 * TILE)
-        fs = FieldSet.empty(shapes_f, shapes_c, ix0, iy0, self.res)
+        fs = FieldSet.empty(shapes_f, shapes_c, ix0, iy0, self.res, self._scratch if scratch else None)
+        if scratch and fs.fine.base is not self._scratch[0]:
+            self._scratch = (np.empty(int(fs.fine.size * 1.25), np.float32),
+                             np.empty(int(fs.coarse.size * 1.25), np.float32))
+            fs = FieldSet.empty(shapes_f, shapes_c, ix0, iy0, self.res, self._scratch)
         for i, sl in enumerate(slot_arrays):
             f, c = fs.views(i)
             _fill(f, self.fine[sl], PAD_F)

@@ -69,18 +69,29 @@ class TiledGrid:
         s = self.res * TILE
         return math.floor(x0 / s), math.floor(y0 / s), math.floor(x1 / s) + 1, math.floor(y1 / s) + 1
 
-    def window(self, x0: float, y0: float, x1: float, y1: float) -> Window:
-        """Dense log-odds copy covering the metric box (tile aligned)."""
+    def window(self, x0: float, y0: float, x1: float, y1: float, out: np.ndarray | None = None) -> Window:
+        """Dense log-odds copy covering the metric box (tile aligned). ``out``: a flat float32 buffer
+        to hold it if large enough (the window's data is then a view of it)."""
         tx0, ty0, tx1, ty1 = self.tile_range(x0, y0, x1, y1)
-        data = np.zeros(((ty1 - ty0) * TILE, (tx1 - tx0) * TILE), np.float32)
+        shape = ((ty1 - ty0) * TILE, (tx1 - tx0) * TILE)
+        n = shape[0] * shape[1]
+        fresh = out is None
+        if fresh:
+            data = np.zeros(shape, np.float32)
+        else:
+            if out.size < n:
+                out = np.empty(n + n // 4, np.float32)
+            data = out[:n].reshape(shape)
         get = self.tiles.get
         for ty in range(ty0, ty1):
             r = (ty - ty0) * TILE
             for tx in range(tx0, tx1):
                 t = get((tx, ty))
+                c = (tx - tx0) * TILE
                 if t is not None:
-                    c = (tx - tx0) * TILE
                     data[r:r + TILE, c:c + TILE] = t.data
+                elif not fresh:
+                    data[r:r + TILE, c:c + TILE] = 0.0
         return Window(data, tx0, ty0, self.res)
 
     def store(self, win: Window, touched: np.ndarray, flipped: np.ndarray | None = None) -> None:

@@ -116,6 +116,7 @@ class GridSlam:
         self.matcher = ScanMatcher(params)
         self.fields = FieldCache(params)
         self._track_field = None
+        self._win_bufs: list[np.ndarray] = []  # reused window buffers (fresh pages cost more than a copy)
         self.particles: list[Particle] = []
         self.last_odom: Pose2D | None = None  # odometry at the last processed scan
         self.prev_odom: Pose2D | None = None  # odometry at the last scan
@@ -156,14 +157,18 @@ class GridSlam:
         window = (min(max(p.search_linear, 3 * float(np.hypot(sig[0], sig[1]))), 2.0),
                   min(max(p.search_angular, 3 * float(sig[2])), 1.0))
         grids = [q.grid for q in self.particles]
-        windows = [g.window(*self._extent(pose, beams, window[0])) for g, pose in zip(grids, poses)]
+        while len(self._win_bufs) < len(grids):
+            self._win_bufs.append(np.empty(0, np.float32))
+        windows = [g.window(*self._extent(pose, beams, window[0]), out=buf)
+                   for g, pose, buf in zip(grids, poses, self._win_bufs)]
+        self._win_bufs = [w.data.base if w.data.base is not None else w.data for w in windows]
         prior = self._priors(preds, sig)
         final, ll = np.empty_like(poses), np.empty(len(poses))
         for c in range(0, len(poses), CHUNK):  # bounded memory for many particles
             sl = slice(c, c + CHUNK)
             fs = self.fields.fieldset(grids[sl], [(w.tx0, w.ty0, w.tx0 + w.data.shape[1] // TILE,
                                                    w.ty0 + w.data.shape[0] // TILE) for w in windows[sl]],
-                                      windows[sl])
+                                      windows[sl], scratch=True)
             matched, score = self.matcher.match_many(fs, poses[sl], beams.match, window,
                                                      ScanMatcher.sub_prior(prior, sl))
             final[sl] = np.where((score >= p.minimumScore)[:, None], matched, poses[sl])
