@@ -7,7 +7,9 @@ Per host, over ssh:
     already on the host — numpy, scipy, zenoh ... — are used instead of downloaded again; pip fetches
     only what is missing), and ``pip install -e src`` — re-run only when pyproject.toml changed.
     ``install_mode: link`` skips pip: a .pth file and a ``zenav`` script point the venv at src (for hosts
-    that already have every dependency; no build, no index)
+    that already have every dependency; no build, no index). Masters then compile the numba kernels once
+    (``deploy.warm_kernels``) into install_dir/cache/numba (NUMBA_CACHE_DIR in zenav.env), which upgrades
+    keep: only kernels whose source file changed are compiled again
  4. zenav.env, the Zenoh config (+ users file; + router.json5 for a secured robot / master) and
     service.json under install_dir/etc
  5. robots: the udev rule (/dev/pioneer) + udevadm reload when udevadm exists
@@ -60,8 +62,9 @@ def install_host(inv: Inventory, r: Remote, echo=print, upload: bool = True) -> 
     check = f"import zenoh, numpy, yaml, deploy.cli; assert deploy.cli.__file__.startswith({p['src']!r} + '/')"
     r.run(f"cd / && {q['python']} -c {shlex.quote(check)}",
           what="import check in the venv (zenoh, numpy, yaml, and zenav from src)", timeout=300)
-    r.run(f"cd {q['src']} && {q['python']} -m deploy.warm_kernels", what="compile the numba kernels (once)",
-          timeout=600)
+    if h.role == "master":  # the planners' and SLAM's kernels, compiled once into a cache that upgrades keep
+        r.run(f"mkdir -p {q['kernels']} && cd {q['src']} && NUMBA_CACHE_DIR={q['kernels']} {q['python']} -m "
+              "deploy.warm_kernels", what="compile the numba kernels (once; unchanged files are kept)", timeout=600)
     if not dry:
         echo(f"[{h.name}] venv {p['venv']}: zenav {'already installed' if 'unchanged' in out else 'installed'}")
     _files(inv, r)
@@ -101,7 +104,9 @@ def _systemd_unit(r: Remote, own_router: bool) -> None:
         r._echo(f"+ [{h.name}] {prefix}the following unit and commands (supervisor otherwise)")
     r.run(f"id {user} >/dev/null 2>&1 || useradd --system --user-group --groups dialout --home-dir /var/lib/zenav "
           f"--create-home --shell /usr/sbin/nologin {user}; usermod -a -G dialout {user}; "
-          f"chgrp -R {user} {shlex.quote(p['etc'])}; chmod -R g+rX {shlex.quote(h.install_dir)}",
+          f"chgrp -R {user} {shlex.quote(p['etc'])}; chmod -R g+rX {shlex.quote(h.install_dir)}; "
+          f"if [ -d {shlex.quote(p['kernels'])} ]; then chgrp -R {user} {shlex.quote(p['kernels'])} && "
+          f"chmod -R g+rwX {shlex.quote(p['kernels'])}; fi",
           what=f"service user {h.service_user}")
     r.put(p["unit"], render.unit(h, own_router))
     r.run(f"systemctl daemon-reload && systemctl enable {h.service}.service", what="systemctl enable")

@@ -30,7 +30,8 @@ def paths(h: Host) -> dict[str, str]:
     d = h.install_dir
     return {"src": f"{d}/src", "venv": f"{d}/venv", "etc": f"{d}/etc", "run": f"{d}/run", "log": f"{d}/log",
             "env": f"{d}/etc/zenav.env", "zenoh": f"{d}/etc/zenoh.json5", "users": f"{d}/etc/users.txt",
-            "router": f"{d}/etc/router.json5", "spec": f"{d}/etc/service.json", "zenav": f"{d}/venv/bin/zenav",
+            "router": f"{d}/etc/router.json5", "kernels": f"{d}/cache/numba",
+            "spec": f"{d}/etc/service.json", "zenav": f"{d}/venv/bin/zenav",
             "python": f"{d}/venv/bin/python", "unit": h.sys_path(f"/etc/systemd/system/{h.service}.service"),
             "udev": h.sys_path("/etc/udev/rules.d/99-pioneer.rules")}
 
@@ -128,6 +129,8 @@ def env_file(inv: Inventory, h: Host, dry_run: bool = False) -> str:
             lines.append(f"ZENAV_ZENOH_CONFIG={p['zenoh']}")
     if z.shared_memory is not None:
         lines.append(f"ZENAV_SHM={1 if z.shared_memory else 0}")
+    if h.role == "master":  # compiled kernels (deploy.warm_kernels) outside src: upgrades keep them
+        lines.append(f"NUMBA_CACHE_DIR={p['kernels']}")
     for k, v in h.labels:
         lines.append(f"# label {k}={v}")
     return "\n".join(lines) + "\n"
