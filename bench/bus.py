@@ -3,7 +3,8 @@
     python bench/bus.py [--scans 1000] [--seconds 10]
 
 Measures, through the real Node API (encode -> Zenoh -> decode -> subscriber callback):
-  * one-way latency of a 720-beam LaserScan (paced at 200 Hz),
+  * one-way latency of a 720-beam LaserScan (paced at 200 Hz), and as a baseline the same number of
+    bytes through Zenoh alone (raw put -> raw subscriber callback: no codec, no checks, no delivery thread),
   * one-way latency of a 640x480 float32 DepthImage, and the sustained receive rate and drop count of
     VGA depth images published at 30 Hz for --seconds.
 One-way latency = time.time() in the subscriber's callback (after decode) minus header.stamp, set
@@ -29,8 +30,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np  # noqa: E402
 
 from common.bus import Node  # noqa: E402
+from common.codec import encode  # noqa: E402
 from common.messages import DepthImage, Header, LaserScan, Text  # noqa: E402
 from common.zenoh_config import BusConfig  # noqa: E402
+
+RAW_KEY = "benchraw/{robot}/scan"  # the Zenoh-only baseline's key (not a zenav topic)
 
 
 def free_port() -> int:
@@ -58,6 +62,14 @@ def run_sub(robot: str, port: int) -> int:
 
         return cb
 
+    raw: list[tuple[int, float]] = []
+
+    def on_raw(sample) -> None:  # Zenoh alone: no decode, no checks, no hop to a delivery thread
+        now = time.time()
+        head = bytes(sample.payload.to_bytes()[:32]).split(b" ")
+        raw.append((int(head[0]), now - float(head[1])))
+
+    raw_sub = node.session.declare_subscriber(RAW_KEY.format(robot=robot), on_raw)
     subs = {
         "scan": node.subscribe("scan", LaserScan, callback=on("scan"), mode="queue", queue_size=100),
         "depth": node.subscribe("depth", DepthImage, callback=on("depth"), mode="queue", queue_size=100),
@@ -66,11 +78,13 @@ def run_sub(robot: str, port: int) -> int:
     node.publisher("ready", latched=True).publish(Text(data="ready"))
     want = json.loads(report.get(timeout=300).data)  # {"scan": n, "depth": n} sent in total
     end = time.monotonic() + 10  # each subscription has its own delivery thread: let them drain
-    while time.monotonic() < end and any(len(rec[t]) < want[t] for t in rec):
+    while time.monotonic() < end and (any(len(rec[t]) < want[t] for t in rec) or len(raw) < want["raw"]):
         time.sleep(0.01)
+    raw_sub.undeclare()
     with lock:
         out = {t: {"rec": rec[t], "dropped": subs[t].dropped, "malformed": subs[t].malformed} for t in rec}
         out["depth"]["arrivals"] = arrivals
+        out["raw"] = raw
     print(json.dumps(out), flush=True)
     node.close()
     return 0
@@ -160,17 +174,29 @@ def bench(a, port: int, child: subprocess.Popen) -> int:
     def send_depth(i: int) -> None:
         depth_pub.publish(DepthImage(Header(time.time(), f"depth{i}"), depth))
 
+    raw_pub = node.session.declare_publisher(RAW_KEY.format(robot=a.robot))
+    blob = bytes(len(encode(LaserScan(Header(0.0, "scan0"), ranges=ranges, intensities=inten))))
+
+    def send_raw(i: int) -> None:  # the same bytes count as an encoded scan, stamped like one
+        head = f"{i} {time.time():.6f} ".encode()
+        raw_pub.put(head + blob[len(head):])
+
+    while not raw_pub.matching_status.matching:
+        time.sleep(0.01)
+    paced(50, 200.0, lambda i: send_raw(-1 - i))
+    paced(a.scans, 200.0, send_raw)
     paced(50, 200.0, lambda i: send_scan(-1 - i))  # warm-up (not counted)
     paced(10, 30.0, lambda i: send_depth(-1 - i))
     scan_rate = paced(a.scans, 200.0, send_scan)
     n_depth = int(round(a.seconds * 30))
     depth_rate = paced(n_depth, 30.0, send_depth)
-    ctl.publish(Text(data=json.dumps({"scan": 50 + a.scans, "depth": 10 + n_depth})))
+    ctl.publish(Text(data=json.dumps({"scan": 50 + a.scans, "depth": 10 + n_depth, "raw": 50 + a.scans})))
     out, _ = child.communicate(timeout=120)
     res = json.loads(out.strip().splitlines()[-1])
     node.close()
 
     s, d = res["scan"], res["depth"]
+    raw_lat = [x for q, x in res["raw"] if q >= 0]
     s_rec = [(q, x) for q, x in s["rec"] if not q.startswith("scan-")]  # "scan-N": warm-up
     d_rec = [(q, x) for q, x in d["rec"] if not q.startswith("depth-")]
     s_got, d_got = {q for q, _ in s_rec}, {q for q, _ in d_rec}
@@ -200,6 +226,16 @@ def bench(a, port: int, child: subprocess.Popen) -> int:
             pct(d_lat, 100),
             f"{d_hz:.2f}",
         ),
+        (
+            "Zenoh alone, same bytes",
+            "200",
+            len(raw_lat),
+            a.scans - len(raw_lat),
+            pct(raw_lat, 50),
+            pct(raw_lat, 99),
+            pct(raw_lat, 100),
+            "-",
+        ),
     ]
     print(
         "two processes, loopback tcp, multicast off; one-way latency = subscriber time.time() after decode "
@@ -212,7 +248,7 @@ def bench(a, port: int, child: subprocess.Popen) -> int:
     for r in rows:
         print(f"{r[0]:<24}{r[1]:>8}{r[2]:>6}{r[3]:>6}{r[4]:>9.3f}{r[5]:>9.3f}{r[6]:>9.3f}{r[7]:>9}")
     print(
-        f"scan_p50_ms={pct(s_lat, 50):.3f} scan_p99_ms={pct(s_lat, 99):.3f} "
+        f"scan_p50_ms={pct(s_lat, 50):.3f} scan_p99_ms={pct(s_lat, 99):.3f} zenoh_raw_p50_ms={pct(raw_lat, 50):.3f} "
         f"depth_vga_p50_ms={pct(d_lat, 50):.3f} depth_vga_hz={d_hz:.2f} depth_vga_drops={depth_drops}"
     )
     return 0
