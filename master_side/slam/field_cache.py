@@ -10,7 +10,6 @@ field tile, computed once, and a particle's field window is assembled from cache
 from __future__ import annotations
 
 import numpy as np
-from numpy.lib.stride_tricks import as_strided
 
 from master_side.slam import map_kernels
 from master_side.slam.field import COARSE, FAR, PAD_C, PAD_F, FieldSet, kernel_table
@@ -41,7 +40,7 @@ class FieldCache:
         log-odds over the same ranges if at hand (faster builds). ``scratch``: the FieldSet lives
         in buffers the next ``scratch`` call reuses."""
         self.gen += 1
-        slot_grids, todo = [], {}
+        keys, where = [], []  # per grid: (tiles, 9) stamps keying each tile's field; (grid, tx0, ty0, ntx)
         for n, (g, (tx0, ty0, tx1, ty1)) in enumerate(zip(grids, ranges)):
             if g.halo < self.radius:
                 raise ValueError(f"the grid's halo ({g.halo} cells) is narrower than field_radius")
@@ -49,28 +48,36 @@ class FieldCache:
             nty, ntx = ty1 - ty0, tx1 - tx0
             # neighbour (dy, dx) of a tile contributes its part facing the tile: its high strip
             # for a neighbour below (dy = 0), all of it (dy = 1), its low strip above (dy = 2)
-            keys = np.stack([s[dy:dy + nty, dx:dx + ntx, 3 * (2 - dy) + (2 - dx)]
-                             for dy in range(3) for dx in range(3)], axis=-1)
-            raw = np.ascontiguousarray(keys).tobytes()
-            row = []
-            for k in range(nty * ntx):
-                key = raw[72 * k:72 * k + 72]
-                slot = self.slots.get(key)
-                if slot is not None:
-                    self.last[slot] = self.gen
-                else:
-                    slot = -1
-                    if key not in todo:
-                        todo[key] = (g, tx0 + k % ntx, ty0 + k // ntx, n)
-                row.append((slot, key))
-            slot_grids.append((row, nty, ntx))
+            keys.append(np.stack([s[dy:dy + nty, dx:dx + ntx, 3 * (2 - dy) + (2 - dx)]
+                                  for dy in range(3) for dx in range(3)], axis=-1).reshape(-1, 9))
+            where.append((n, tx0, ty0, ntx))
+        # the distinct keys (particles share most tiles), looked up once each
+        flat = np.ascontiguousarray(np.concatenate(keys)).view(np.dtype((np.void, 72))).ravel()
+        uniq, first, inverse = np.unique(flat, return_index=True, return_inverse=True)
+        ends = np.cumsum([len(k) for k in keys])
+        slot_of = np.empty(len(uniq), np.int64)
+        todo, found = {}, []
+        get = self.slots.get
+        for j, (key, f) in enumerate(zip(uniq.tolist(), first.tolist())):
+            slot = get(key)
+            if slot is None:
+                n = int(np.searchsorted(ends, f, side="right"))
+                _, tx0, ty0, ntx = where[n]
+                k = f - (ends[n - 1] if n else 0)
+                todo[key] = (grids[n], tx0 + k % ntx, ty0 + k // ntx, n, j)
+            else:
+                slot_of[j] = slot
+                found.append(slot)
+        self.last[found] = self.gen  # before _build: its eviction keeps the fields used here
         if todo:
             self._build(todo, ranges, windows)
+            for key, item in todo.items():
+                slot_of[item[4]] = self.slots[key]
+        slots = slot_of[inverse.reshape(-1)]
         shapes_f, shapes_c, ix0, iy0, slot_arrays = [], [], [], [], []
-        for (row, nty, ntx), (tx0, ty0, _, _) in zip(slot_grids, ranges):
-            sl = np.array([s if s >= 0 else self.slots[k] for s, k in row], np.int64).reshape(nty, ntx)
-            self.last[sl] = self.gen
-            slot_arrays.append(sl)
+        for (tx0, ty0, tx1, ty1), end, k in zip(ranges, ends.tolist(), keys):
+            nty, ntx = ty1 - ty0, tx1 - tx0
+            slot_arrays.append(slots[end - len(k):end].reshape(nty, ntx))
             shapes_f.append((nty * TILE + 2 * PAD_F, ntx * TILE + 2 * PAD_F))
             shapes_c.append((nty * CT + 2 * PAD_C, ntx * CT + 2 * PAD_C))
             ix0.append(tx0 * TILE)
@@ -82,18 +89,18 @@ class FieldCache:
             fs = FieldSet.empty(shapes_f, shapes_c, ix0, iy0, self.res, self._scratch)
         for i, sl in enumerate(slot_arrays):
             f, c = fs.views(i)
-            _fill(f, self.fine[sl], PAD_F)
-            _fill(c, self.coarse[sl], PAD_C)
+            map_kernels.fill_field(f, self.fine, sl, PAD_F)
+            map_kernels.fill_field(c, self.coarse, sl, PAD_C)
         return fs
 
-    def _build(self, todo: dict[bytes, tuple[TiledGrid, int, int, int]],
+    def _build(self, todo: dict[bytes, tuple[TiledGrid, int, int, int, int]],
                ranges: list[tuple[int, int, int, int]], windows: list[Window] | None) -> None:
         r, m = self.radius, len(todo)
         slots = self._alloc(m)
         inner: dict[int, list[int]] = {}  # window -> tiles off the window's edge: read from the window
         patched = []  # the others: their neighbourhood copied from the grid's tiles
         items = list(todo.values())
-        for i, (_, tx, ty, n) in enumerate(items):
+        for i, (_, tx, ty, n, _) in enumerate(items):
             tx0, ty0, tx1, ty1 = ranges[n]
             if windows is not None and tx0 < tx < tx1 - 1 and ty0 < ty < ty1 - 1:
                 inner.setdefault(n, []).append(i)
@@ -103,7 +110,7 @@ class FieldCache:
         if patched:
             occ = np.empty((len(patched), TILE + 2 * r, TILE + 2 * r), np.float32)
             for k, i in enumerate(patched):
-                g, tx, ty, _ = items[i]
+                g, tx, ty, _, _ = items[i]
                 self._patch(occ[k], g, tx, ty)
             at = np.full(len(patched), r, np.int64)
             map_kernels.tile_fields(occ, np.arange(len(patched)), at, at, *args, slots[patched])
@@ -148,18 +155,3 @@ class FieldCache:
         self.last[out] = self.gen
         return out
 
-
-def _fill(view: np.ndarray, tiles: np.ndarray, pad: int) -> None:
-    """Write tiles (nty, ntx, t, t) into the padded 2-D view; zero the padding and the border."""
-    nty, ntx, t, _ = tiles.shape
-    h, w = view.shape
-    view[:pad + 1] = 0.0
-    view[h - pad - 1:] = 0.0
-    view[:, :pad + 1] = 0.0
-    view[:, w - pad - 1:] = 0.0
-    inner = view[pad:pad + nty * t, pad:pad + ntx * t]
-    s0, s1 = inner.strides
-    blocks = as_strided(inner, (nty, t, ntx, t), (s0 * t, s0, s1 * t, s1))
-    blocks[...] = tiles.transpose(0, 2, 1, 3)
-    inner[0, :] = inner[-1, :] = 0.0
-    inner[:, 0] = inner[:, -1] = 0.0

@@ -118,3 +118,22 @@ def tile_parts(cells, flipped, nx, ntx, nty, tile, halo):
                     continue
                 parts[t, 3 * a + b] = True
     return touched, parts
+
+
+@kernel
+def fill_field(view, pool, slots, pad):
+    """Field window ``view`` (nty T + 2 pad, ntx T + 2 pad) from the cached tiles pool[slots]
+    (slots: (nty, ntx)) in one pass; the padding and the window's border cells are zeroed (the
+    border of a window's own field scores 0). Same values as a gather then a block copy, read once."""
+    nty, ntx = slots.shape
+    t = pool.shape[1]
+    h, w = view.shape
+    for j in range(nty):
+        for y in range(t):
+            row = view[pad + j * t + y]
+            for i in range(ntx):
+                row[pad + i * t:pad + (i + 1) * t] = pool[slots[j, i], y]
+    view[:, :pad + 1] = 0.0
+    view[:, w - pad - 1:] = 0.0
+    view[:pad + 1, :] = 0.0
+    view[h - pad - 1:, :] = 0.0

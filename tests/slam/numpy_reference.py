@@ -177,3 +177,23 @@ def _flipped_parts(cells: np.ndarray, nx: int, halo: int) -> dict[tuple[int, int
     any_ = np.logical_or.reduceat(mask, starts, axis=0)
     ntx = nx // TILE
     return {(int(t) // ntx, int(t) % ntx): m for t, m in zip(tid[starts], any_)}
+
+
+def fill_field(view: np.ndarray, pool: np.ndarray, slots: np.ndarray, pad: int) -> None:
+    """``field_cache._fill`` of the tiles pool[slots] before ``map_kernels.fill_field``: write the
+    tiles (nty, ntx, t, t) into the padded 2-D view, zero the padding and the border."""
+    from numpy.lib.stride_tricks import as_strided
+
+    tiles = pool[slots]
+    nty, ntx, t, _ = tiles.shape
+    h, w = view.shape
+    view[:pad + 1] = 0.0
+    view[h - pad - 1:] = 0.0
+    view[:, :pad + 1] = 0.0
+    view[:, w - pad - 1:] = 0.0
+    inner = view[pad:pad + nty * t, pad:pad + ntx * t]
+    s0, s1 = inner.strides
+    blocks = as_strided(inner, (nty, t, ntx, t), (s0 * t, s0, s1 * t, s1))
+    blocks[...] = tiles.transpose(0, 2, 1, 3)
+    inner[0, :] = inner[-1, :] = 0.0
+    inner[:, 0] = inner[:, -1] = 0.0

@@ -9,7 +9,7 @@ from master_side.slam.grid import TiledGrid
 from master_side.slam.gridslam import integrate, prepare_beams
 from master_side.slam.params import GMappingParams
 from master_side.slam.scan_matcher import FieldSet, MotionPrior, ScanMatcher, make_field
-from tests.slam.numpy_reference import NumpyMatcher, _flipped_parts, integrate_flips
+from tests.slam.numpy_reference import NumpyMatcher, _flipped_parts, fill_field, integrate_flips
 
 P = GMappingParams(maxUrange=20.0, maxRange=25.0, search_linear=0.4, search_angular=0.15)
 BOX = (-6, -5, 6, 5)
@@ -85,6 +85,17 @@ def test_tile_fields_equal_the_numpy_distance_transform():
     d = inner_squared_distances(occ, r)
     assert np.array_equal(fine[slots], table[d]) and np.array_equal(coarse[slots], table[coarse_of(d)])
     assert len(np.unique(fine[slots[2]])) > 5  # distances of every size occur
+
+
+def test_field_fill_equals_numpy():
+    rng = np.random.default_rng(4)
+    for t, pad, (nty, ntx) in [(64, 8, (1, 1)), (64, 8, (3, 5)), (16, 24, (4, 2)), (16, 24, (1, 7))]:
+        pool = rng.random((40, t, t)).astype(np.float32)
+        slots = rng.integers(0, 40, (nty, ntx))
+        out, ref = np.full((2, nty * t + 2 * pad, ntx * t + 2 * pad), np.nan, np.float32)
+        map_kernels.fill_field(out, pool, slots, pad)
+        fill_field(ref, pool, slots, pad)
+        assert np.array_equal(out, ref)
 
 
 def test_integration_equals_numpy(room_scan):
