@@ -103,21 +103,22 @@ class TiledGrid:
                                           TILE, self.halo)
         if flipped is None:
             parts = None
-        for j, i in zip(*np.divmod(np.flatnonzero(tiles), ntx)):
-            key = (win.tx0 + int(i), win.ty0 + int(j))
+        else:
+            changed = parts.any(axis=1).tolist()
+        for k in np.flatnonzero(tiles).tolist():
+            j, i = divmod(k, ntx)
+            key = (win.tx0 + i, win.ty0 + j)
             block = win.data[j * TILE:(j + 1) * TILE, i * TILE:(i + 1) * TILE]
             t = self.tiles.get(key)
             if t is None:
                 self.tiles[key] = _Tile(block.copy(), self.token)
                 continue
             occ = t.occ
-            if parts is not None:
-                m = parts[j * ntx + i]
-                if m.any():
-                    occ = occ.copy()
-                    occ[m] = next(_STAMPS)
-            else:
+            if parts is None:
                 occ = np.full(9, next(_STAMPS), np.int64)
+            elif changed[k]:
+                occ = occ.copy()
+                occ[parts[k]] = next(_STAMPS)
             if t.owner is self.token:
                 t.data[...] = block
                 t.occ = occ
