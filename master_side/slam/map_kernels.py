@@ -27,22 +27,28 @@ def tile_fields(src, which, rows, cols, r, far, table, coarse_n, fine_out, coars
         span[dy + r] = int(math.floor(math.sqrt(r * r - dy * dy)))
         while (span[dy + r] + 1) ** 2 + dy * dy <= r * r:
             span[dy + r] += 1
+    colmin = np.empty(T, np.uint8)
+    occ = np.empty(W * W + 1, np.int64)  # flat indices (y W + x) of the occupied cells
     hp = np.empty((T + 4 * r, T + 4 * r), np.uint8)  # cell (oy, ox) of the tile at hp[oy + 2r, ox + 2r]
     for t in range(len(slots)):
         s = src[which[t]]
         y0, x0 = rows[t] - r, cols[t] - r
         hp[:, :] = far
+        n = 0  # the occupied cells, listed without a branch per cell
         for y in range(W):
             line = s[y0 + y, x0:x0 + W]
             for x in range(W):
-                if line[x] > 0.0:
-                    for dy in range(-r, r + 1):
-                        row = hp[y + r + dy]
-                        q0 = dy * dy
-                        for dx in range(-span[dy + r], span[dy + r] + 1):
-                            q = q0 + dx * dx
-                            if q < row[x + r + dx]:
-                                row[x + r + dx] = q
+                occ[n] = y * W + x
+                n += line[x] > 0.0
+        for k in range(n):
+            y, x = divmod(occ[k], W)
+            for dy in range(-r, r + 1):
+                row = hp[y + r + dy]
+                q0 = dy * dy
+                for dx in range(-span[dy + r], span[dy + r] + 1):
+                    q = q0 + dx * dx
+                    if q < row[x + r + dx]:
+                        row[x + r + dx] = q
         f = fine_out[slots[t]]
         for y in range(T):
             hy = hp[y + 2 * r]
@@ -50,13 +56,16 @@ def tile_fields(src, which, rows, cols, r, far, table, coarse_n, fine_out, coars
             for x in range(T):
                 fy[x] = table[hy[x + 2 * r]]
         c = coarse_out[slots[t]]
-        for cy in range(T // coarse_n):
+        for cy in range(T // coarse_n):  # min over the block's rows (contiguous), then its columns
+            colmin[:] = far
+            for y in range(cy * coarse_n + 2 * r, (cy + 1) * coarse_n + 2 * r):
+                hy = hp[y]
+                for x in range(T):
+                    colmin[x] = min(colmin[x], hy[x + 2 * r])
             for cx in range(T // coarse_n):
                 m = far
-                for y in range(cy * coarse_n + 2 * r, (cy + 1) * coarse_n + 2 * r):
-                    hy = hp[y]
-                    for x in range(cx * coarse_n + 2 * r, (cx + 1) * coarse_n + 2 * r):
-                        m = min(m, hy[x])
+                for x in range(cx * coarse_n, (cx + 1) * coarse_n):
+                    m = min(m, colmin[x])
                 c[cy, cx] = table[m]
 
 
