@@ -32,6 +32,10 @@ class FieldCache:
         self.gen = 0
         self.built = 0  # field tiles computed so far
         self._scratch = (np.empty(0, np.float32), np.empty(0, np.float32))
+        r = self.radius  # _patch: (dx, dy, part of the neighbour, where it goes) of the nine tiles
+        src = {-1: slice(TILE - r, TILE), 0: slice(0, TILE), 1: slice(0, r)}
+        dst = {-1: slice(0, r), 0: slice(r, r + TILE), 1: slice(r + TILE, TILE + 2 * r)}
+        self._parts = [(dx, dy, (src[dy], src[dx]), (dst[dy], dst[dx])) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
 
     def fieldset(self, grids: list[TiledGrid], ranges: list[tuple[int, int, int, int]],
                  windows: list[Window] | None = None, scratch: bool = False) -> FieldSet:
@@ -55,21 +59,18 @@ class FieldCache:
         flat = np.ascontiguousarray(np.concatenate(keys)).view(np.dtype((np.void, 72))).ravel()
         uniq, first, inverse = np.unique(flat, return_index=True, return_inverse=True)
         ends = np.cumsum([len(k) for k in keys])
-        slot_of = np.empty(len(uniq), np.int64)
-        todo, found = {}, []
+        ukeys = uniq.tolist()
         get = self.slots.get
-        for j, (key, f) in enumerate(zip(uniq.tolist(), first.tolist())):
-            slot = get(key)
-            if slot is None:
-                n = int(np.searchsorted(ends, f, side="right"))
+        slot_of = np.array([get(key, -1) for key in ukeys], np.int64)
+        self.last[slot_of[slot_of >= 0]] = self.gen  # before _build: its eviction keeps the fields used here
+        missing = np.flatnonzero(slot_of < 0)
+        if len(missing):
+            n_of = np.searchsorted(ends, first[missing], side="right")  # grid of each key's first tile
+            k_of = first[missing] - np.concatenate(([0], ends))[n_of]  # and that tile's index in its range
+            todo = {}
+            for j, n, k in zip(missing.tolist(), n_of.tolist(), k_of.tolist()):
                 _, tx0, ty0, ntx = where[n]
-                k = f - (ends[n - 1] if n else 0)
-                todo[key] = (grids[n], tx0 + k % ntx, ty0 + k // ntx, n, j)
-            else:
-                slot_of[j] = slot
-                found.append(slot)
-        self.last[found] = self.gen  # before _build: its eviction keeps the fields used here
-        if todo:
+                todo[ukeys[j]] = (grids[n], tx0 + k % ntx, ty0 + k // ntx, n, j)
             self._build(todo, ranges, windows)
             for key, item in todo.items():
                 slot_of[item[4]] = self.slots[key]
@@ -125,21 +126,18 @@ class FieldCache:
 
     def _patch(self, out: np.ndarray, g: TiledGrid, tx: int, ty: int) -> None:
         """Log-odds of tile (tx, ty) with a field_radius border from its neighbours (0: no tile)."""
-        r = self.radius
-        src = {-1: slice(TILE - r, TILE), 0: slice(0, TILE), 1: slice(0, r)}
-        dst = {-1: slice(0, r), 0: slice(r, r + TILE), 1: slice(r + TILE, TILE + 2 * r)}
         get = g.tiles.get
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                t = get((tx + dx, ty + dy))
-                if t is None:
-                    out[dst[dy], dst[dx]] = 0.0
-                else:
-                    out[dst[dy], dst[dx]] = t.data[src[dy], src[dx]]
+        for dx, dy, src, dst in self._parts:
+            t = get((tx + dx, ty + dy))
+            if t is None:
+                out[dst] = 0.0
+            else:
+                out[dst] = t.data[src]
 
     def _alloc(self, m: int) -> np.ndarray:
         if len(self.free) < m:  # forget the fields not used by this call
-            stale = {k: s for k, s in self.slots.items() if s and self.last[s] < self.gen}
+            last, gen = self.last.tolist(), self.gen
+            stale = {k: s for k, s in self.slots.items() if s and last[s] < gen}
             for k, s in stale.items():
                 del self.slots[k]
                 self.free.append(s)
