@@ -45,6 +45,7 @@ class Window:
     def __init__(self, data: np.ndarray, tx0: int, ty0: int, res: float):
         self.data, self.tx0, self.ty0, self.res = data, tx0, ty0, res
         self.ix0, self.iy0 = tx0 * TILE, ty0 * TILE
+        self.seen: tuple | None = None  # (tile range, tile objects copied in), for ``TiledGrid.window``
 
     def cells(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Integer (col, row) of (N, 2) map-frame points."""
@@ -69,10 +70,14 @@ class TiledGrid:
         s = self.res * TILE
         return math.floor(x0 / s), math.floor(y0 / s), math.floor(x1 / s) + 1, math.floor(y1 / s) + 1
 
-    def window(self, x0: float, y0: float, x1: float, y1: float, out: np.ndarray | None = None) -> Window:
+    def window(self, x0: float, y0: float, x1: float, y1: float, out: np.ndarray | None = None,
+               seen: tuple | None = None) -> Window:
         """Dense log-odds copy covering the metric box (tile aligned). ``out``: a flat float32 buffer
-        to hold it if large enough (the window's data is then a view of it)."""
-        tx0, ty0, tx1, ty1 = self.tile_range(x0, y0, x1, y1)
+        to hold it if large enough (the window's data is then a view of it). ``seen``: the ``seen``
+        of the window ``out`` held last; tiles that are the same objects as then are not copied
+        again (a tile changes in place only through ``store`` of its owner's window, with that
+        window's content, and each buffer is refilled at every update)."""
+        rng = tx0, ty0, tx1, ty1 = self.tile_range(x0, y0, x1, y1)
         shape = ((ty1 - ty0) * TILE, (tx1 - tx0) * TILE)
         n = shape[0] * shape[1]
         fresh = out is None
@@ -80,19 +85,27 @@ class TiledGrid:
             data = np.zeros(shape, np.float32)
         else:
             if out.size < n:
-                out = np.empty(n + n // 4, np.float32)
+                out, seen = np.empty(n + n // 4, np.float32), None
             data = out[:n].reshape(shape)
+        old = seen[1] if seen is not None and seen[0] == rng else None
         get = self.tiles.get
+        tiles = []
         for ty in range(ty0, ty1):
             r = (ty - ty0) * TILE
             for tx in range(tx0, tx1):
                 t = get((tx, ty))
+                if old is not None and old[len(tiles)] is t:
+                    tiles.append(t)
+                    continue
+                tiles.append(t)
                 c = (tx - tx0) * TILE
                 if t is not None:
                     data[r:r + TILE, c:c + TILE] = t.data
                 elif not fresh:
                     data[r:r + TILE, c:c + TILE] = 0.0
-        return Window(data, tx0, ty0, self.res)
+        win = Window(data, tx0, ty0, self.res)
+        win.seen = (rng, tiles)
+        return win
 
     def store(self, win: Window, touched: np.ndarray, flipped: np.ndarray | None = None) -> None:
         """Write back the tiles of ``win`` holding any of the ``touched`` flat cell indices;
@@ -105,25 +118,28 @@ class TiledGrid:
             parts = None
         else:
             changed = parts.any(axis=1).tolist()
+        seen = win.seen[1] if win.seen is not None else None
         for k in np.flatnonzero(tiles).tolist():
             j, i = divmod(k, ntx)
             key = (win.tx0 + i, win.ty0 + j)
             block = win.data[j * TILE:(j + 1) * TILE, i * TILE:(i + 1) * TILE]
             t = self.tiles.get(key)
             if t is None:
-                self.tiles[key] = _Tile(block.copy(), self.token)
-                continue
-            occ = t.occ
-            if parts is None:
-                occ = np.full(9, next(_STAMPS), np.int64)
-            elif changed[k]:
-                occ = occ.copy()
-                occ[parts[k]] = next(_STAMPS)
-            if t.owner is self.token:
-                t.data[...] = block
-                t.occ = occ
+                t = self.tiles[key] = _Tile(block.copy(), self.token)
             else:
-                self.tiles[key] = _Tile(block.copy(), self.token, occ)
+                occ = t.occ
+                if parts is None:
+                    occ = np.full(9, next(_STAMPS), np.int64)
+                elif changed[k]:
+                    occ = occ.copy()
+                    occ[parts[k]] = next(_STAMPS)
+                if t.owner is self.token:
+                    t.data[...] = block
+                    t.occ = occ
+                else:
+                    t = self.tiles[key] = _Tile(block.copy(), self.token, occ)
+            if seen is not None:
+                seen[k] = t  # the window's block now holds this tile's data
 
     def stamps(self, tx0: int, ty0: int, tx1: int, ty1: int) -> np.ndarray:
         """(ty1 - ty0, tx1 - tx0, 9) occupancy stamps of the tiles in the range (0: no tile)."""

@@ -116,7 +116,8 @@ class GridSlam:
         self.matcher = ScanMatcher(params)
         self.fields = FieldCache(params)
         self._track_field = None
-        self._win_bufs: list[np.ndarray] = []  # reused window buffers (fresh pages cost more than a copy)
+        # reused window buffers (fresh pages cost more than a copy) and what they hold (TiledGrid.window)
+        self._win_bufs: list[tuple[np.ndarray, tuple | None]] = []
         self.particles: list[Particle] = []
         self.last_odom: Pose2D | None = None  # odometry at the last processed scan
         self.prev_odom: Pose2D | None = None  # odometry at the last scan
@@ -158,10 +159,10 @@ class GridSlam:
                   min(max(p.search_angular, 3 * float(sig[2])), 1.0))
         grids = [q.grid for q in self.particles]
         while len(self._win_bufs) < len(grids):
-            self._win_bufs.append(np.empty(0, np.float32))
-        windows = [g.window(*self._extent(pose, beams, window[0]), out=buf)
-                   for g, pose, buf in zip(grids, poses, self._win_bufs)]
-        self._win_bufs = [w.data.base if w.data.base is not None else w.data for w in windows]
+            self._win_bufs.append((np.empty(0, np.float32), None))
+        windows = [g.window(*self._extent(pose, beams, window[0]), out=buf, seen=seen)
+                   for g, pose, (buf, seen) in zip(grids, poses, self._win_bufs)]
+        self._win_bufs = [(w.data.base if w.data.base is not None else w.data, w.seen) for w in windows]
         prior = self._priors(preds, sig)
         final, ll = np.empty_like(poses), np.empty(len(poses))
         for c in range(0, len(poses), CHUNK):  # bounded memory for many particles
