@@ -55,6 +55,7 @@ from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
 from master_side.move_base.state_machine import MoveBaseMachine, State
 from master_side.planning.navfn import NavFn
+from master_side.planning.warmup import warm_local_planners
 
 TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)
 SENSORS_MAX_AGE = 3.0  # s without a costmap's sensor report before it counts as not reporting
@@ -69,6 +70,7 @@ class MoveBaseNode:
         self.params = p = c.params
         self.local_frame, self.base_frame = strip_frame(c.local_frame), c.base_frame
         self._global_frame = c.global_frame
+        warm_local_planners()  # numba's start and the kernel loads now, not in the first control cycle
         self.controller = LocalController(c.make_local_planner(), c.footprint)
         self.navfn = NavfnProcess(c.navfn)  # plans in a worker process: the control loop keeps its GIL
         self.tf = TFListener(node)

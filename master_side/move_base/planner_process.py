@@ -19,6 +19,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from master_side.planning.navfn import NavFn, NavfnParams
+from master_side.planning.warmup import warm_navfn
 
 PLANNER_NICENESS = 10  # os.nice increment of the worker: on a busy robot PC planning yields to control
 
@@ -26,6 +27,7 @@ PLANNER_NICENESS = 10  # os.nice increment of the worker: on a busy robot PC pla
 def _serve(conn, params: NavfnParams) -> None:
     with contextlib.suppress(OSError):  # background work: the control loop and the sensors come first
         os.nice(PLANNER_NICENESS)
+    warm_navfn()  # numba's start and the kernel loads happen now, not in the first plan
     planner = NavFn(params)
     while True:
         try:
