@@ -31,7 +31,7 @@ def topic_key(robot: str, topic: str) -> str:
     return f"zenav/{robot}/{topic}"
 
 
-LATCHED_RETRY_S = (0.5, 1.0, 2.0, 4.0)  # waits before asking again when a new publisher gave no reply
+LATCHED_RETRY_S = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # waits before asking again when a new publisher gave no reply
 
 
 def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sample], None],
