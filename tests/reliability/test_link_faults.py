@@ -253,7 +253,12 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
     t_cut = time.time()
     try:
         probe.send(f"box {0.3302 + gap + 0.1} 0.0 0.2 0.6")  # bumper 0.33 m ahead of base_link; near face at gap
-        sent = wait_until(lambda: probe.events("SENT", t_cut), 30, "box spawned")  # a loaded machine
+        try:
+            sent = wait_until(lambda: probe.events("SENT", t_cut), 30, "box spawned")  # a loaded machine
+        except AssertionError:  # seen twice: say what the probe printed after the cut, for the next look
+            after = [" ".join(w) for w in probe.lines if len(w) > 1 and float(w[0]) >= t_cut - 0.2]
+            raise AssertionError(f"box never spawned; probe after the cut ({len(after)} lines):\n"
+                                 + "\n".join(after[:20] + ["..."] + after[-20:])) from None
         t_box = float(sent[0][0])
         start = [w for w in probe.events("GT", t0) if float(w[0]) <= t_box][-1]
         try:
