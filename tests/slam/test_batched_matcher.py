@@ -7,22 +7,9 @@ import numpy as np
 from common.geometry import Pose2D
 from master_side.slam.field import FAR, kernel_table, squared_distance_field
 from master_side.slam.field_cache import FieldCache
-from master_side.slam.grid import TiledGrid
-from master_side.slam.gridslam import integrate, prepare_beams
-from master_side.slam.params import GMappingParams
+from master_side.slam.gridslam import prepare_beams
 from master_side.slam.scan_matcher import FieldSet, MotionPrior, ScanMatcher, make_field
-
-P = GMappingParams(maxUrange=20.0, maxRange=25.0, search_linear=0.4, search_angular=0.15)
-BOX = (-6, -5, 6, 5)
-
-
-def _grid(room_scan, truth: Pose2D) -> TiledGrid:
-    grid = TiledGrid(P.delta, halo=P.field_radius)
-    beams = prepare_beams(room_scan(truth), P, Pose2D())
-    for _ in range(3):
-        win = grid.window(*BOX)
-        grid.store(win, integrate(win, truth.as_array(), beams))
-    return grid
+from tests.slam.room_grid import BOX, P, room_grid
 
 
 def _reference_scores(win, poses: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -49,7 +36,7 @@ def _reference_scores(win, poses: np.ndarray, pts: np.ndarray) -> np.ndarray:
 
 def test_vectorised_scores_equal_the_scalar_reference(room_scan):
     truth = Pose2D(0.3, -0.2, 0.1)
-    win = _grid(room_scan, truth).window(*BOX)
+    win = room_grid(room_scan, truth).window(*BOX)
     pts = prepare_beams(room_scan(truth), P, Pose2D()).match
     rng = np.random.default_rng(3)
     poses = truth.as_array() + rng.normal(0, [0.05, 0.05, 0.03], (40, 3))
@@ -60,8 +47,8 @@ def test_vectorised_scores_equal_the_scalar_reference(room_scan):
 
 def test_batched_match_equals_one_particle_at_a_time(room_scan):
     truth = Pose2D(0.3, -0.2, 0.1)
-    grid = _grid(room_scan, truth)
-    other = _grid(room_scan, Pose2D(0.25, -0.1, 0.08))  # a different map per particle
+    grid = room_grid(room_scan, truth)
+    other = room_grid(room_scan, Pose2D(0.25, -0.1, 0.08))  # a different map per particle
     pts = prepare_beams(room_scan(truth), P, Pose2D()).match
     rng = np.random.default_rng(5)
     starts = truth.as_array() + rng.normal(0, [0.08, 0.08, 0.04], (5, 3))
@@ -79,7 +66,7 @@ def test_batched_match_equals_one_particle_at_a_time(room_scan):
 
 
 def test_cached_tile_fields_equal_the_window_field(room_scan):
-    grid = _grid(room_scan, Pose2D(0.3, -0.2, 0.1))
+    grid = room_grid(room_scan, Pose2D(0.3, -0.2, 0.1))
     win = grid.window(*BOX)
     ref = make_field(win, P)
     cache = FieldCache(P)

@@ -6,22 +6,10 @@ import pytest
 from common.geometry import Pose2D
 from master_side.slam import kernels, map_kernels
 from master_side.slam.grid import TiledGrid
-from master_side.slam.gridslam import integrate, prepare_beams
-from master_side.slam.params import GMappingParams
+from master_side.slam.gridslam import prepare_beams
 from master_side.slam.scan_matcher import FieldSet, MotionPrior, ScanMatcher, make_field
 from tests.slam.numpy_reference import NumpyMatcher, _flipped_parts, fill_field, integrate_flips
-
-P = GMappingParams(maxUrange=20.0, maxRange=25.0, search_linear=0.4, search_angular=0.15)
-BOX = (-6, -5, 6, 5)
-
-
-def _grid(room_scan, truth: Pose2D) -> TiledGrid:
-    grid = TiledGrid(P.delta, halo=P.field_radius)
-    beams = prepare_beams(room_scan(truth), P, Pose2D())
-    for _ in range(3):
-        win = grid.window(*BOX)
-        grid.store(win, integrate(win, truth.as_array(), beams))
-    return grid
+from tests.slam.room_grid import BOX, P, room_grid
 
 
 def test_pairwise_sum_is_numpys_float32_sum():
@@ -39,7 +27,7 @@ def test_pairwise_sum_is_numpys_float32_sum():
 @pytest.mark.parametrize("window", [(0.3, 0.12), (0.9, 0.4), (0.0, 0.1), (0.2, 0.0)])
 def test_match_many_equals_the_numpy_matcher(room_scan, with_prior, window, stride):
     truth = Pose2D(0.3, -0.2, 0.1)
-    grids = [_grid(room_scan, Pose2D(0.3 + 0.04 * i, -0.2, 0.1 - 0.02 * i)) for i in range(3)]
+    grids = [room_grid(room_scan, Pose2D(0.3 + 0.04 * i, -0.2, 0.1 - 0.02 * i)) for i in range(3)]
     scan = room_scan(truth)
     scan.ranges[::7] = np.inf  # missing beams: an odd beam count
     pts = prepare_beams(scan, P, Pose2D()).match[::stride]
@@ -61,7 +49,7 @@ def test_match_many_equals_the_numpy_matcher(room_scan, with_prior, window, stri
 
 def test_single_match_equals_the_numpy_matcher(room_scan):
     truth = Pose2D(-0.5, 0.4, -0.3)
-    fld = make_field(_grid(room_scan, truth).window(*BOX), P)
+    fld = make_field(room_grid(room_scan, truth).window(*BOX), P)
     pts = prepare_beams(room_scan(truth), P, Pose2D()).match
     start = truth.as_array() + [0.12, -0.08, 0.04]
     pose, score = ScanMatcher(P).match(fld, start, pts)
