@@ -18,7 +18,7 @@ from common.jit import kernel
 from master_side.planning.grid import INSCRIBED, LETHAL
 from master_side.planning.local.cost_base import REJECT, CostFunction
 from master_side.planning.local.map_grid import ScoringContext, footprint_outline, footprint_radii
-from master_side.planning.local.traj_cells import BIG, max_cell_values, point_cells, steps_xy
+from master_side.planning.local.traj_cells import BIG, kernel_inside, max_cell_values, point_cells, steps_xy
 from master_side.planning.local.trajectories import Trajectories
 
 
@@ -133,12 +133,11 @@ class ObstacleCost(CostFunction):
         ctx = self.ctx
         flat, inside = point_cells(trajs, ctx, 0.0)  # (T + 1, S)
         x, y, _, c, sn = steps_xy(trajs)
-        has_inside = inside is not None
         band = self.circumscribed + 1.5 * ctx.resolution
         h, w = ctx.grid.shape
         return _outline_scores(
-            ctx.grid.ravel(), self.clear.ravel(), flat, inside if has_inside else np.ones((1, 1), np.bool_),
-            has_inside, x, y, c, sn, np.asarray(steps, np.intp), np.asarray(rows, np.intp), self.outline,
+            ctx.grid.ravel(), self.clear.ravel(), flat, *kernel_inside(inside), x, y, c, sn,
+            np.asarray(steps, np.intp), np.asarray(rows, np.intp), self.outline,
             band, band + self.extent, float(ctx.origin[0]), float(ctx.origin[1]), 1.0 / ctx.resolution, h, w,
             INSCRIBED, LETHAL)
 

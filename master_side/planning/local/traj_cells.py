@@ -80,14 +80,18 @@ def _cells(x, y, ox, oy, inv, h, w):
     return flat, inside, n_out
 
 
+def kernel_inside(inside: np.ndarray | None) -> tuple[np.ndarray, bool]:
+    """``inside`` as a kernel takes it: (flags, True), or a dummy array and False when every cell is
+    inside (a kernel argument cannot be None)."""
+    return (inside, True) if inside is not None else (np.ones((1, 1), np.bool_), False)
+
+
 def finite_end_values(d: np.ndarray, flat: np.ndarray, inside: np.ndarray | None, scale: float,
                       reject: float) -> np.ndarray:
     """(S,) ``d`` at each trajectory's last cell times ``scale``, or ``reject`` where any of its (T + 1, S)
     cells is outside (``inside`` False) or has a non-finite ``d``: one compiled pass, the values of
     ``where(all(isfinite(d[flat]) & inside), d[flat[-1]] * scale, reject)``."""
-    has_inside = inside is not None
-    return _finite_end_values(d, flat, inside if has_inside else np.ones((1, 1), np.bool_), has_inside,
-                              float(scale), float(reject))
+    return _finite_end_values(d, flat, *kernel_inside(inside), float(scale), float(reject))
 
 
 @kernel
@@ -108,9 +112,7 @@ def max_cell_values(g: np.ndarray, flat: np.ndarray, inside: np.ndarray | None, 
                     ) -> tuple[np.ndarray, bool]:
     """(S,) each trajectory's largest ``g`` over its (T + 1, S) cells as float, ``reject`` where a cell
     is outside or ``g >= limit``; and whether any first-row (start) cell is such a bad cell."""
-    has_inside = inside is not None
-    return _max_cell_values(g, flat, inside if has_inside else np.ones((1, 1), np.bool_), has_inside,
-                            limit, float(reject))
+    return _max_cell_values(g, flat, *kernel_inside(inside), limit, float(reject))
 
 
 @kernel
