@@ -6,7 +6,8 @@ Prints one line per event, wall time first (the robot PC's clock)::
     CMD t v w               cmd_vel from the master    COLL t count   a collision
     MON t action            collision monitor state    ST t status goal_id state reason   move_base/status
 
-stdin: ``goal X Y YAW`` (map frame), ``box DX DY SX SY`` (a box appears relative to the robot).
+stdin: ``goal X Y YAW`` (map frame), ``box DX DY SX SY`` (a box appears relative to the robot); each
+prints ``SENDING kind`` before its put and ``SENT kind`` after it.
 """
 
 from __future__ import annotations
@@ -57,10 +58,12 @@ def main() -> None:
         w = line.split()
         if w[:1] == ["goal"]:
             x, y, yaw = map(float, w[1:4])
+            say("SENDING", "goal")  # a put that never returns shows as SENDING without SENT
             goal.publish(PoseStamped(Header(time.time(), "map"), Pose2D(x, y, yaw).to_transform()))
             say("SENT", "goal")
         elif w[:1] == ["box"]:
             dx, dy, sx, sy = map(float, w[1:5])
+            say("SENDING", "box")
             box.publish(SpawnBox(Header(time.time(), "base_link"), dx, dy, 0.0, sx, sy, 1.0))
             say("SENT", "box")
     node.close()

@@ -154,10 +154,22 @@ def _goal(probe: Stream, x: float, y: float, yaw: float) -> float:
     """Send a goal; returns when move_base reports a goal id not seen before as ACTIVE."""
     old = {w[3] for w in probe.events("ST")}
     t0 = time.time()
-    probe.send(f"goal {x} {y} {yaw}")
-    wait_until(lambda: [w for w in probe.events("ST", t0) if int(w[2]) == ACTIVE and w[3] not in old], 60,
-               "goal accepted")
-    return t0
+
+    def accepted():
+        return [w for w in probe.events("ST", t0) if int(w[2]) == ACTIVE and w[3] not in old]
+    # A goal is one best-effort message, as in ROS; seen once in rehearsals: the first goal after a
+    # partition healed never arrived. Like a user clicking again, send it again, and say so.
+    for attempt in range(3):
+        probe.send(f"goal {x} {y} {yaw}")
+        try:
+            wait_until(accepted, 20, "goal accepted")
+            return t0
+        except AssertionError:
+            st = probe.events("ST", t0)
+            print(f"goal ({x}, {y}) not accepted within 20 s (send {attempt + 1}); probe SENT: "
+                  f"{[w[0] for w in probe.events('SENT', t0)]}, status lines since: {len(st)}, "
+                  f"last: {' '.join(st[-1][2:]) if st else None}")
+    raise AssertionError("goal never accepted after 3 sends (see the lines above)")
 
 
 def _goal_id(probe: Stream, since: float) -> str:
