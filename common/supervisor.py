@@ -14,7 +14,9 @@ itself is SIGKILLed. All spawning happens on the supervisor's own thread for tha
 
 Child output lines are prefixed ``[name] ``; a status table goes to stderr on every change; with a
 bus ``Node`` the states are published as ``NodeState`` on ``agent/<agent>/state``. The launch data
-(``NodeSpec``, states) is in ``common.node_spec``; child process plumbing in ``common.child_process``.
+(``NodeSpec``, states) is in ``common.node_spec``; child process plumbing in ``common.child_process``;
+the table and state publishing in ``common.supervisor_status``; ``wait_for`` subscriptions in
+``common.supervisor_watch``.
 """
 
 from __future__ import annotations
@@ -29,7 +31,6 @@ import time
 from typing import Any, TextIO
 
 from common.child_process import child_bus_env, killpg, make_preexec
-from common.messages import Header, NodeState
 from common.node_spec import (
     EXITED,
     FAILED,
@@ -44,6 +45,8 @@ from common.node_spec import (
     validate_launch,
 )
 from common.runner import EXIT_CONFIG
+from common.supervisor_status import StatusReporter, status_table
+from common.supervisor_watch import TopicWatcher
 from common.zenoh_config import BusConfig
 
 
@@ -69,11 +72,8 @@ class Supervisor:
         self._lock = threading.RLock()
         self._out_lock = threading.Lock()
         self._dirty: set[str] = set()
-        self._subs: dict[str, Any] = {}
-        self._pub = node.publisher(f"agent/{agent}/state") if node is not None else None
-        self._last_table = ""
-        self._table_pending, self._last_print = False, 0.0
-        self._last_publish_all = 0.0
+        self._watcher = TopicWatcher(node, self.nodes, self._wake)
+        self._reporter = StatusReporter(self.nodes, agent, node, status, self._out_lock)
         self._thread: threading.Thread | None = None
 
     # -- public API -------------------------------------------------------------------------------
@@ -113,11 +113,7 @@ class Supervisor:
         return self.nodes[name]
 
     def table(self) -> str:
-        w = max(12, *(len(n) for n in self.nodes))
-        rows = [f"{'NODE':<{w}} {'STATE':<10} {'PID':>7} {'RESTARTS':>8}  DETAIL"]
-        for n, st in self.nodes.items():
-            rows.append(f"{n:<{w}} {st.state:<10} {st.pid or '-':>7} {st.restarts:>8}  {st.detail}")
-        return "\n".join(rows)
+        return status_table(self.nodes)
 
     # -- state changes ----------------------------------------------------------------------------
     def _set(self, st: NodeStatus, state: str, detail: str = "") -> None:
@@ -129,24 +125,7 @@ class Supervisor:
     def _report(self, force: bool = False) -> None:
         with self._lock:
             dirty, self._dirty = self._dirty, set()
-        now = time.monotonic()
-        if self._pub is not None and (dirty or now - self._last_publish_all > 1.0):
-            names = list(self.nodes) if now - self._last_publish_all > 1.0 else sorted(dirty)
-            if len(names) == len(self.nodes):
-                self._last_publish_all = now
-            for n in names:
-                st = self.nodes[n]
-                with contextlib.suppress(Exception):   # the bus must never take the supervisor down
-                    self._pub.publish(NodeState(header=Header(stamp=time.time()), node=n, state=st.state,
-                                                pid=st.pid, restarts=st.restarts, detail=st.detail))
-        self._table_pending |= bool(dirty)
-        if self._table_pending and self.status_out is not None and (force or now - self._last_print >= 0.3):
-            self._table_pending, self._last_print = False, now
-            table = self.table()
-            if table != self._last_table:
-                self._last_table = table
-                with self._out_lock:
-                    print(f"--- zenav {self.agent} ---\n{table}", file=self.status_out, flush=True)
+        self._reporter.report(dirty, force)
 
     # -- processes --------------------------------------------------------------------------------
     def _spawn(self, st: NodeStatus) -> None:
@@ -222,28 +201,7 @@ class Supervisor:
         if st.spec.required:
             self.stop(f"required node '{st.spec.name}' failed: configuration error", failed=True)
 
-    # -- wait_for ---------------------------------------------------------------------------------
-    def _watch(self, topic: str) -> None:
-        if topic in self._subs or self.node is None:
-            return
-        key = self.node.key(topic)
-
-        def seen(*_a) -> None:
-            for st in self.nodes.values():
-                if topic in st.spec.wait_for:
-                    st.seen.add(topic)
-            self._wake.set()
-
-        sess = self.node.session
-        self._subs[topic] = sess.declare_subscriber(key, seen)
-        sess.get(key, lambda r: seen() if r.ok is not None else None)   # latched publishers
-
-    def _unwatch_unused(self) -> None:
-        wanted = {t for st in self.nodes.values() if st.state == WAITING for t in st.spec.wait_for}
-        for t in [t for t in self._subs if t not in wanted]:
-            with contextlib.suppress(Exception):
-                self._subs.pop(t).undeclare()
-
+    # -- starting (after, wait_for) ---------------------------------------------------------------
     def _try_start(self, st: NodeStatus, now: float) -> None:
         spec = st.spec
         for a in spec.after:
@@ -264,7 +222,7 @@ class Supervisor:
         if not st.wait_since:
             st.wait_since = now
             for t in spec.wait_for:
-                self._watch(t)
+                self._watcher.watch(t)
         if missing and not pending and now - st.wait_since > spec.wait_timeout:
             self._set(st, FAILED, f"no message on {', '.join(missing)} within {spec.wait_timeout:g} s")
             if spec.required:
@@ -291,7 +249,7 @@ class Supervisor:
                     elif st.state == RESTARTING and now >= st.start_at:
                         st.restarts += 1
                         self._spawn(st)
-                self._unwatch_unused()
+                self._watcher.unwatch_unused()
                 self._report()
                 if all(st.state in TERMINAL for st in self.nodes.values()):
                     bad = [n for n, st in self.nodes.items() if st.state == FAILED]
@@ -305,9 +263,7 @@ class Supervisor:
             self._done.set()
 
     def _shutdown(self) -> None:
-        for t in list(self._subs):
-            with contextlib.suppress(Exception):
-                self._subs.pop(t).undeclare()
+        self._watcher.close()
         for st in self.nodes.values():
             if st.proc is None and st.state in (WAITING, RESTARTING):
                 self._set(st, STOPPED, "not started" if st.state == WAITING else st.detail)
