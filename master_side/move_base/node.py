@@ -14,7 +14,8 @@ in the status), TF. Out ``cmd_vel``, ``move_base/status`` + ``move_base/result``
 ``move_base/global_plan``, ``move_base/local_plan`` (Path), ``move_base/current_goal`` (PoseStamped),
 ``move_base/loop_time``, ``move_base/cmd_trace`` (Scalar after each cycle's cmd_vel: value = header stamp
 of the local costmap it was computed from, -1 without one; bench/loop.py). Service ``make_plan``
-(PlanRequest -> PlanResult), as ROS move_base offers.
+(PlanRequest -> PlanResult), as ROS move_base offers. Global planning on the bus (the planner thread's
+plan call, the service) is ``master_side.move_base.global_planning``.
 """
 
 from __future__ import annotations
@@ -49,12 +50,11 @@ from common.tf import TFListener
 from master_side.costmap.health import SensorHealth
 from master_side.move_base.config import check, load_move_base_config
 from master_side.move_base.controller import LocalController
+from master_side.move_base.global_planning import GlobalPlanning
 from master_side.move_base.inputs import robot_pose, safety_override
-from master_side.move_base.planner_process import NavfnProcess
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
 from master_side.move_base.state_machine import MoveBaseMachine, State
-from master_side.planning.navfn import NavFn
 from master_side.planning.warmup import warm_local_planners
 
 TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)
@@ -69,28 +69,25 @@ class MoveBaseNode:
         c = self.config = load_move_base_config(cfg, source)
         self.params = p = c.params
         self.local_frame, self.base_frame = strip_frame(c.local_frame), c.base_frame
-        self._global_frame = c.global_frame
         warm_local_planners()  # numba's start and the kernel loads now, not in the first control cycle
         self.controller = LocalController(c.make_local_planner(), c.footprint)
-        self.navfn = NavfnProcess(c.navfn)  # plans in a worker process: the control loop keeps its GIL
         self.tf = TFListener(node)
+        self.planning = GlobalPlanning(node, c, self.tf)
         self.lock = threading.RLock()
         self.cmd_lock = threading.Lock()  # orders cycle commands against cancel's immediate stop
         self._cancels = 0
-        self.planner = PlannerThread(self._plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
+        self.planner = PlannerThread(self.planning.plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
         recoveries = recoveries_from_params(p, c.recovery_namespaces, source, self._clear_costmaps, self._blocked,
                                             c.circumscribed_radius, c.rotate)
         self.machine = MoveBaseMachine(p, self.planner, self.controller, recoveries)
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None
-        self.result = PlanResult()
         self._last_terminal = None
         self._pose_global: Pose2D | None = None
         self._blind = ""
         self._last_event = ("", float("-inf"), 0)
         self.health = SensorHealth(required=("local_costmap",))
         self.odom = node.subscribe("odom", Odometry)
-        self.global_costmap = node.subscribe("global_costmap/costmap", Costmap)
         self.local_costmap = node.subscribe("local_costmap/costmap", Costmap, callback=self._on_local_costmap)
         for name in ("local_costmap", "global_costmap"):
             node.subscribe(f"{name}/sensors", CostmapSensors, callback=self.health.update, mode="queue")
@@ -98,7 +95,6 @@ class MoveBaseNode:
         self.safety = node.subscribe("collision_monitor/state", CollisionMonitorState)  # the robot's monitor
         self.status_pub = node.publisher("move_base/status")
         self.result_pub = node.publisher("move_base/result", latched=True)
-        self.gplan_pub = node.publisher("move_base/global_plan")
         self.lplan_pub = node.publisher("move_base/local_plan")
         self.goal_pub = node.publisher("move_base/current_goal", latched=True)
         self.loop_pub = node.publisher("move_base/loop_time")
@@ -109,7 +105,7 @@ class MoveBaseNode:
         self._cancel_sub = None
         self._cancel_sub = node.subscribe("move_base/cancel", None, mode="queue", callback=lambda _m: self.cancel(
             self._cancel_sub.last_publisher if self._cancel_sub is not None else ""))
-        node.service("make_plan", self._make_plan_service, PlanRequest)
+        node.service("make_plan", self.planning.make_plan_service, PlanRequest)
         for n in c.notes:
             node.log.debug("no effect: %s", n)
         self.timer = node.timer(1.0 / p.controller_frequency, self.cycle, on_data=p.control_on_costmap)
@@ -117,11 +113,12 @@ class MoveBaseNode:
     @property
     def global_frame(self) -> str | None:
         """The global costmap's frame: configured, else that of its messages (None until one arrives)."""
-        if self._global_frame is None:
-            msg = self.global_costmap.latest()
-            if msg is not None:
-                self._global_frame = strip_frame(msg.header.frame_id)
-        return self._global_frame
+        return self.planning.global_frame
+
+    @property
+    def result(self) -> PlanResult:
+        """The last global plan's result (an empty one since the current goal came in)."""
+        return self.planning.result
 
     # -- inputs ------------------------------------------------------------------------------------
     def _on_goal(self, msg: PoseStamped, goal_id: str = "") -> None:
@@ -140,7 +137,7 @@ class MoveBaseNode:
         with self.lock:
             gid = goal_id or f"goal-{next(self.ids)}"
             self.goal_msg = PoseStamped(Header(now, gf), goal.to_transform())
-            self.result = PlanResult()
+            self.planning.result = PlanResult()
             self.machine.set_goal(gid, goal, now)
         self.goal_pub.publish(self.goal_msg)
         self.node.log.info("new goal %s: (%.2f, %.2f, %.2f) in %s (given in %s)", gid, goal.x, goal.y,
@@ -168,39 +165,6 @@ class MoveBaseNode:
             self._report(None)
 
     # -- collaborators -------------------------------------------------------------------------------
-    def _plan_now(self, goal: Pose2D):
-        """One global plan from the robot's current pose (the planner thread; move_base::makePlan)."""
-        msg = self.global_costmap.latest()
-        if msg is None:
-            raise RuntimeError("no global costmap received yet")
-        frame = strip_frame(msg.header.frame_id)
-        if frame != self.global_frame:
-            raise RuntimeError(f"global costmap is in '{frame}', goals were given in '{self.global_frame}'")
-        start = self.tf.buffer.lookup_pose2d(frame, self.base_frame, 0.0, 0.2)
-        t0 = time.perf_counter()
-        path = self.navfn.make_plan(msg.data, msg.resolution, (msg.origin.x, msg.origin.y), start, goal)
-        used = self.navfn.last_goal_used or goal
-        self.result = PlanResult(Path(Header(self.node.clock.now(), frame), path), used,
-                                 goal.distance(used), time.perf_counter() - t0)
-        self.gplan_pub.publish(self.result.path)
-        return path, used
-
-    def _make_plan_service(self, req: PlanRequest) -> PlanResult:
-        gf = self.global_frame
-        if gf is None:
-            raise RuntimeError("no global costmap received yet")
-        start, goal = self._to_global(req.start, gf), self._to_global(req.goal, gf)
-        tol = None if req.tolerance < 0 else req.tolerance
-        msg = self.global_costmap.latest()
-        t0 = time.perf_counter()
-        path = NavFn(self.config.navfn).make_plan(msg.data, msg.resolution, (msg.origin.x, msg.origin.y),
-                                                  start, goal, tol)
-        return PlanResult(Path(Header(self.node.clock.now(), gf), path), goal, 0.0, time.perf_counter() - t0)
-
-    def _to_global(self, ps: PoseStamped, gf: str) -> Pose2D:
-        frame = strip_frame(ps.header.frame_id) or gf
-        return self.tf.buffer.lookup_pose2d(gf, frame, 0.0, 0.5).compose(ps.pose.to_pose2d())
-
     def _clear_costmaps(self, reset_distance: float, which: str = "both") -> None:
         names = {"both": ("local_costmap", "global_costmap"), "local": ("local_costmap",),
                  "global": ("global_costmap",)}[which]
@@ -299,7 +263,7 @@ class MoveBaseNode:
     def close(self) -> None:
         self.timer.cancel()
         self.planner.close()
-        self.navfn.close()
+        self.planning.close()
         self.cmd.publish(Twist())
         self.tf.close()
 
