@@ -13,13 +13,8 @@ to test the wrap), and ranges of a synthetic room (``range_mm``). Faults: ``inje
 
 from __future__ import annotations
 
-import contextlib
-import os
-import select
-import socket
 import threading
 import time
-import tty
 
 import numpy as np
 
@@ -34,11 +29,16 @@ from robot_side.lasers.fake_hokuyo_room import (
     sum_char,
     sum_line,
 )
+from robot_side.lasers.fake_link import FakeDeviceLink
 
 
-class FakeHokuyo:
+class FakeHokuyo(FakeDeviceLink):
+    """The device: a SCIP 2.0 command interpreter and scan streamer on a pty or TCP link (``on_pty`` /
+    ``on_tcp``, from ``robot_side.lasers.fake_link``)."""
+
     def __init__(self, model: str = "URG-04LX", scan_period: float | None = None, time_base_ms: int = 0,
                  fail: dict[str, str] | None = None) -> None:
+        super().__init__()
         self.model, self.m = model, MODELS[model]
         self.scan_period = scan_period or 60.0 / self.m["rpm"]
         self.time_base_ms, self.fail = time_base_ms, dict(fail or {})
@@ -51,63 +51,10 @@ class FakeHokuyo:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._t0 = time.monotonic()
-        self._rx = b""
-        self._fd = self._slave = self._server = self._conn = None
-        self._link: str | None = None
         self._thread: threading.Thread | None = None
 
-    # ------------------------------------------------------------------ transports
-    @classmethod
-    def on_pty(cls, link: str | None = None, **kw) -> tuple[FakeHokuyo, str]:
-        """A device on a new pty pair (not started); returns it and the path for the driver."""
-        fake = cls(**kw)
-        fake._fd, fake._slave = os.openpty()
-        tty.setraw(fake._slave)
-        path = os.ttyname(fake._slave)
-        if link:
-            if os.path.lexists(link):
-                os.unlink(link)
-            os.symlink(path, link)
-            fake._link = link
-        return fake, path
-
-    @classmethod
-    def on_tcp(cls, host: str = "127.0.0.1", port: int = 0, **kw) -> tuple[FakeHokuyo, tuple[str, int]]:
-        """A device listening on TCP (one client at a time); returns it and (host, port)."""
-        fake = cls(**kw)
-        fake._server = socket.create_server((host, port))  # SO_REUSEADDR: a new fake can take the port
-        return fake, fake._server.getsockname()[:2]
-
-    def _recv(self, timeout: float) -> bytes:
-        if self._server is not None and self._conn is None:
-            r, _, _ = select.select([self._server], [], [], timeout)
-            if r:
-                self._conn, _ = self._server.accept()
-                self._rx = b""
-            return b""
-        fd = self._conn if self._conn is not None else self._fd
-        r, _, _ = select.select([fd], [], [], timeout)
-        if not r:
-            return b""
-        try:
-            data = self._conn.recv(4096) if self._conn is not None else os.read(self._fd, 4096)
-        except OSError:
-            data = b""
-        if not data and self._conn is not None:  # the client went away: wait for the next one
-            self._conn.close()
-            self._conn, self.stream, self.laser_on = None, None, False
-        elif not data:
-            time.sleep(timeout)
-        return data
-
-    def _send(self, data: bytes) -> None:
-        try:
-            if self._conn is not None:
-                self._conn.sendall(data)
-            elif self._server is None:
-                os.write(self._fd, data)
-        except OSError:
-            pass
+    def _client_gone(self) -> None:
+        self.stream, self.laser_on = None, False
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> FakeHokuyo:
@@ -124,16 +71,7 @@ class FakeHokuyo:
         self._stop.set()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(2.0)
-        for s in (self._conn, self._server):
-            if s is not None:
-                s.close()
-        for fd in (self._fd, self._slave):
-            if fd is not None:
-                with contextlib.suppress(OSError):
-                    os.close(fd)
-        self._conn = self._server = self._fd = self._slave = None
-        if self._link and os.path.islink(self._link):
-            os.unlink(self._link)
+        self._close_link()
 
     def inject(self, kind: str, **kw) -> None:
         """A fault on the next scan without one: "checksum", "status" (code=...), "garbage" (data=...)."""
