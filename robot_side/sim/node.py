@@ -29,6 +29,7 @@ Subscribed: ``cmd_vel_topic`` (Twist, default ``cmd_vel``; behind the collision 
 appears, in the world or relative to the robot; for tests and demos of the robot's own safety).
 The physics runs on its own thread paced by ``Pacer`` at ``speed`` x real time; when the machine cannot
 keep up for more than ``max_lag`` wall seconds, the sim runs slower instead of bursting to catch up.
+The sensor mounts' transforms are ``robot_side.sim.mount_tf``.
 """
 
 from __future__ import annotations
@@ -41,16 +42,14 @@ import time
 from typing import Any
 
 from common.config import ConfigError, load_params
-from common.geometry import Pose2D, Transform
-from common.messages import BatteryState, Clock, Header, MotorState, SpawnBox, TransformStamped, Twist
-from common.tf import StaticTFBroadcaster, TFBroadcaster, TFError, TFListener
-from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
+from common.geometry import Pose2D
+from common.messages import BatteryState, Clock, Header, MotorState, SpawnBox, Twist
+from common.tf import StaticTFBroadcaster, TFBroadcaster, TFListener
+from robot_side.sim.mount_tf import CAMERA_LINK, SensorMounts
 from robot_side.sim.node_params import SIMULATOR_KEYS, SimNodeParams
 from robot_side.sim.simulator import Pacer, Simulator, resolve_world
 
 log = logging.getLogger("zenav.sim")
-
-CAMERA_LINK = "camera_link"
 
 
 def _restamp(msg: Any, offset: float) -> Any:
@@ -113,11 +112,13 @@ class SimNode:
         self._motor_tick, self._battery_tick = _Tick(p.motor_state_rate), _Tick(p.battery_rate)
         self._collisions = sim.base.collisions
         self._motors_sent: bool | None = None
-        self.static.send(self._static_transforms())
+        self.mounts = SensorMounts(node, sim, p, self.static, self.offset)
+        self.static.send(self.mounts.transforms())
         self._listener = None
         if not p.mount_tf:
             self._listener = TFListener(node)
-            threading.Thread(target=self._follow_mount_tf, name="sim:mount_tf", daemon=True).start()
+            threading.Thread(target=self.mounts.follow, args=(self._listener, self._stop), name="sim:mount_tf",
+                             daemon=True).start()
         self.subs = [node.subscribe(p.cmd_vel_topic, Twist, callback=self._on_cmd_vel),
                      node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state),
                      node.subscribe("sim/spawn_box", SpawnBox, callback=self._on_spawn_box)]
@@ -144,57 +145,6 @@ class SimNode:
         parts.append(f"speed {self.speed:g}x, dt {s.params.dt:g} s, sim time from {start}, "
                      f"{self.p.cmd_vel_topic} timeout {b.p.cmd_vel_timeout:g} s")
         return "simulator: " + ", ".join(parts)
-
-    def _static_transforms(self, camera_link_to_depth: Transform | None = None) -> list[TransformStamped]:
-        s, base, t0 = self.sim, self.sim.base.p.base_frame_id, self.offset
-        out = []
-        if s.laser and self.p.mount_tf:
-            lp = s.laser.p
-            out.append(TransformStamped(Header(t0, base), lp.frame_id,
-                                        Transform.from_xyz_rpy(lp.x, lp.y, lp.z, 0.0, 0.0, lp.yaw)))
-        if s.camera:
-            cp, depth = s.camera.p, self.p.depth_frame_id
-            mount = Transform.from_xyz_rpy(cp.x, cp.y, cp.z, 0.0, 0.0, cp.yaw)
-            if self.p.mount_tf:
-                out.append(TransformStamped(Header(t0, base), CAMERA_LINK, mount))
-                out.append(TransformStamped(Header(t0, CAMERA_LINK), depth, Transform()))
-            elif camera_link_to_depth is not None:
-                out.append(TransformStamped(Header(t0, CAMERA_LINK), depth, camera_link_to_depth))
-            out.append(TransformStamped(Header(t0, depth), cp.frame_id, OPTICAL_FROM_LINK))
-        return out
-
-    def _follow_mount_tf(self) -> None:
-        """mount_tf false: base_link -> camera_link belongs to a static transform node. Publish
-        camera_link -> camera_depth_frame so that base_link -> camera_depth_frame is the rendered mount;
-        check a configured laser's edge against its mount (a warning: the sim cannot fix that one)."""
-        s, base = self.sim, self.sim.base.p.base_frame_id
-        last, laser_checked = None, s.laser is None
-        while not self._stop.wait(0.2 if last is None else 1.0):
-            buf = self._listener.buffer
-            if s.camera:
-                cp = s.camera.p
-                try:
-                    link = buf.lookup(base, CAMERA_LINK).transform
-                    corr = link.inverse().compose(Transform.from_xyz_rpy(cp.x, cp.y, cp.z, 0.0, 0.0, cp.yaw))
-                    if last is None or not _same(corr, last):
-                        last = corr
-                        self.static.send(self._static_transforms(corr))
-                        self.node.log.info("%s -> %s is owned by another node; publishing %s -> %s to match "
-                                           "the rendered camera", base, CAMERA_LINK, CAMERA_LINK,
-                                           self.p.depth_frame_id)
-                except TFError:
-                    pass
-            if not laser_checked:
-                lp = s.laser.p
-                try:
-                    got = buf.lookup(base, lp.frame_id).transform
-                    laser_checked = True
-                    if not _same(got, Transform.from_xyz_rpy(lp.x, lp.y, lp.z, 0.0, 0.0, lp.yaw), 1e-3):
-                        self.node.log.warning("TF %s -> %s (%s) differs from the simulated laser mount x=%g "
-                                              "y=%g z=%g yaw=%g", base, lp.frame_id, got, lp.x, lp.y, lp.z,
-                                              lp.yaw)
-                except TFError:
-                    pass
 
     # ------------------------------------------------------------------ inputs
     def _on_cmd_vel(self, twist: Twist) -> None:
@@ -297,12 +247,6 @@ class SimNode:
             sub.close()
         if self._listener is not None:
             self._listener.close()
-
-
-def _same(a: Transform, b: Transform, tol: float = 1e-6) -> bool:
-    d = a.inverse().compose(b)
-    q = d.rotation
-    return math.dist(d.translation.as_array(), (0, 0, 0)) < tol and abs(abs(q.w) - 1.0) < tol
 
 
 def check(cfg: dict, source: str) -> list[str]:
