@@ -13,7 +13,7 @@ import numpy as np
 
 from master_side.slam import map_kernels
 from master_side.slam.field import COARSE, FAR, PAD_C, PAD_F, FieldSet, kernel_table
-from master_side.slam.grid import TILE, TiledGrid, Window
+from master_side.slam.grid import TILE, TILE_BITS, TiledGrid
 from master_side.slam.params import GMappingParams
 
 CT = TILE // COARSE  # coarse cells per tile side
@@ -32,17 +32,12 @@ class FieldCache:
         self.gen = 0
         self.built = 0  # field tiles computed so far
         self._scratch = (np.empty(0, np.float32), np.empty(0, np.float32))
-        r = self.radius  # _patch: (dx, dy, part of the neighbour, where it goes) of the nine tiles
-        src = {-1: slice(TILE - r, TILE), 0: slice(0, TILE), 1: slice(0, r)}
-        dst = {-1: slice(0, r), 0: slice(r, r + TILE), 1: slice(r + TILE, TILE + 2 * r)}
-        self._parts = [(dx, dy, (src[dy], src[dx]), (dst[dy], dst[dx])) for dy in (-1, 0, 1) for dx in (-1, 0, 1)]
 
     def fieldset(self, grids: list[TiledGrid], ranges: list[tuple[int, int, int, int]],
-                 windows: list[Window] | None = None, scratch: bool = False) -> FieldSet:
+                 scratch: bool = False) -> FieldSet:
         """The fields of ``grids[i]`` over tile ranges (tx0, ty0, tx1, ty1), as one FieldSet
-        (window border cells score 0, as a window's own field would). ``windows``: the grids'
-        log-odds over the same ranges if at hand (faster builds). ``scratch``: the FieldSet lives
-        in buffers the next ``scratch`` call reuses."""
+        (window border cells score 0, as a window's own field would). ``scratch``: the FieldSet
+        lives in buffers the next ``scratch`` call reuses."""
         self.gen += 1
         keys, where = [], []  # per grid: (tiles, 9) stamps keying each tile's field; (grid, tx0, ty0, ntx)
         for n, (g, (tx0, ty0, tx1, ty1)) in enumerate(zip(grids, ranges)):
@@ -71,7 +66,7 @@ class FieldCache:
             for j, n, k in zip(missing.tolist(), n_of.tolist(), k_of.tolist()):
                 _, tx0, ty0, ntx = where[n]
                 todo[ukeys[j]] = (grids[n], tx0 + k % ntx, ty0 + k // ntx, n, j)
-            self._build(todo, ranges, windows)
+            self._build(todo)
             for key, item in todo.items():
                 slot_of[item[4]] = self.slots[key]
         slots = slot_of[inverse.reshape(-1)]
@@ -94,45 +89,32 @@ class FieldCache:
             map_kernels.fill_field(c, self.coarse, sl, PAD_C)
         return fs
 
-    def _build(self, todo: dict[bytes, tuple[TiledGrid, int, int, int, int]],
-               ranges: list[tuple[int, int, int, int]], windows: list[Window] | None) -> None:
+    def _build(self, todo: dict[bytes, tuple[TiledGrid, int, int, int, int]]) -> None:
+        """Compute the field tiles of ``todo`` (key -> grid, tx, ty, ...) into fresh slots."""
         r, m = self.radius, len(todo)
         slots = self._alloc(m)
-        inner: dict[int, list[int]] = {}  # window -> tiles off the window's edge: read from the window
-        patched = []  # the others: their neighbourhood copied from the grid's tiles
         items = list(todo.values())
-        for i, (_, tx, ty, n, _) in enumerate(items):
-            tx0, ty0, tx1, ty1 = ranges[n]
-            if windows is not None and tx0 < tx < tx1 - 1 and ty0 < ty < ty1 - 1:
-                inner.setdefault(n, []).append(i)
-            else:
-                patched.append(i)
-        args = (r, FAR, self.table, COARSE, self.fine, self.coarse)
-        if patched:
-            occ = np.empty((len(patched), TILE + 2 * r, TILE + 2 * r), np.float32)
-            for k, i in enumerate(patched):
-                g, tx, ty, _, _ = items[i]
-                self._patch(occ[k], g, tx, ty)
-            at = np.full(len(patched), r, np.int64)
-            map_kernels.tile_fields(occ, np.arange(len(patched)), at, at, *args, slots[patched])
-        for n, rows in inner.items():
-            tx0, ty0 = ranges[n][:2]
-            tiles = np.array([items[i][1:3] for i in rows], np.int64)
-            map_kernels.tile_fields(windows[n].data[None], np.zeros(len(rows), np.int64), (tiles[:, 1] - ty0) * TILE,
-                                (tiles[:, 0] - tx0) * TILE, *args, slots[rows])
+        by_grid: dict[int, list[int]] = {}
+        for i, item in enumerate(items):
+            by_grid.setdefault(item[3], []).append(i)
+        occ = np.empty((m, TILE + 2 * r, TILE + 2 * r), np.float32)  # each tile with its r-cell border
+        order = []
+        for rows in by_grid.values():
+            g = items[rows[0]][0]
+            t = np.array([items[i][1:3] for i in rows], np.int64)
+            tx0, ty0 = t.min(axis=0)  # the tiles' neighbourhood: one more tile around
+            tx1, ty1 = t.max(axis=0) + 1
+            near = g.slots(int(tx0) - 1, int(ty0) - 1, int(tx1) + 1, int(ty1) + 1)
+            nbr = np.stack([near[t[:, 1] - ty0 + dy, t[:, 0] - tx0 + dx] for dy in (0, 1, 2) for dx in (0, 1, 2)], 1)
+            at = len(order)
+            map_kernels.gather_patches(g.pool.data.reshape(-1), nbr, TILE_BITS, r, occ[at:at + len(rows)])
+            order.extend(rows)
+        at = np.full(m, r, np.int64)
+        map_kernels.tile_fields(occ, np.arange(m), at, at, r, FAR, self.table, COARSE, self.fine, self.coarse,
+                                slots[order])
         for key, s in zip(todo, slots.tolist()):
             self.slots[key] = s
         self.built += m
-
-    def _patch(self, out: np.ndarray, g: TiledGrid, tx: int, ty: int) -> None:
-        """Log-odds of tile (tx, ty) with a field_radius border from its neighbours (0: no tile)."""
-        get = g.tiles.get
-        for dx, dy, src, dst in self._parts:
-            t = get((tx + dx, ty + dy))
-            if t is None:
-                out[dst] = 0.0
-            else:
-                out[dst] = t.data[src]
 
     def _alloc(self, m: int) -> np.ndarray:
         if len(self.free) < m:  # forget the fields not used by this call

@@ -18,7 +18,7 @@ from common.geometry import Pose2D
 from common.messages import LaserScan, OccupancyGrid
 from master_side.slam import map_kernels
 from master_side.slam.field_cache import FieldCache
-from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TILE, TiledGrid, Window, unique_tile_bytes
+from master_side.slam.grid import LOG_ODDS, TiledGrid, Window, unique_tile_bytes
 from master_side.slam.motion_model import MotionModel, compose_many
 from master_side.slam.params import GMappingParams
 from master_side.slam.particle_filter import needs_resampling, neff, normalized_weights, systematic_resample
@@ -81,8 +81,15 @@ def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D, free: bool 
                  np.array([laser.x, laser.y]))
 
 
+def integrate_into(grid: TiledGrid, rng: tuple[int, int, int, int], pose: np.ndarray, beams: Beams) -> int:
+    """Add the scan at ``pose`` to the grid's tiles in the tile range ``rng`` (points off it are
+    dropped); returns the number of cells whose occupancy flipped."""
+    return grid.integrate(rng, float(pose[0]), float(pose[1]), float(pose[2]), beams.free, beams.hits)
+
+
 def integrate(win: Window, pose: np.ndarray, beams: Beams) -> np.ndarray:
-    """Add the scan at ``pose`` to the window's log-odds; returns the touched flat cell indices."""
+    """Add the scan at ``pose`` to a dense window's log-odds (then ``TiledGrid.store`` it); returns
+    the touched flat cell indices."""
     return integrate_flips(win, pose, beams)[0]
 
 
@@ -94,10 +101,9 @@ def integrate_flips(win: Window, pose: np.ndarray, beams: Beams) -> tuple[np.nda
         mark = _scratch.mark = np.zeros(max(ny * nx, 1 << 20), np.uint8)
     return map_kernels.integrate_scan(win.data.reshape(-1), nx, ny, win.ix0, win.iy0, win.res, float(pose[0]),
                                   float(pose[1]), math.cos(pose[2]), math.sin(pose[2]), beams.free, beams.hits,
-                                  mark, *_LOG_ODDS)
+                                  mark, *LOG_ODDS)
 
 
-_LOG_ODDS = tuple(np.float32(v) for v in (L_FREE, L_OCC, L_MIN, L_MAX))
 _scratch = threading.local()  # integrate_flips' zeroed cell marks, one buffer per thread
 
 
@@ -116,8 +122,6 @@ class GridSlam:
         self.matcher = ScanMatcher(params)
         self.fields = FieldCache(params)
         self._track_field = None
-        # reused window buffers (fresh pages cost more than a copy) and what they hold (TiledGrid.window)
-        self._win_bufs: list[tuple[np.ndarray, tuple | None]] = []
         self.particles: list[Particle] = []
         self.last_odom: Pose2D | None = None  # odometry at the last processed scan
         self.prev_odom: Pose2D | None = None  # odometry at the last scan
@@ -158,18 +162,12 @@ class GridSlam:
         window = (min(max(p.search_linear, 3 * float(np.hypot(sig[0], sig[1]))), 2.0),
                   min(max(p.search_angular, 3 * float(sig[2])), 1.0))
         grids = [q.grid for q in self.particles]
-        while len(self._win_bufs) < len(grids):
-            self._win_bufs.append((np.empty(0, np.float32), None))
-        windows = [g.window(*self._extent(pose, beams, window[0]), out=buf, seen=seen)
-                   for g, pose, (buf, seen) in zip(grids, poses, self._win_bufs)]
-        self._win_bufs = [(w.data.base if w.data.base is not None else w.data, w.seen) for w in windows]
+        ranges = [g.tile_range(*self._extent(pose, beams, window[0])) for g, pose in zip(grids, poses)]
         prior = self._priors(preds, sig)
         final, ll = np.empty_like(poses), np.empty(len(poses))
         for c in range(0, len(poses), CHUNK):  # bounded memory for many particles
             sl = slice(c, c + CHUNK)
-            fs = self.fields.fieldset(grids[sl], [(w.tx0, w.ty0, w.tx0 + w.data.shape[1] // TILE,
-                                                   w.ty0 + w.data.shape[0] // TILE) for w in windows[sl]],
-                                      windows[sl], scratch=True)
+            fs = self.fields.fieldset(grids[sl], ranges[sl], scratch=True)
             matched, score = self.matcher.match_many(fs, poses[sl], beams.match, window,
                                                      ScanMatcher.sub_prior(prior, sl))
             final[sl] = np.where((score >= p.minimumScore)[:, None], matched, poses[sl])
@@ -178,7 +176,7 @@ class GridSlam:
             q.pose = pose.copy()
             q.weight += w
             q.weight_sum += w
-        self._resample_and_integrate(windows, beams, index)
+        self._resample_and_integrate(ranges, beams, index)
         self.last_odom, self.last_stamp, self.last_index = odom, stamp, index
         self.lin_acc = self.ang_acc = 0.0
         self.processed += 1
@@ -224,8 +222,7 @@ class GridSlam:
         pose = odom.as_array()
         grid = TiledGrid(self.p.delta, halo=self.p.field_radius)
         beams = prepare_beams(scan, self.p, self.laser)
-        win = grid.window(*self._extent(pose, beams))
-        grid.store(win, integrate(win, pose, beams))
+        integrate_into(grid, grid.tile_range(*self._extent(pose, beams)), pose, beams)
         node = TNode(pose.copy(), index, None)
         self.particles = [Particle(pose.copy(), grid.copy(), node=node) for _ in range(self.p.particles)]
         self.last_odom, self.last_stamp, self.last_index = odom, stamp, index
@@ -240,7 +237,7 @@ class GridSlam:
         m = (search or self.p.search_linear) + (self.p.field_radius + 2) * self.p.delta + 0.5
         return x.min() - m, y.min() - m, x.max() + m, y.max() + m
 
-    def _resample_and_integrate(self, windows: list[Window], beams: Beams, index: int) -> None:
+    def _resample_and_integrate(self, ranges: list[tuple[int, int, int, int]], beams: Beams, index: int) -> None:
         gain = 1.0 / (self.p.ogain * len(self.particles))
         w = normalized_weights(np.array([q.weight for q in self.particles]), gain)
         self.last_neff = neff(w)
@@ -253,7 +250,7 @@ class GridSlam:
                 src = done.get(k)
                 if src is None:  # first copy: integrate once, later copies share every tile
                     q = self.particles[k]
-                    self._integrate_particle(q, windows[k], beams, index)
+                    self._integrate_particle(q, ranges[k], beams, index)
                     q.weight = 0.0
                     done[k] = q
                     new.append(q)
@@ -261,11 +258,11 @@ class GridSlam:
                     new.append(Particle(src.pose.copy(), src.grid.copy(), 0.0, src.weight_sum, src.node))
             self.particles = new
         else:
-            for q, win in zip(self.particles, windows):
-                self._integrate_particle(q, win, beams, index)
+            for q, rng in zip(self.particles, ranges):
+                self._integrate_particle(q, rng, beams, index)
 
-    def _integrate_particle(self, q: Particle, win: Window, beams: Beams, index: int) -> None:
-        q.grid.store(win, *integrate_flips(win, q.pose, beams))
+    def _integrate_particle(self, q: Particle, rng: tuple[int, int, int, int], beams: Beams, index: int) -> None:
+        integrate_into(q.grid, rng, q.pose, beams)
         q.node = TNode(q.pose.copy(), index, q.node)
 
     # -- outputs ---------------------------------------------------------------------------

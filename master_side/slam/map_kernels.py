@@ -146,3 +146,108 @@ def fill_field(view, pool, slots, pad):
     view[:, w - pad - 1:] = 0.0
     view[:pad + 1, :] = 0.0
     view[h - pad - 1:, :] = 0.0
+
+
+@kernel
+def integrate_tiles(flat, occ, refs, free, nfree, mark, parts, table, otx, oty, tx0, ty0, tx1, ty1, bits, halo,
+                    res, x, y, c, s, free_pts, hits, stamp, l_free, l_occ, l_min, l_max):
+    """``integrate_scan`` written straight into a grid's tiles: ``flat`` is the pool's tiles
+    (slots x T*T), ``table[ty - oty, tx - otx]`` the grid's slot of tile (tx, ty) (-1: none; the
+    range [tx0, tx1) x [ty0, ty1) must be inside the table, and ``nfree`` >= its tile count).
+    A point's tile is created (zeros, fresh stamps) or cloned if shared (refs > 1) the first time
+    it is written; points off the range are dropped. ``mark`` (one byte per pool cell) and
+    ``parts`` (per slot) are zeroed scratch, left zeroed. The parts (see ``tile_parts``) of a tile
+    holding a flipped cell get one fresh stamp per tile. Returns (nfree, number of flipped cells)."""
+    t = 1 << bits
+    tt = t * t
+    cells = np.empty(free_pts.shape[0] + hits.shape[0], np.int64)
+    count = 0
+    for kind in range(2):
+        pts = free_pts if kind == 0 else hits
+        for b in range(pts.shape[0]):
+            px, py = pts[b, 0], pts[b, 1]
+            ix = int(math.floor((x + c * px - s * py) / res))
+            iy = int(math.floor((y + s * px + c * py) / res))
+            tx, ty = ix >> bits, iy >> bits
+            if tx < tx0 or ty < ty0 or tx >= tx1 or ty >= ty1:
+                continue
+            sl = table[ty - oty, tx - otx]
+            if sl < 0 or refs[sl] > 1:
+                nfree -= 1
+                new = free[nfree]
+                if sl < 0:
+                    flat[new * tt:(new + 1) * tt] = 0.0
+                    occ[new, :] = stamp[0]
+                    stamp[0] += 1
+                else:
+                    flat[new * tt:(new + 1) * tt] = flat[sl * tt:(sl + 1) * tt]
+                    occ[new, :] = occ[sl, :]
+                    refs[sl] -= 1
+                refs[new] = 1
+                table[ty - oty, tx - otx] = new
+                sl = new
+            k = sl * tt + (iy - (ty << bits)) * t + (ix - (tx << bits))
+            if mark[k] == 0:
+                cells[count] = k
+                count += 1
+            mark[k] = kind + 1
+    changed = np.empty(count, np.int64)  # slots with a flipped cell
+    nc = 0
+    nflip = 0
+    for q in range(count):
+        k = cells[q]
+        old = flat[k]
+        new = old + (l_occ if mark[k] == 2 else l_free)
+        new = min(max(new, l_min), l_max)
+        flat[k] = new
+        mark[k] = 0
+        if (old > 0) != (new > 0):
+            nflip += 1
+            sl = k // tt
+            loc = k - sl * tt
+            lr, lc = loc // t, loc % t
+            if parts[sl] == 0:
+                changed[nc] = sl
+                nc += 1
+            for a in range(3):
+                if (a == 0 and lr >= halo) or (a == 2 and lr < t - halo):
+                    continue
+                for b in range(3):
+                    if (b == 0 and lc >= halo) or (b == 2 and lc < t - halo):
+                        continue
+                    parts[sl] |= 1 << (3 * a + b)
+    for q in range(nc):
+        sl = changed[q]
+        st = stamp[0]
+        stamp[0] += 1
+        for p in range(9):
+            if parts[sl] & (1 << p):
+                occ[sl, p] = st
+        parts[sl] = 0
+    return nfree, nflip
+
+
+@kernel
+def gather_patches(flat, nbr, bits, r, out):
+    """out[m] (T + 2r, T + 2r): tile nbr[m, 4]'s log-odds with an r-cell border from its eight
+    neighbours nbr[m, 3 * (dy + 1) + (dx + 1)] (pool slots of ``flat``, slots x T*T; -1: zeros)."""
+    t = 1 << bits
+    tt = t * t
+    for m in range(nbr.shape[0]):
+        o = out[m]
+        for dy in range(-1, 2):
+            ys = t - r if dy == -1 else 0  # rows of the neighbour that land in the patch
+            ye = t if dy == -1 else (t if dy == 0 else r)
+            oy = ys + dy * t + r  # patch row of the neighbour's row ys
+            for dx in range(-1, 2):
+                xs = t - r if dx == -1 else 0
+                xe = t if dx == -1 else (t if dx == 0 else r)
+                ox = xs + dx * t + r
+                sl = nbr[m, 3 * (dy + 1) + (dx + 1)]
+                for yy in range(ys, ye):
+                    row = o[oy + yy - ys]
+                    if sl < 0:
+                        row[ox:ox + xe - xs] = 0.0
+                    else:
+                        base = sl * tt + yy * t
+                        row[ox:ox + xe - xs] = flat[base + xs:base + xe]

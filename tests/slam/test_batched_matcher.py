@@ -71,8 +71,8 @@ def test_cached_tile_fields_equal_the_window_field(room_scan):
     ref = make_field(win, P)
     cache = FieldCache(P)
     rng = grid.tile_range(*BOX)
-    for windows in (None, [win]):  # tiles assembled from the grid / from the window
-        fs = cache.fieldset([grid], [rng], windows)
+    for scratch in (False, True):  # fresh buffers / reused ones
+        fs = cache.fieldset([grid], [rng], scratch=scratch)
         fine, coarse = fs.views(0)
         assert np.array_equal(fine, ref.fine) and np.array_equal(coarse, ref.coarse)
     built = cache.built

@@ -2,7 +2,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from master_side.slam.grid import TiledGrid, unique_tile_bytes
-from master_side.slam.gridslam import integrate, prepare_beams
+from master_side.slam.gridslam import integrate, integrate_flips, integrate_into, prepare_beams
 from master_side.slam.params import GMappingParams
 
 P = GMappingParams(maxUrange=20.0, maxRange=25.0)
@@ -27,25 +27,35 @@ def test_copies_share_tiles_until_written(room_scan):
     assert np.array_equal(g.window(0, 0, 1, 1).data, copies[1].window(0, 0, 1, 1).data)
 
 
-def test_reused_window_buffers_hold_the_grids_data(room_scan):
-    """A buffer refilled with ``seen`` skips the tiles it already holds; after integrating, storing,
-    copying (the written grid clones shared tiles) and switching grids it equals a fresh window."""
+def test_integrating_into_tiles_equals_a_window_stored_back(room_scan):
+    """The filter writes scans straight into the shared tiles; the same scans through a dense window
+    and ``store`` give the same log-odds, copies stay untouched by their source's writes (and the
+    reverse), and unreferenced tiles go back to the pool."""
     rng = np.random.default_rng(3)
-    grids = [_mapped(room_scan)]
-    grids.append(grids[0].copy())
-    bufs = [(np.empty(0, np.float32), None), (np.empty(0, np.float32), None)]
     box = (-6, -5, 6, 5)
-    for step in range(8):
-        order = [step % 2, 1 - step % 2]  # buffers change grids, as after resampling
-        wins = [grids[g].window(*box, out=bufs[b][0], seen=bufs[b][1]) for b, g in enumerate(order)]
-        for b, g in enumerate(order):
-            assert np.array_equal(wins[b].data, grids[g].window(*box).data)
+    direct, stored = _mapped(room_scan), _mapped(room_scan)
+    copies: list[tuple[TiledGrid, TiledGrid, np.ndarray]] = []
+    for step in range(9):
         pose = np.array([*rng.normal(0, 0.5, 2), rng.uniform(-3, 3)])
-        beams = prepare_beams(room_scan(Pose2D(*pose)), P, Pose2D())
-        grids[order[0]].store(wins[0], integrate(wins[0], pose, beams))  # the other window: not integrated
+        if step == 8:
+            pose[:2] += 4.0  # beams off the range
+        beams = prepare_beams(room_scan(Pose2D(*pose)), P, Pose2D(0.1, 0.0, 0.05))
+        flips = integrate_into(direct, direct.tile_range(*box), pose, beams)
+        win = stored.window(*box)
+        touched, flipped = integrate_flips(win, pose, beams)
+        stored.store(win, touched, flipped)
+        assert flips == len(flipped)
+        assert np.array_equal(direct.window(*box).data, stored.window(*box).data)
+        for a, b, before in copies:
+            assert np.array_equal(a.window(*box).data, before) and np.array_equal(b.window(*box).data, before)
         if step % 3 == 0:
-            grids[order[1]] = grids[order[0]].copy()
-        bufs = [(w.data.base, w.seen) for w in wins]
+            copies.append((direct.copy(), stored.copy(), direct.window(*box).data))
+    assert unique_tile_bytes([direct, *[c[0] for c in copies]]) > direct.memory_bytes()
+    pool = direct.pool
+    free = pool.nfree
+    del copies
+    assert pool.nfree > free  # the copies' own tiles are free again
+    assert (pool.refs[direct.table[direct.table >= 0]] == 1).all()
 
 
 def test_occupancy_grid_marks_walls_free_space_and_unknown(room_scan):
