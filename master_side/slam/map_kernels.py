@@ -162,6 +162,7 @@ def integrate_tiles(flat, occ, refs, free, nfree, mark, parts, table, otx, oty, 
     tt = t * t
     cells = np.empty(free_pts.shape[0] + hits.shape[0], np.int64)
     count = 0
+    last_tx, last_ty, last_sl = 0, 0, -1  # the tile of the last point kept (last_sl -1: none yet)
     for kind in range(2):
         pts = free_pts if kind == 0 else hits
         for b in range(pts.shape[0]):
@@ -169,9 +170,12 @@ def integrate_tiles(flat, occ, refs, free, nfree, mark, parts, table, otx, oty, 
             ix = int(math.floor((x + c * px - s * py) / res))
             iy = int(math.floor((y + s * px + c * py) / res))
             tx, ty = ix >> bits, iy >> bits
-            if tx < tx0 or ty < ty0 or tx >= tx1 or ty >= ty1:
-                continue
-            sl = table[ty - oty, tx - otx]
+            if last_sl >= 0 and tx == last_tx and ty == last_ty:  # most points: the tile of the one before
+                sl = last_sl
+            else:
+                if tx < tx0 or ty < ty0 or tx >= tx1 or ty >= ty1:
+                    continue
+                sl = table[ty - oty, tx - otx]
             if sl < 0 or refs[sl] > 1:
                 nfree -= 1
                 new = free[nfree]
@@ -186,6 +190,7 @@ def integrate_tiles(flat, occ, refs, free, nfree, mark, parts, table, otx, oty, 
                 refs[new] = 1
                 table[ty - oty, tx - otx] = new
                 sl = new
+            last_tx, last_ty, last_sl = tx, ty, sl
             k = sl * tt + (iy - (ty << bits)) * t + (ix - (tx << bits))
             if mark[k] == 0:
                 cells[count] = k
