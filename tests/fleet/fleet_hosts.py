@@ -187,6 +187,33 @@ def inventory(hosts: FleetHosts, robots: dict[str, str], tmp: Path, clock_cmd: s
     return inv
 
 
+def seed_kernels(install_dir: Path) -> int:
+    """Copy this checkout's compiled numba kernels (deploy/install.sh ran deploy.warm_kernels: they sit in
+    ``__pycache__`` beside the modules) into a master host's kernel cache (install_dir/cache/numba, its
+    NUMBA_CACHE_DIR), under the directory numba derives from the host's own src path. numba keys a kernel
+    by the sha256 of its source file, so a kernel is reused only for an unchanged file; any other is
+    compiled on the host as before. The host's install still runs deploy.warm_kernels (now loading instead
+    of compiling: ~15 s of CPU less per master). Returns how many files were copied (0 when numba's layout
+    is not the one expected: then the host compiles everything)."""
+    from numba.core.caching import UserProvidedCacheLocator
+
+    subpath = getattr(UserProvidedCacheLocator, "get_suitable_cache_subpath", None)
+    if subpath is None:
+        return 0
+    n = 0
+    for cache in (c for top in ("common", "robot_side", "master_side") for c in (REPO / top).glob("**/__pycache__")):
+        files = [*cache.glob("*.nbi"), *cache.glob("*.nbc")]
+        if not files:
+            continue
+        dest = install_dir / "cache" / "numba" / subpath(str(install_dir / "src" / cache.parent.relative_to(REPO)
+                                                             / "m.py"))
+        dest.mkdir(parents=True, exist_ok=True)
+        for f in files:
+            shutil.copy2(f, dest / f.name)
+            n += 1
+    return n
+
+
 def zenav(*args: str, timeout: float = 240) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
     t0 = time.monotonic()

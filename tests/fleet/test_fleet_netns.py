@@ -23,7 +23,18 @@ from pathlib import Path
 
 import pytest
 import yaml
-from fleet_hosts import FleetHosts, inventory, kill_group, node_pid, on_host, output, requirements, status_until, zenav
+from fleet_hosts import (
+    FleetHosts,
+    inventory,
+    kill_group,
+    node_pid,
+    on_host,
+    output,
+    requirements,
+    seed_kernels,
+    status_until,
+    zenav,
+)
 
 pytestmark = [pytest.mark.netns, pytest.mark.slow]
 GOAL = ("-1.2", "0.3", "0.0")  # 1 m ahead of the room world's start (-2.2, 0, 0)
@@ -61,6 +72,7 @@ def test_fleet_install_up_status_and_a_goal(fleet):
     assert "write " + str(fleet["tmp"] / "hosts/robot1/root/etc/udev/rules.d/99-pioneer.rules") in r.stdout
     assert not (fleet["tmp"] / "hosts").exists(), "--dry-run changed something"
 
+    seed_kernels(fleet["tmp"] / "hosts/master1/zenav")  # after the dry run: it must find nothing there
     r = zenav("fleet", "-i", inv, "install", timeout=900)
     assert r.returncode == 0, r.stdout + r.stderr
     assert "supervisor" in r.stdout  # no systemd here: detected
@@ -112,6 +124,7 @@ def test_fleet_second_robot_with_its_own_master_a_goal_to_each(fleet):
     inv2 = str(fleet["inv2"])
     t0, procs = time.monotonic(), []
     try:
+        seed_kernels(fleet["tmp"] / "hosts/master2/zenav")
         r = zenav("fleet", "-i", inv2, "install", "robot2", "master2", timeout=600)
         assert r.returncode == 0, r.stdout + r.stderr
         r = zenav("fleet", "-i", inv2, "up", "robot2", "master2")
