@@ -15,7 +15,7 @@ in the status), TF. Out ``cmd_vel``, ``move_base/status`` + ``move_base/result``
 ``move_base/loop_time``, ``move_base/cmd_trace`` (Scalar after each cycle's cmd_vel: value = header stamp
 of the local costmap it was computed from, -1 without one; bench/loop.py). Service ``make_plan``
 (PlanRequest -> PlanResult), as ROS move_base offers. Global planning on the bus (the planner thread's
-plan call, the service) is ``master_side.move_base.global_planning``.
+plan call, the service) is ``master_side.move_base.global_planning_node``.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ from common.tf import TFListener
 from master_side.costmap.health import SensorHealth
 from master_side.move_base.config import check, load_move_base_config
 from master_side.move_base.controller import LocalController
-from master_side.move_base.global_planning import GlobalPlanning
+from master_side.move_base.global_planning_node import GlobalPlanning
 from master_side.move_base.inputs import robot_pose, safety_override
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params

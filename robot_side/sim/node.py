@@ -29,7 +29,7 @@ Subscribed: ``cmd_vel_topic`` (Twist, default ``cmd_vel``; behind the collision 
 appears, in the world or relative to the robot; for tests and demos of the robot's own safety).
 The physics runs on its own thread paced by ``Pacer`` at ``speed`` x real time; when the machine cannot
 keep up for more than ``max_lag`` wall seconds, the sim runs slower instead of bursting to catch up.
-The sensor mounts' transforms are ``robot_side.sim.mount_tf``.
+The sensor mounts' transforms are ``robot_side.sim.mounts_node``.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ from common.config import ConfigError, load_params
 from common.geometry import Pose2D
 from common.messages import BatteryState, Clock, Header, MotorState, SpawnBox, Twist
 from common.tf import StaticTFBroadcaster, TFBroadcaster, TFListener
-from robot_side.sim.mount_tf import CAMERA_LINK, SensorMounts
+from robot_side.sim.mounts_node import CAMERA_LINK, SensorMounts
 from robot_side.sim.node_params import SIMULATOR_KEYS, SimNodeParams
 from robot_side.sim.simulator import Pacer, Simulator, resolve_world
 
