@@ -70,6 +70,28 @@ def tile_fields(src, which, rows, cols, r, far, table, coarse_n, fine_out, coars
 
 
 @kernel
+def updated_log_odds(old, hit, l_free, l_occ, l_min, l_max):
+    """A cell's log-odds after one scan: + l_occ for a hit, else + l_free, clamped to [l_min, l_max]."""
+    new = old + (l_occ if hit else l_free)
+    return min(max(new, l_min), l_max)
+
+
+@kernel
+def part_bits(lr, lc, tile, halo):
+    """The parts of a tile holding its cell (row lr, column lc): bit 3 a + b, a / b = 0 the low halo
+    rows / columns, 1 all of them, 2 the high halo (``grid``'s occupancy stamps)."""
+    bits = 0
+    for a in range(3):
+        if (a == 0 and lr >= halo) or (a == 2 and lr < tile - halo):
+            continue
+        for b in range(3):
+            if (b == 0 and lc >= halo) or (b == 2 and lc < tile - halo):
+                continue
+            bits |= 1 << (3 * a + b)
+    return bits
+
+
+@kernel
 def integrate_scan(flat, nx, ny, ix0, iy0, res, x, y, c, s, free, hits, mark, l_free, l_occ, l_min, l_max):
     """Add a scan to the log-odds window ``flat`` (ny * nx): the cells of the free points
     (F, 2) gain l_free, those of the hits (H, 2) l_occ instead, each cell once, clamped to
@@ -95,8 +117,7 @@ def integrate_scan(flat, nx, ny, ix0, iy0, res, x, y, c, s, free, hits, mark, l_
     for q in range(count):
         k = cells[q]
         old = flat[k]
-        new = old + (l_occ if mark[k] == 2 else l_free)
-        new = min(max(new, l_min), l_max)
+        new = updated_log_odds(old, mark[k] == 2, l_free, l_occ, l_min, l_max)
         flat[k] = new
         mark[k] = 0
         if (old > 0) != (new > 0):
@@ -118,14 +139,10 @@ def tile_parts(cells, flipped, nx, ntx, nty, tile, halo):
     for k in flipped:
         r, c = k // nx, k % nx
         t = (r // tile) * ntx + c // tile
-        lr, lc = r % tile, c % tile
-        for a in range(3):
-            if (a == 0 and lr >= halo) or (a == 2 and lr < tile - halo):
-                continue
-            for b in range(3):
-                if (b == 0 and lc >= halo) or (b == 2 and lc < tile - halo):
-                    continue
-                parts[t, 3 * a + b] = True
+        bits = part_bits(r % tile, c % tile, tile, halo)
+        for q in range(9):
+            if bits & (1 << q):
+                parts[t, q] = True
     return touched, parts
 
 
@@ -202,25 +219,17 @@ def integrate_tiles(flat, occ, refs, free, nfree, mark, parts, table, otx, oty, 
     for q in range(count):
         k = cells[q]
         old = flat[k]
-        new = old + (l_occ if mark[k] == 2 else l_free)
-        new = min(max(new, l_min), l_max)
+        new = updated_log_odds(old, mark[k] == 2, l_free, l_occ, l_min, l_max)
         flat[k] = new
         mark[k] = 0
         if (old > 0) != (new > 0):
             nflip += 1
             sl = k // tt
             loc = k - sl * tt
-            lr, lc = loc // t, loc % t
             if parts[sl] == 0:
                 changed[nc] = sl
                 nc += 1
-            for a in range(3):
-                if (a == 0 and lr >= halo) or (a == 2 and lr < t - halo):
-                    continue
-                for b in range(3):
-                    if (b == 0 and lc >= halo) or (b == 2 and lc < t - halo):
-                        continue
-                    parts[sl] |= 1 << (3 * a + b)
+            parts[sl] |= part_bits(loc // t, loc % t, t, halo)
     for q in range(nc):
         sl = changed[q]
         st = stamp[0]
