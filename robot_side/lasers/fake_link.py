@@ -8,8 +8,9 @@ import os
 import select
 import socket
 import time
-import tty
 from typing import Self
+
+from robot_side.fake_device import open_raw_pty
 
 
 class FakeDeviceLink:
@@ -25,14 +26,8 @@ class FakeDeviceLink:
     def on_pty(cls, link: str | None = None, **kw) -> tuple[Self, str]:
         """A device on a new pty pair (not started); returns it and the path for the driver."""
         fake = cls(**kw)
-        fake._fd, fake._slave = os.openpty()
-        tty.setraw(fake._slave)
-        path = os.ttyname(fake._slave)
-        if link:
-            if os.path.lexists(link):
-                os.unlink(link)
-            os.symlink(path, link)
-            fake._link = link
+        fake._fd, fake._slave, path = open_raw_pty(link)
+        fake._link = link or None
         return fake, path
 
     @classmethod

@@ -19,11 +19,10 @@ import math
 import os
 import threading
 import time
-import tty
 
 import numpy as np
 
-from robot_side.fake_device import serve_until_signal
+from robot_side.fake_device import open_raw_pty, serve_until_signal
 
 NO_RETURN_CM = 0x1FFF  # this fake's value for "nothing within max_range" (13 bits all set)
 LAYOUTS = ("old", "new", "new_nofield")  # 1.02; 1.03 with a measurement field; 1.03 without one
@@ -90,17 +89,11 @@ class FakeS300:
     @classmethod
     def on_pty(cls, link: str | None = None, **kw) -> tuple[FakeS300, str]:
         """A scanner on a new pty pair; returns it (not started) and the device path for the driver."""
-        master, slave = os.openpty()
-        tty.setraw(slave)  # binary-clean before the driver opens it
+        master, slave, path = open_raw_pty(link)
         os.set_blocking(master, False)  # a scanner never waits for its reader: unread bytes are lost
-        path = os.ttyname(slave)
         fake = cls(master, **kw)
         fake._slave_fd = slave  # kept open, so the master never reads EIO before the driver connects
-        if link:
-            if os.path.lexists(link):
-                os.unlink(link)
-            os.symlink(path, link)
-            fake._link = link
+        fake._link = link or None
         return fake, path
 
     # ------------------------------------------------------------------ what it measures

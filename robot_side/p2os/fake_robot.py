@@ -17,10 +17,9 @@ import os
 import select
 import threading
 import time
-import tty
 from typing import Any
 
-from robot_side.fake_device import serve_until_signal
+from robot_side.fake_device import open_raw_pty, serve_until_signal
 from robot_side.p2os import protocol as P
 from robot_side.p2os.sip import MODELS, Sip, encode_sip, theta_to_raw
 
@@ -84,16 +83,10 @@ class FakeP2OSRobot:
     @classmethod
     def on_pty(cls, link: str | None = None, **kw) -> tuple[FakeP2OSRobot, str]:
         """A robot on a new pty pair; returns it (not started) and the device path for the driver."""
-        master, slave = os.openpty()
-        tty.setraw(slave)  # binary-clean before the driver opens it (no echo, no CR/LF mapping)
-        path = os.ttyname(slave)
+        master, slave, path = open_raw_pty(link)
         robot = cls(FdPort(master), **kw)
         robot._slave_fd = slave  # kept open: the master side reads EIO once every slave fd is closed
-        if link:
-            if os.path.lexists(link):
-                os.unlink(link)
-            os.symlink(path, link)
-            robot._link = link
+        robot._link = link or None
         return robot, path
 
     # ------------------------------------------------------------------ thread
