@@ -7,6 +7,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import logging
+import queue
 import threading
 import time
 import traceback
@@ -69,6 +70,7 @@ class Publisher:
         cc = zenoh.CongestionControl.BLOCK if reliable else zenoh.CongestionControl.DROP
         self._pub = node.session.declare_publisher(self.key, congestion_control=cc, express=True)
         self._attachment = node.name.encode()
+        self._attachment_z = zenoh.ZBytes(self._attachment)  # built once, not per message
         self._last: bytes | None = None
         self._queryable = None
         self.count = 0
@@ -85,7 +87,7 @@ class Publisher:
         data = encode(msg)
         if self.latched:
             self._last = data
-        self._pub.put(data, attachment=self._attachment)
+        self._pub.put(data, attachment=self._attachment_z)
         self.count += 1
 
     def close(self) -> None:
@@ -115,14 +117,16 @@ class Subscription:
         self.errors = 0  # messages whose callback raised
         self.dropped = 0  # valid messages overwritten before being consumed
         self.last_receive_time = 0.0  # time.monotonic() of the last valid message
-        self.last_publisher = ""
+        self._last_attachment = None  # the publisher's name, as it came (decoded when asked)
+        self._waiting = 0  # threads in wait() / wait_first() / get(): notified per message only if any
+        self._kick: queue.SimpleQueue = queue.SimpleQueue()  # one token per message for the callback thread
         self._warn = RateLimitedLog()
         self._closed = False
-        self._sub = node.session.declare_subscriber(self.key, self._on_sample)
         self._worker = None
         if callback is not None:
             self._worker = threading.Thread(target=self._deliver, daemon=True, name=f"sub:{topic}")
             self._worker.start()
+        self._sub = node.session.declare_subscriber(self.key, self._on_sample)
         # Latched topics: ask every publisher for its last message now, and again whenever a new
         # publisher of this topic appears (its liveliness token), so neither start order matters.
         self._fetch_latched()
@@ -162,16 +166,29 @@ class Subscription:
             self.received += 1
             self.last_receive_time = time.monotonic()
             if attachment is not None:
-                self.last_publisher = attachment.to_bytes().decode(errors="replace")
-            self._cv.notify_all()
+                self._last_attachment = attachment
+            if self._waiting:
+                self._cv.notify_all()
+        if self._worker is not None:
+            self._kick.put(None)
+
+    @property
+    def last_publisher(self) -> str:
+        """Name of the node that sent the last valid message ("" if unknown)."""
+        att = self._last_attachment
+        return att.to_bytes().decode(errors="replace") if att is not None else ""
 
     def _deliver(self) -> None:
+        # Woken through a SimpleQueue (a C lock, no Python-level Condition on either side): the hand-off
+        # from Zenoh's thread is on every message's path. A token with nothing queued (the message was
+        # overwritten in 'latest' mode) is skipped; close() sends one more token.
         while True:
+            self._kick.get()
             with self._cv:
-                while not self._queue and not self._closed:
-                    self._cv.wait(0.5)
                 if self._closed:
                     return
+                if not self._queue:
+                    continue
                 msg = self._queue.popleft()
             try:
                 self._callback(msg)
@@ -193,25 +210,33 @@ class Subscription:
         """Wall seconds since the last valid message (inf if none)."""
         return time.monotonic() - self.last_receive_time if self.received else float("inf")
 
+    def _wait_for(self, pred: Callable[[], bool], timeout: float | None) -> bool:
+        """Condition.wait_for, counted in ``_waiting`` (call with ``_cv`` held)."""
+        self._waiting += 1
+        try:
+            return self._cv.wait_for(pred, timeout)
+        finally:
+            self._waiting -= 1
+
     def wait(self, timeout: float = 5.0) -> Any:
         """Wait for the next message received after this call. Raises TimeoutError."""
         with self._cv:
             n = self.received
-            if not self._cv.wait_for(lambda: self.received > n or self._closed, timeout):
+            if not self._wait_for(lambda: self.received > n or self._closed, timeout):
                 raise TimeoutError(f"no message on '{self.topic}' within {timeout:.1f} s")
             return self._latest
 
     def wait_first(self, timeout: float = 5.0) -> Any:
         """The latest message, waiting for one if none arrived yet. Raises TimeoutError."""
         with self._cv:
-            if not self._cv.wait_for(lambda: self.received > 0, timeout):
+            if not self._wait_for(lambda: self.received > 0, timeout):
                 raise TimeoutError(f"no message on '{self.topic}' within {timeout:.1f} s")
             return self._latest
 
     def get(self, timeout: float | None = 5.0) -> Any:
         """Pop the oldest queued message (queue mode, no callback). Raises TimeoutError."""
         with self._cv:
-            if not self._cv.wait_for(lambda: bool(self._queue), timeout):
+            if not self._wait_for(lambda: bool(self._queue), timeout):
                 raise TimeoutError(f"no message on '{self.topic}' within {timeout} s")
             return self._queue.popleft()
 
@@ -219,6 +244,7 @@ class Subscription:
         with self._cv:
             self._closed = True
             self._cv.notify_all()
+        self._kick.put(None)
         for ent in (self._sub, self._pub_watch):
             with contextlib.suppress(zenoh.ZError):
                 ent.undeclare()

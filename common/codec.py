@@ -19,7 +19,8 @@ from typing import Any, Callable
 import msgpack
 import numpy as np
 
-from common.messages import REGISTRY, Arr
+from common import codec_gen
+from common.messages import REGISTRY
 
 MAGIC = "zenav"
 _EXT_NDARRAY = 1
@@ -102,10 +103,8 @@ _ENCODERS: dict[type, Callable[[Any], dict]] = {}
 _DECODERS: dict[Any, Callable[[Any], Any]] = {}
 
 
-def _array_spec(ann: Any) -> Arr | None:
-    if typing.get_origin(ann) is typing.Annotated:
-        return next((m for m in ann.__metadata__ if isinstance(m, Arr)), None)
-    return None
+_array_spec = codec_gen.array_spec
+_FAST: dict[type, Callable[[Any], Any]] = {}  # straight-line decoders (common.codec_gen)
 
 
 def _make_encoder(cls: type) -> Callable[[Any], dict]:
@@ -114,16 +113,22 @@ def _make_encoder(cls: type) -> Callable[[Any], dict]:
         raise EncodeError(f"{cls.__name__} is not a registered message type")
     schema = REGISTRY[name]
     arrays = [(k, s.dtype, s.ndim) for k, ann in schema.fields.items() if (s := _array_spec(ann)) is not None]
-    names = tuple(f.name for f in dataclasses.fields(cls))
 
-    def enc(v: Any) -> dict:
-        for k, dtype, ndim in arrays:  # the receiver would reject it: fail here, loudly
+    def check_arrays(v: Any) -> None:  # the receiver would reject it: fail here, loudly
+        for k, dtype, ndim in arrays:
             a = getattr(v, k)
             if not isinstance(a, np.ndarray) or _DTYPE_NAMES.get(a.dtype) != dtype or a.ndim != ndim:
                 got = f"{a.dtype.name}[{a.ndim}d]" if isinstance(a, np.ndarray) else type(a).__name__
                 raise EncodeError(f"{name}.{k}: expected {dtype}[{ndim}d] array, got {got}")
-        return {k: _to_wire(getattr(v, k)) for k in names}
 
+    names = tuple(f.name for f in dataclasses.fields(cls))
+    return codec_gen.make_encoder(cls, schema.fields, names, _encoder_of, _to_wire, check_arrays, _DTYPE_NAMES)
+
+
+def _encoder_of(cls: type) -> Callable[[Any], dict]:
+    enc = _ENCODERS.get(cls)
+    if enc is None:
+        enc = _ENCODERS[cls] = _make_encoder(cls)
     return enc
 
 
@@ -137,8 +142,7 @@ def _to_wire(v: Any) -> Any:
     if t is np.ndarray:
         return _pack_array(v)
     if dataclasses.is_dataclass(v):
-        enc = _ENCODERS[t] = _make_encoder(t)
-        return enc(v)
+        return _encoder_of(t)(v)
     if isinstance(v, np.ndarray):
         return _pack_array(v)
     if isinstance(v, (tuple, list)):
@@ -233,16 +237,20 @@ def _raise(text: str) -> Any:
     raise DecodeError(text)
 
 
+def _plain(cls: type) -> bool:
+    """A plain dataclass (generated __init__, no __post_init__, no slots): fill its __dict__ directly, 10x
+    cheaper than __init__'s object.__setattr__ per field of a frozen class; every field is given."""
+    init = getattr(cls.__init__, "__code__", None)
+    return (init is not None and init.co_filename == "<string>" and not hasattr(cls, "__post_init__")
+            and "__slots__" not in cls.__dict__ and all(f.init for f in dataclasses.fields(cls)))
+
+
 def _make_builder(schema) -> Callable[[Any], Any]:
     keys = frozenset(schema.fields)
     fields = [(k, _decoder(ann)) for k, ann in schema.fields.items()]
     cls = schema.cls
     new = object.__new__
-    # A plain dataclass (generated __init__, no __post_init__, no slots): fill its __dict__ directly, 10x
-    # cheaper than __init__'s object.__setattr__ per field of a frozen class; every field is given.
-    init = getattr(cls.__init__, "__code__", None)
-    plain = (init is not None and init.co_filename == "<string>" and not hasattr(cls, "__post_init__")
-             and "__slots__" not in cls.__dict__ and all(f.init for f in dataclasses.fields(cls)))
+    plain = _plain(cls)
 
     def build(body: Any) -> Any:
         if type(body) is not dict:
@@ -266,6 +274,14 @@ def _make_builder(schema) -> Callable[[Any], Any]:
     return build
 
 
+def _fast_of(cls: type) -> Callable[[Any], Any]:
+    fn = _FAST.get(cls)
+    if fn is None:
+        schema = REGISTRY[cls._msg_name]
+        fn = _FAST[cls] = codec_gen.make_decoder(cls, schema.fields, _plain(cls), _decoder, _fast_of, _DTYPES)
+    return fn
+
+
 def decode(data: bytes | bytearray | memoryview, expected: type | None = None) -> Any:
     """Decode bytes into a message; if ``expected`` is given the type must match. Raises DecodeError."""
     try:
@@ -287,6 +303,10 @@ def decode(data: bytes | bytearray | memoryview, expected: type | None = None) -
         raise DecodeError(f"expected {getattr(expected, '_msg_name', expected)}, got {name}")
     if version != schema.version:
         raise DecodeError(f"{name}: schema version {version!r}, this build speaks {schema.version}")
+    try:
+        return _fast_of(schema.cls)(body)
+    except Exception:  # noqa: BLE001 - off the common case (or bad): the generic walk decides and explains
+        pass
     try:
         return _decoder(schema.cls)(body)
     except DecodeError as e:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import typing
 from typing import Any, Callable
 
 import numpy as np
@@ -162,15 +163,59 @@ _RULES: dict[type, Callable[[Any, str], str | None]] = {
 
 def problem(msg: Any, now: float = 0.0) -> str | None:
     """Why ``msg`` is unusable, or None. ``now``: the receiver's clock (0 = unknown, no future check)."""
-    if not dataclasses.is_dataclass(msg):
-        return None
-    why = _walk(msg, type(msg).__name__)
+    cls = type(msg)
+    fine = _FINE.get(cls)
+    if fine is None:
+        if not dataclasses.is_dataclass(msg):
+            return None
+        fine = _FINE[cls] = _make_fine(cls)
+    why = None if fine(msg) else _walk(msg, cls.__name__)
     if why or now <= 0.0:
         return why
     for stamp in _stamps(msg):
         if stamp > now + MAX_FUTURE_S:
             return f"stamp {stamp:.3f} is {stamp - now:.0f} s ahead of this node's clock"
     return None
+
+
+_FINE: dict[type, Callable[[Any], bool]] = {}
+_INF = math.inf
+
+
+def _make_fine(cls: type) -> Callable[[Any], bool]:
+    """A straight-line ``msg -> True`` for a message that ``_walk`` would pass, generated per type from
+    its declared fields; False sends the message to ``_walk``, which finds and words the problem (or
+    passes it: False only means "not the common case", e.g. an int where a float is declared)."""
+    hints = typing.get_type_hints(cls)
+    env: dict[str, Any] = {"INF": _INF, "ndarray": np.ndarray, "isfinite": np.isfinite, "RULE": _RULES.get(cls)}
+    lines = ["def fine(m):"]
+    for f in dataclasses.fields(cls):
+        k, ann = f.name, hints[f.name]
+        lines.append(f"    x = m.{k}")
+        if ann is float:
+            ok = "x.__class__ is float and -INF < x < INF" if (cls, k) not in _NONFINITE_OK else "x.__class__ is float"
+        elif ann in (int, str, bool):
+            env[f"T_{k}"] = ann
+            ok = f"x.__class__ is T_{k}"
+        elif ann is np.ndarray:  # get_type_hints drops the Arr annotation
+            ok = ("x.__class__ is ndarray" if (cls, k) in _NONFINITE_OK else
+                  "x.__class__ is ndarray and (x.dtype.kind != 'f' or isfinite(x).all())")
+        elif dataclasses.is_dataclass(ann) and ann is not cls:
+            env[f"T_{k}"], env[f"F_{k}"] = ann, _fine_of(ann)
+            ok = f"x.__class__ is T_{k} and F_{k}(x)"
+        else:  # tuples, unions...: the generic walk
+            return lambda m: False
+        lines += [f"    if not ({ok}):", "        return False"]
+    lines.append("    return RULE is None or RULE(m, '') is None")
+    exec("\n".join(lines), env)  # noqa: S102 - source built from the field names of a message dataclass
+    return env["fine"]
+
+
+def _fine_of(cls: type) -> Callable[[Any], bool]:
+    fine = _FINE.get(cls)
+    if fine is None:
+        fine = _FINE[cls] = _make_fine(cls)
+    return fine
 
 
 def _stamps(msg: Any):
