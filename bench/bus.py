@@ -1,6 +1,6 @@
 """Bus benchmark: two processes on loopback (explicit tcp endpoint, multicast off).
 
-    python bench/bus.py [--scans 1000] [--seconds 10]
+    python bench/bus.py [--scans 1000] [--seconds 10] [--stages]
 
 Measures, through the real Node API (encode -> Zenoh -> decode -> subscriber callback):
   * one-way latency of a 720-beam LaserScan (paced at 200 Hz), and as a baseline the same number of
@@ -10,6 +10,8 @@ Measures, through the real Node API (encode -> Zenoh -> decode -> subscriber cal
 One-way latency = time.time() in the subscriber's callback (after decode) minus header.stamp, set
 with time.time() just before publish (encode included). Both processes are on this host, so they
 share one clock. Sequence numbers travel in header.frame_id; drops = published - received.
+--stages: also split the scan's latency into message + encode, Zenoh, decode + checks and the hop to the
+callback thread (bench/bus_stages.py; a few clock reads per message, so off for the headline figure).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
 
+from bench import bus_stages  # noqa: E402
 from common.bus import Node  # noqa: E402
 from common.codec import encode  # noqa: E402
 from common.messages import DepthImage, Header, LaserScan, Text  # noqa: E402
@@ -44,7 +47,10 @@ def free_port() -> int:
 
 
 # -- subscriber process ----------------------------------------------------------------------------
-def run_sub(robot: str, port: int) -> int:
+def run_sub(robot: str, port: int, stages: bool) -> int:
+    entered: dict[str, tuple[float, float]] = {}
+    if stages:
+        bus_stages.time_receive("scan", entered)
     node = Node(
         "bench_sub", config=BusConfig(robot=robot, multicast=False, listen=(f"tcp/127.0.0.1:{port}",))
     )
@@ -85,6 +91,7 @@ def run_sub(robot: str, port: int) -> int:
         out = {t: {"rec": rec[t], "dropped": subs[t].dropped, "malformed": subs[t].malformed} for t in rec}
         out["depth"]["arrivals"] = arrivals
         out["raw"] = raw
+        out["entered"] = entered
     print(json.dumps(out), flush=True)
     node.close()
     return 0
@@ -113,14 +120,16 @@ def main() -> int:
     ap.add_argument("--role", default="pub", choices=("pub", "sub"))
     ap.add_argument("--robot", default="bench" + uuid.uuid4().hex[:8])
     ap.add_argument("--port", type=int, default=0)
+    ap.add_argument("--stages", action="store_true", help="time the scan's path stage by stage")
     a = ap.parse_args()
     if a.role == "sub":
-        return run_sub(a.robot, a.port)
+        return run_sub(a.robot, a.port, a.stages)
 
     port = free_port()
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
     child = subprocess.Popen(
-        [sys.executable, __file__, "--role", "sub", "--robot", a.robot, "--port", str(port)],
+        [sys.executable, __file__, "--role", "sub", "--robot", a.robot, "--port", str(port)]
+        + (["--stages"] if a.stages else []),
         env=env,
         stdout=subprocess.PIPE,
         text=True,
@@ -149,14 +158,18 @@ def bench(a, port: int, child: subprocess.Popen) -> int:
         while not p._pub.matching_status.matching:
             time.sleep(0.01)
 
+    sent: dict[str, tuple[float, float, float]] = {}
+    if a.stages:
+        scan_pub._pub = bus_stages.TimedPut(scan_pub._pub)
     beams = 720
     ranges = np.random.default_rng(0).uniform(0.1, 30.0, beams).astype(np.float32)
     inten = np.zeros(beams, np.float32)
 
     def send_scan(i: int) -> None:
+        stamp = time.time()
         scan_pub.publish(
             LaserScan(
-                Header(time.time(), f"scan{i}"),
+                Header(stamp, f"scan{i}"),
                 -np.pi,
                 np.pi,
                 2 * np.pi / beams,
@@ -168,6 +181,8 @@ def bench(a, port: int, child: subprocess.Popen) -> int:
                 inten,
             )
         )
+        if a.stages:
+            sent[f"scan{i}"] = (stamp, *scan_pub._pub.last)
 
     depth = np.random.default_rng(1).uniform(0.3, 8.0, (480, 640)).astype(np.float32)
 
@@ -247,9 +262,15 @@ def bench(a, port: int, child: subprocess.Popen) -> int:
     )
     for r in rows:
         print(f"{r[0]:<24}{r[1]:>8}{r[2]:>6}{r[3]:>6}{r[4]:>9.3f}{r[5]:>9.3f}{r[6]:>9.3f}{r[7]:>9}")
+    extra = ""
+    if a.stages:
+        delivered = {q: sent[q][0] + x for q, x in s_rec if q in sent}
+        p50 = bus_stages.stage_p50_ms(sent, res["entered"], delivered)
+        print("LaserScan stages, p50 ms: " + ", ".join(f"{k} {v:.3f}" for k, v in p50.items()))
+        extra = " " + " ".join(f"stage_{k.replace('+', '_').replace(' ', '_')}_p50_ms={v:.3f}" for k, v in p50.items())
     print(
         f"scan_p50_ms={pct(s_lat, 50):.3f} scan_p99_ms={pct(s_lat, 99):.3f} zenoh_raw_p50_ms={pct(raw_lat, 50):.3f} "
-        f"depth_vga_p50_ms={pct(d_lat, 50):.3f} depth_vga_hz={d_hz:.2f} depth_vga_drops={depth_drops}"
+        f"depth_vga_p50_ms={pct(d_lat, 50):.3f} depth_vga_hz={d_hz:.2f} depth_vga_drops={depth_drops}{extra}"
     )
     return 0
 

@@ -22,7 +22,11 @@ from common.messages import Header, LaserScan, Text  # noqa: E402
 
 
 def say(*parts) -> None:
-    print(*parts, flush=True)
+    """One line in one write: print() writes each part separately, and with PYTHONUNBUFFERED each part
+    is its own write(2), so lines printed by a callback thread and the main thread could interleave
+    ("MSGREADY 12 listener")."""
+    sys.stdout.write(" ".join(map(str, parts)) + "\n")
+    sys.stdout.flush()
 
 
 def make_scan(seq: int, beams: int, stamp: float = 0.0) -> LaserScan:
