@@ -24,3 +24,22 @@ def shared_dir() -> Path:
 def robot_name() -> str:
     """A robot name unique to this test, so key expressions never cross-talk between runs."""
     return "t" + uuid.uuid4().hex[:10]
+
+
+# Lines a test leaves in its report as ("summary:<section title>", text), printed after the run. Reports
+# come back from xdist's workers, so this works whether or not the suite runs in parallel.
+_SUMMARY: dict[str, list[str]] = {}
+
+
+def pytest_runtest_logreport(report):
+    if report.when == "teardown":
+        for key, text in report.user_properties:
+            if key.startswith("summary:"):
+                _SUMMARY.setdefault(key.removeprefix("summary:"), []).append(text)
+
+
+def pytest_terminal_summary(terminalreporter):
+    for title, lines in _SUMMARY.items():
+        terminalreporter.section(title)
+        for line in lines:
+            terminalreporter.write_line(line)

@@ -125,7 +125,8 @@ def check_stale_cmd_vel_stops(rig: Rig, base: BaseParams, v: float = 0.4) -> Non
         rig.cmd.publish(Twist.planar(v, 0.0))
         t0 = rig.now()
         try:
-            moving = wait_until(lambda: [m for m in rig.odom.msgs() if m.header.stamp > t0 - 0.5 and _speed(m) > 0],
+            moving = wait_until(lambda t0=t0: [m for m in rig.odom.msgs()
+                                               if m.header.stamp > t0 - 0.5 and _speed(m) > 0],
                                 20, "motion after a single cmd_vel")
             break
         except AssertionError:
