@@ -43,3 +43,17 @@ def pytest_terminal_summary(terminalreporter):
         terminalreporter.section(title)
         for line in lines:
             terminalreporter.write_line(line)
+
+
+# The long end-to-end folders first (longest first, roughly, from `--durations=0`): with two workers
+# taking whole modules, a long module left for the end would run alone while the other worker idles.
+_LONG_FIRST = ("nav_e2e", "fleet", "sim_e2e", "logs", "monitor", "reliability", "slam_e2e", "barn", "bus",
+               "amcl", "deploy", "demo", "costmap_e2e", "agent")
+
+
+def pytest_collection_modifyitems(items):
+    def rank(item) -> int:
+        parts = item.nodeid.split("/")
+        return _LONG_FIRST.index(parts[1]) if len(parts) > 2 and parts[1] in _LONG_FIRST else len(_LONG_FIRST)
+
+    items.sort(key=rank)  # stable: the order inside each folder is kept

@@ -16,6 +16,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
+from common.zenoh_config import TX_QUEUE_BATCHES
+
 ROLES = ("peer", "client", "router")
 CMD_VEL_KEY = "zenav/*/cmd_vel"
 
@@ -100,7 +102,8 @@ def build(o: Options) -> dict:
     if o.connect:
         conf["connect"] = {"endpoints": list(o.connect)}
     conf["scouting"] = {"multicast": {"enabled": multicast}}
-    transport: dict = {"link": {"tx": {"lease": o.lease_ms, "keep_alive": 4}}}
+    transport: dict = {"link": {"tx": {"lease": o.lease_ms, "keep_alive": 4,
+                                       "queue": {"size": {"data": TX_QUEUE_BATCHES}}}}}
     usrpwd = {}
     if o.user:
         usrpwd.update(user=o.user, password=o.password)

@@ -81,6 +81,24 @@ def test_generated_config_has_short_lease_and_parses(tmp_path):
     assert conf["transport"]["link"]["tx"]["lease"] == 1000
     assert conf["mode"] == "peer"
     assert json.loads(zenoh.Config.from_file(path).get_json("transport/link/tx/lease")) == 1000
+    assert json.loads(zenoh.Config.from_file(path).get_json("transport/link/tx/queue/size/data")) == 16
+
+
+def test_send_queue_holds_16_stream_messages_unless_a_config_file_says_otherwise(tmp_path):
+    """Zenoh's 2-batch queue dropped best-effort messages whenever its send thread was a millisecond late
+    on a busy CPU (common.zenoh_config.TX_QUEUE_BATCHES); a user's file keeps its own value."""
+    from common.zenoh_config import BusConfig
+
+    def queue(cfg: BusConfig) -> int:
+        return json.loads(cfg.to_zenoh().get_json("transport/link/tx/queue/size/data"))
+
+    assert queue(BusConfig()) == 16
+    own = tmp_path / "own.json5"
+    own.write_text('{transport: {link: {tx: {queue: {size: {data: 4}}}}}}')
+    assert queue(BusConfig(zenoh_config_file=str(own))) == 4
+    plain = tmp_path / "plain.json5"
+    plain.write_text('{mode: "peer"}')
+    assert queue(BusConfig(zenoh_config_file=str(plain))) == 16
 
 
 def test_bad_options_are_refused_with_the_option_to_fix(tmp_path, capsys):
