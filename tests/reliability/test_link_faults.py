@@ -31,7 +31,9 @@ import yaml
 
 from tests.support import wait_until
 
-pytestmark = pytest.mark.netns
+# alone: under a second test worker's load, the first goal after a partition healed was once never
+# routed to move_base (3 sends over 60 s); this module's timing is its subject.
+pytestmark = [pytest.mark.netns, pytest.mark.alone]
 
 REPO = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).parent
