@@ -100,7 +100,7 @@ def _make_encoder(cls: type) -> Callable[[Any], dict]:
                 raise EncodeError(f"{name}.{k}: expected {dtype}[{ndim}d] array, got {got}")
 
     names = tuple(f.name for f in dataclasses.fields(cls))
-    return codec_gen.make_encoder(cls, schema.fields, names, _encoder_of, _to_wire, check_arrays, _DTYPE_NAMES)
+    return codec_gen.make_encoder(cls, schema.fields, names, _encoder_of, _to_wire, check_arrays)
 
 
 def _encoder_of(cls: type) -> Callable[[Any], dict]:

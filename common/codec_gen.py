@@ -6,7 +6,8 @@ order, every nested message of its declared type — in one function per type wi
 Anything else falls back to the generic walk in ``common.codec``, which gives the same bytes, the same
 message and the same errors: an encoder hands an off-case field to ``to_wire``; a decoder raises, and
 ``decode`` then runs the generic walk from the start (a decoder builds new objects only, so nothing is
-half done). On this 2-core VM a LaserScan cost 60 µs less per message (bench/bus.py).
+half done). On this 2-core VM, paired `bench/bus.py --stages` runs put encode + decode + checks of a
+LaserScan about 20 % lower than with the per-field closures they replaced.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import numpy as np
 
 from common.msg_registry import Arr
 
-_PLAIN = {float: "float", int: "int", str: "str", bool: "bool"}  # fields sent as they are
+_PLAIN = frozenset({float, int, str, bool})  # field types sent as they are
 
 
 def array_spec(ann: Any) -> Arr | None:
@@ -41,7 +42,7 @@ def _ident(k: str) -> str:
 
 
 def make_encoder(cls: type, fields: dict[str, Any], names: tuple[str, ...], encoder_of: Callable,
-                 to_wire: Callable, check_array: Callable, dtype_names: dict) -> Callable[[Any], dict]:
+                 to_wire: Callable, check_array: Callable) -> Callable[[Any], dict]:
     """``v -> {field: wire value}`` for one message type; ``check_array(v)`` raises the EncodeError of a
     wrong array (it is called when a fast check fails); ``encoder_of(cls)`` gives a nested type's encoder."""
     env: dict[str, Any] = {"ndarray": np.ndarray, "ExtType": msgpack.ExtType, "W": to_wire, "CHECK": check_array}

@@ -164,12 +164,9 @@ _RULES: dict[type, Callable[[Any, str], str | None]] = {
 def problem(msg: Any, now: float = 0.0) -> str | None:
     """Why ``msg`` is unusable, or None. ``now``: the receiver's clock (0 = unknown, no future check)."""
     cls = type(msg)
-    fine = _FINE.get(cls)
-    if fine is None:
-        if not dataclasses.is_dataclass(msg):
-            return None
-        fine = _FINE[cls] = _make_fine(cls)
-    why = None if fine(msg) else _walk(msg, cls.__name__)
+    if cls not in _FINE and not dataclasses.is_dataclass(msg):
+        return None
+    why = None if _fine_of(cls)(msg) else _walk(msg, cls.__name__)
     if why or now <= 0.0:
         return why
     for stamp in _stamps(msg):
