@@ -46,22 +46,24 @@ def select_worlds(n: int, listed: str) -> list[int]:
 
 
 def _fast(args: tuple) -> dict:
-    world, workdir, master, robot, plan_hz = args
+    world, workdir, master, robot, plan_hz, engine, friction = args
     from deploy.barn_inproc import InProcessStack
     from robot_side.worlds.barn import GOAL
 
     path = barn.write_world(world, workdir)
-    stack = InProcessStack(path, robot_config=robot, master_config=master, plan_hz=plan_hz, seed=world)
+    stack = InProcessStack(path, robot_config=robot, master_config=master, plan_hz=plan_hz, seed=world,
+                           engine=engine, friction=friction)
     o = stack.run(world, GOAL)
     return {"run": o.run, "cycle_ms": o.cycle_ms, "plan_ms": o.plan_ms, "wall_s": o.wall_s,
             "note": o.final_state if not o.run.success else ""}
 
 
 def _bus(args: tuple) -> dict:
-    world, workdir, master, robot, speed = args
+    world, workdir, master, robot, speed, engine, friction = args
     from deploy.barn_bus import run_world_bus
 
-    return run_world_bus(world, workdir, master_config=master, robot_config=robot, speed=speed)
+    return run_world_bus(world, workdir, master_config=master, robot_config=robot, speed=speed, engine=engine,
+                         friction=friction)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -76,21 +78,28 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--plan-hz", type=float, default=5.0,
                     help="fast mode: simulated rate of the global planner thread (at most planner_frequency)")
     ap.add_argument("--speed", type=float, default=1.0, help="bus mode: simulated time x real time")
+    ap.add_argument("--engine", choices=("kinematic", "mujoco"), default=None,
+                    help="simulator engine (default: the robot YAML's, the kinematic one)")
+    ap.add_argument("--friction", type=float, default=None,
+                    help="mujoco: wheel-floor friction coefficient (default: PhysicsParams, 0.9)")
     ap.add_argument("--workdir", default="", help="where world files and logs go (default: a temp folder)")
     a = ap.parse_args(argv)
     worlds = select_worlds(a.worlds, a.world_list)
     work = Path(a.workdir or tempfile.mkdtemp(prefix="zenav-barn-"))
     work.mkdir(parents=True, exist_ok=True)
-    print(f"# BARN {a.mode} mode: {len(worlds)} worlds, master {a.master}, work dir {work}", flush=True)
+    engine = a.engine or "the robot YAML's"
+    print(f"# BARN {a.mode} mode: {len(worlds)} worlds, engine {engine}"
+          f"{f' (friction {a.friction:g})' if a.friction is not None else ''}, master {a.master}, work dir {work}",
+          flush=True)
     t0 = time.monotonic()
     if a.mode == "fast":
-        jobs = [(w, str(work), a.master, a.robot, a.plan_hz) for w in worlds]
+        jobs = [(w, str(work), a.master, a.robot, a.plan_hz, a.engine, a.friction) for w in worlds]
         with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
             results = list(_progress(ex.map(_fast, jobs), len(jobs), t0))
     else:
         from deploy.procs import terminate_as_interrupt
 
-        jobs = [(w, str(work), a.master, a.robot, a.speed) for w in worlds]
+        jobs = [(w, str(work), a.master, a.robot, a.speed, a.engine, a.friction) for w in worlds]
         with terminate_as_interrupt():  # a killed bench stops each world's robot and master agents too
             results = list(_progress(map(_bus, jobs), len(jobs), t0))
     runs = [r["run"] for r in results]

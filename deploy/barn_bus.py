@@ -16,6 +16,7 @@ import uuid
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 from common.bus import Node
 from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, Scalar
@@ -62,6 +63,15 @@ class _Recorder:
             return np.array(self.trace, float).reshape(-1, 3), barn.collision_times(self.collisions)
 
 
+def _with_friction(robot_config: Path, friction: float, work: Path) -> Path:
+    cfg = yaml.safe_load(robot_config.read_text())
+    params = cfg["platform"]["sim"]["params"]
+    params["physics"] = {**(params.get("physics") or {}), "friction": float(friction)}
+    out = work / f"robot_friction_{friction:g}.yaml"
+    out.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return out
+
+
 def _verdict_due(trace: np.ndarray, hits: list[float]) -> bool:
     if len(trace) == 0:
         return False
@@ -75,12 +85,15 @@ def _verdict_due(trace: np.ndarray, hits: list[float]) -> bool:
 
 
 def run_world_bus(world: int, workdir: str | Path = "", master_config: str | Path = MASTER_CONFIG,
-                  robot_config: str | Path = ROBOT_CONFIG, speed: float = 1.0, echo=None) -> dict:
+                  robot_config: str | Path = ROBOT_CONFIG, speed: float = 1.0, echo=None, engine: str | None = None,
+                  friction: float | None = None) -> dict:
     """Run world ``world`` over the bus; returns {"run": barn.Run, "cycle_ms": loop times, "note": str}."""
     master_config, robot_config = Path(master_config).resolve(), Path(robot_config).resolve()
     work = Path(workdir or tempfile.mkdtemp(prefix="zenav-barn-")).resolve() / f"world_{world}"
     work.mkdir(parents=True, exist_ok=True)
     world_file = barn.write_world(world, work)
+    if friction is not None:  # a copy of the robot YAML with the simulator's physics.friction set
+        robot_config = _with_friction(robot_config, friction, work)
     robot = f"barn{world}x{uuid.uuid4().hex[:6]}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     group = ProcessGroup(robot, endpoint, work)
@@ -89,7 +102,7 @@ def run_world_bus(world: int, workdir: str | Path = "", master_config: str | Pat
     note = ""
     try:
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(world_file),
-                              "--speed", str(speed)])
+                              "--speed", str(speed), *(["--engine", engine] if engine else [])])
         group.spawn("master", ["master", "--config", str(master_config)])
         group.wait("the simulator", lambda: len(rec.trace) > 0, STARTUP_S)
         group.wait("move_base", lambda: rec.status.latest() is not None, STARTUP_S)

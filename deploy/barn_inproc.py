@@ -66,12 +66,17 @@ class _Costmap:
 
 class InProcessStack:
     def __init__(self, world_path: str | Path, robot_config: str | Path = ROBOT_CONFIG,
-                 master_config: str | Path = MASTER_CONFIG, plan_hz: float = 5.0, seed: int = 0):
+                 master_config: str | Path = MASTER_CONFIG, plan_hz: float = 5.0, seed: int = 0,
+                 engine: str | None = None, friction: float | None = None):
         robot_config, master_config = Path(robot_config), Path(master_config)
         sim_cfg = dict(read_yaml(robot_config)["platform"]["sim"]["params"])
         sim_cfg["world"] = str(world_path)
         sim_cfg.setdefault("sim", {})
         sim_cfg["sim"] = {**sim_cfg["sim"], "seed": seed}
+        if engine is not None:
+            sim_cfg["engine"] = engine
+        if friction is not None:
+            sim_cfg["physics"] = {**(sim_cfg.get("physics") or {}), "friction": friction}
         _, self.sim, _ = sim_node.load(sim_cfg, str(robot_config))
         nodes = read_yaml(master_config)["nodes"]
         self.costmaps: dict[str, _Costmap] = {}

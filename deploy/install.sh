@@ -23,9 +23,9 @@ if (( ${#apt_pkgs[@]} )); then
   fi
 fi
 
-extra=""
-(( want_test )) && extra="[test]"
+extra="[physics]"   # MuJoCo for the simulator's `engine: mujoco`
+(( want_test )) && extra="[physics,test]"
 python3 -m pip install -q --disable-pip-version-check -e ".${extra}" 2>&1 | grep -v "Running pip as the 'root' user" || true
-python3 -c "import zenoh, numpy, scipy, serial, msgpack, rerun, yaml, numba" || { echo "zenav install: import check failed" >&2; exit 1; }
+python3 -c "import zenoh, numpy, scipy, serial, msgpack, rerun, yaml, numba, mujoco" || { echo "zenav install: import check failed" >&2; exit 1; }
 python3 -m deploy.warm_kernels || { echo "zenav install: compiling the numba kernels failed" >&2; exit 1; }
 echo "zenav install: ok ($(command -v zenav || echo 'zenav not on PATH: use python3 -m deploy.cli'))" >&2

@@ -1,4 +1,5 @@
-"""The robot agent: ``zenav robot --config FILE [--world W] [--start X Y YAW] [--speed N] [--robot NAME]``.
+"""The robot agent: ``zenav robot --config FILE [--world W] [--start X Y YAW] [--speed N] [--engine E]
+[--robot NAME]``.
 
 Reads one YAML laid out like the tutorial's launch file (section 3.6) and runs every node as its own
 process under ``common.supervisor.Supervisor``:
@@ -11,8 +12,8 @@ process under ``common.supervisor.Supervisor``:
     safety:       the collision monitor (robot_side.safety.node) between the master's cmd_vel and
                   the base, which then listens on safety/cmd_vel (its cmd_vel_topic)
 
-``--world``, ``--start`` and ``--speed`` override the ``world``, ``start`` and ``speed`` parameters of
-the simulator node(s) (module ``robot_side.sim.node``). Every node's parameters are checked before
+``--world``, ``--start``, ``--speed`` and ``--engine`` override the ``world``, ``start``, ``speed`` and
+``engine`` parameters of the simulator node(s) (module ``robot_side.sim.node``). Every node's parameters are checked before
 anything starts (``common.node_check``). Exit status: 0 after Ctrl-C / SIGTERM, 1 when a required node
 ended or failed, 2 for a bad config file.
 """
@@ -27,6 +28,7 @@ from common.argtypes import finite, positive
 from common.config import ConfigError
 from common.launch import Launch, Section, load_launch, run_agent
 from common.node_check import format_config_error
+from robot_side.sim.physics_params import ENGINES
 
 SIM_MODULE = "robot_side.sim.node"
 SECTIONS = [
@@ -39,7 +41,7 @@ EXIT_CONFIG = 2
 
 
 def load(path: str, world: str | None = None, start: list[float] | None = None,
-         speed: float | None = None) -> Launch:
+         speed: float | None = None, engine: str | None = None) -> Launch:
     """The validated launch of a robot config, with the simulator overrides applied."""
     launch = load_launch(path, SECTIONS)
     overrides: dict = {}
@@ -51,6 +53,8 @@ def load(path: str, world: str | None = None, start: list[float] | None = None,
         if not speed > 0:
             raise ConfigError("--speed", "speed", f"must be > 0, got {speed}")
         overrides["speed"] = float(speed)
+    if engine is not None:
+        overrides["engine"] = engine
     if overrides:
         sims = [e for e in launch.entries if e.opts.module == SIM_MODULE]
         if not sims:
@@ -68,6 +72,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--start", nargs=3, type=finite, metavar=("X", "Y", "YAW"),
                    help="simulator start pose in m, m, rad")
     p.add_argument("--speed", type=positive, metavar="N", help="simulated time N x real time")
+    p.add_argument("--engine", choices=ENGINES,
+                   help="simulator engine: kinematic (exact arcs on a grid) or mujoco (rigid-body physics)")
     p.add_argument("--robot", metavar="NAME", default=argparse.SUPPRESS,
                    help="robot name (keys zenav/<robot>/...); "
                                                    "default $ZENAV_ROBOT, then the file's robot:")
@@ -75,7 +81,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     try:
-        launch = load(args.config, args.world, args.start, args.speed)
+        launch = load(args.config, args.world, args.start, args.speed, getattr(args, "engine", None))
     except ConfigError as e:
         print(format_config_error("robot", e), file=sys.stderr)
         return EXIT_CONFIG

@@ -47,6 +47,8 @@ P3AT_FOOTPRINT = ((0.3302, -0.0508), (0.254, -0.0508), (0.254, -0.254), (-0.254,
 
 @dataclass(frozen=True)
 class BaseParams:
+    model: builtins.str = param("p3at", choices=("p3at", "jackal"),
+                                doc="the robot (BASE_PRESETS: its defaults; the MuJoCo engine: its body)")
     footprint: tuple[tuple[float, float], ...] = param(P3AT_FOOTPRINT, unit="m", doc="polygon in base_link")
     max_vel_x: float = param(0.7, lo=0.0, hi=10.0, unit="m/s", doc="max |forward speed| (P3-AT: 0.7)")
     max_vel_theta: float = param(math.radians(140), lo=0.0, hi=20.0, unit="rad/s", doc="max |rotation speed|")
@@ -94,7 +96,7 @@ BASE_PRESETS: dict[str, dict] = {
 
 def base_preset(name: str, **overrides) -> BaseParams:
     """``base_preset("jackal", seed=3)`` -> BaseParams."""
-    return BaseParams(**{**BASE_PRESETS[name], **overrides})
+    return BaseParams(**{**BASE_PRESETS[name], "model": name, **overrides})
 
 
 def load_base_params(mapping: dict | None, source: str = "<config>", section: str = "base") -> BaseParams:
@@ -104,7 +106,7 @@ def load_base_params(mapping: dict | None, source: str = "<config>", section: st
     if model is not None:
         if model not in BASE_PRESETS:
             raise ConfigError(source, f"{section}.model", f"{model!r} is not one of {sorted(BASE_PRESETS)}")
-        m = {**BASE_PRESETS[model], **m}
+        m = {**BASE_PRESETS[model], **m, "model": model}
     return load_params(BaseParams, m, source, section)
 
 

@@ -41,6 +41,8 @@ from robot_side.sim.depth_camera import (
     load_depth_camera_params,
 )
 from robot_side.sim.laser import Laser, LaserParams, load_laser_params
+from robot_side.sim.mujoco_scene import import_mujoco
+from robot_side.sim.physics_params import ENGINES, PhysicsParams
 from robot_side.sim.world import World, WorldParams, load_world, parse_pose
 
 __all__ = ["SimulatorParams", "Simulator", "Pacer", "WORLDS_DIR", "resolve_world"]
@@ -54,6 +56,9 @@ class SimulatorParams:
     real_time_factor: float = param(1.0, lo=0.01, hi=1000.0, doc="simulated seconds per wall second")
     seed: int | None = param(None, lo=0, doc="if set, overrides the base/laser/camera seeds (seed, +1, +2)")
     map_frame_id: str = param("map", doc="frame of the ground truth (the world)")
+    engine: str = param("kinematic", choices=ENGINES,
+                        doc="kinematic: exact arcs on the grid (fast, exact geometry); mujoco: rigid-body "
+                            "physics (slip, inertia, torque limits), sensors by MuJoCo ray casting")
 
 
 def resolve_world(name: str | Path, source: str = "<config>") -> Path:
@@ -65,7 +70,7 @@ def resolve_world(name: str | Path, source: str = "<config>") -> Path:
     raise ConfigError(source, "world", f"world file {name!s} not found (also looked in {WORLDS_DIR})")
 
 
-_BASE, _LASER, _CAMERA, _SIM = BaseParams(), LaserParams(), DepthCameraParams(), SimulatorParams()
+_BASE, _LASER, _CAMERA, _SIM, _PHYS = BaseParams(), LaserParams(), DepthCameraParams(), SimulatorParams(), PhysicsParams()
 
 
 class Simulator:
@@ -73,15 +78,24 @@ class Simulator:
 
     def __init__(self, world: World, base: BaseParams = _BASE, laser: LaserParams | None = _LASER,
                  depth_camera: DepthCameraParams | None = _CAMERA, params: SimulatorParams = _SIM,
-                 start: Pose2D | None = None):
+                 start: Pose2D | None = None, physics: PhysicsParams = _PHYS):
         if params.seed is not None:
             base = dataclasses.replace(base, seed=params.seed)
             laser = laser and dataclasses.replace(laser, seed=params.seed + 1)
             depth_camera = depth_camera and dataclasses.replace(depth_camera, seed=params.seed + 2)
+            physics = dataclasses.replace(physics, seed=params.seed + 3)
         self.world, self.params = world, params
-        self.base = DiffDriveBase(world, base, start)
-        self.laser = Laser(world, laser) if laser is not None else None
-        self.camera = DepthCamera(world, depth_camera) if depth_camera is not None else None
+        if params.engine == "mujoco":
+            from robot_side.sim.mujoco_base import MujocoBase
+            from robot_side.sim.mujoco_sensors import RayDepthCamera, RayLaser
+
+            self.base = MujocoBase(world, base, physics, start)
+            self.laser = RayLaser(self.base, laser) if laser is not None else None
+            self.camera = RayDepthCamera(self.base, depth_camera) if depth_camera is not None else None
+        else:
+            self.base = DiffDriveBase(world, base, start)
+            self.laser = Laser(world, laser) if laser is not None else None
+            self.camera = DepthCamera(world, depth_camera) if depth_camera is not None else None
         self.time = 0.0
         self._periods = {}
         if self.laser:
@@ -93,12 +107,13 @@ class Simulator:
 
     @classmethod
     def from_config(cls, cfg: dict, source: str = "<config>") -> Simulator:
-        """Build from a node mapping: world, start, world_params, sim, base, laser, depth_camera.
+        """Build from a node mapping: world, start, world_params, sim, base, laser, depth_camera, engine,
+        physics (``engine: mujoco`` is short for ``sim: {engine: mujoco}``; ``physics``: PhysicsParams).
 
         ``laser`` / ``depth_camera``: a mapping of params (``laser.model`` picks a preset), or null/false to
         leave the sensor out; absent means defaults.
         """
-        known = {"world", "start", "world_params", "sim", "base", "laser", "depth_camera"}
+        known = {"world", "start", "world_params", "sim", "base", "laser", "depth_camera", "engine", "physics"}
         for k in cfg:
             if k not in known:
                 raise ConfigError(source, str(k), f"unknown key (known keys: {', '.join(sorted(known))})")
@@ -112,9 +127,18 @@ class Simulator:
             v = cfg.get(key, {})
             return None if v is None or v is False else loader(v, source, key)
 
+        sim_cfg = dict(cfg.get("sim") or {})
+        if cfg.get("engine") is not None:
+            sim_cfg["engine"] = cfg["engine"]
+        params = load_params(SimulatorParams, sim_cfg, source, "sim")
+        physics = load_params(PhysicsParams, cfg.get("physics"), source, "physics")
+        if params.engine == "mujoco":
+            try:
+                import_mujoco()
+            except RuntimeError as e:
+                raise ConfigError(source, "engine", str(e)) from None
         return cls(world, load_base_params(cfg.get("base"), source), sensor("laser", load_laser_params),
-                   sensor("depth_camera", load_depth_camera_params),
-                   load_params(SimulatorParams, cfg.get("sim"), source, "sim"))
+                   sensor("depth_camera", load_depth_camera_params), params, physics=physics)
 
     # ------------------------------------------------------------------ time
     def step(self, dt: float | None = None) -> list[str]:
@@ -134,6 +158,10 @@ class Simulator:
     def add_box(self, cx: float, cy: float, sx: float, sy: float, height: float, yaw: float = 0.0) -> None:
         """A box appears in the world (world frame, metres): the base collides with it, sensors see it."""
         self.world.add_box(cx, cy, sx, sy, height, yaw)
+        if self.params.engine == "mujoco":
+            from robot_side.sim.world_shapes import Box
+
+            self.base.add_box(Box(cx, cy, sx, sy, yaw, height))
         for sensor in (self.laser, self.camera):
             if sensor is not None:
                 sensor.refresh()

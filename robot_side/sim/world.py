@@ -30,7 +30,7 @@ from common.config import ConfigError, load_params, param, read_yaml
 from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
 from common.pgm import read_pgm
-from robot_side.sim.world_shapes import Box, parse_shapes
+from robot_side.sim.world_shapes import Box, grid_boxes, parse_shapes
 
 __all__ = ["WorldParams", "World", "load_world", "parse_pose"]
 
@@ -76,7 +76,8 @@ class World:
     """Height grid ``heights`` (rows = y, float32 metres) plus start pose and named goals."""
 
     def __init__(self, heights: np.ndarray, resolution: float, origin: tuple[float, float] = (0.0, 0.0),
-                 start: Pose2D = _ORIGIN, goals: dict[str, Pose2D] | None = None, name: str = ""):
+                 start: Pose2D = _ORIGIN, goals: dict[str, Pose2D] | None = None, name: str = "",
+                 shapes: list[Box] | None = None):
         self.heights = np.ascontiguousarray(heights, dtype=np.float32)
         if self.heights.ndim != 2 or min(self.heights.shape) < 1:
             raise ValueError("heights must be a non-empty 2D array")
@@ -85,6 +86,8 @@ class World:
         self.start = start
         self.goals = dict(goals or {})
         self.name = name
+        # the solid shapes (a physics engine's geoms); None: only the grid is known (a map_server map)
+        self.shapes = list(shapes) if shapes is not None else None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -98,7 +101,14 @@ class World:
 
     def with_start(self, start: Any) -> World:
         """The same world with another start pose (``[x, y, theta]``, dict or Pose2D)."""
-        return World(self.heights, self.resolution, self.origin, parse_pose(start), self.goals, self.name)
+        return World(self.heights, self.resolution, self.origin, parse_pose(start), self.goals, self.name,
+                     self.shapes)
+
+    def solid_boxes(self) -> list[Box]:
+        """The world as boxes and cylinders: its shapes, or boxes merged from the grid's obstacle cells."""
+        if self.shapes is not None:
+            return list(self.shapes)
+        return grid_boxes(self.heights, self.origin, self.resolution)
 
     def height_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Obstacle height under world points (0 outside the grid)."""
@@ -113,7 +123,10 @@ class World:
         vals = (cx, cy, sx, sy, height, yaw)
         if not all(math.isfinite(v) for v in vals) or sx <= 0 or sy <= 0 or height <= 0:
             raise ValueError(f"bad box {vals}: centre, positive size and height must be finite")
-        Box(cx, cy, sx, sy, yaw, height).rasterise(self.heights, self.origin, self.resolution)
+        box = Box(cx, cy, sx, sy, yaw, height)
+        box.rasterise(self.heights, self.origin, self.resolution)
+        if self.shapes is not None:
+            self.shapes.append(box)
 
     def occupied(self, min_height: float = 0.0) -> np.ndarray:
         """Cells whose obstacle is taller than ``min_height``."""
@@ -167,7 +180,7 @@ class World:
             s.rasterise(heights, (xmin, ymin), res)
         start = parse_pose(spec["start"], source, "start") if "start" in spec else Pose2D()
         goals = _goals(spec.get("goals"), source)
-        return cls(heights, res, (xmin, ymin), start, goals, str(spec.get("name", "")))
+        return cls(heights, res, (xmin, ymin), start, goals, str(spec.get("name", "")), shapes)
 
     @classmethod
     def from_map_yaml(cls, path: str | Path, params: WorldParams = WorldParams()) -> World:

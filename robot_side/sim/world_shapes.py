@@ -22,6 +22,8 @@ class Box:
     sy: float
     yaw: float
     height: float
+    movable: bool = False   # the MuJoCo engine: a free body of ``mass`` the robot can push
+    mass: float = 0.0       # kg (movable boxes only)
 
     def extent(self) -> tuple[float, float, float, float]:
         c, s = abs(math.cos(self.yaw)), abs(math.sin(self.yaw))
@@ -78,7 +80,7 @@ def _num(d: dict, key: str, source: str, where: str, default: float | None = Non
 def parse_shapes(spec: dict, source: str) -> list[Box]:
     """The ``walls``, ``boxes`` and ``cylinders`` of a shapes YAML, each checked (ConfigError)."""
     out: list[Box] = []
-    keys = {"walls": {"from", "to", "thickness", "height"}, "boxes": {"center", "size", "yaw", "height"},
+    keys = {"walls": {"from", "to", "thickness", "height"}, "boxes": {"center", "size", "yaw", "height", "movable", "mass"},
             "cylinders": {"center", "radius", "height"}}
     for kind, allowed in keys.items():
         items = spec.get(kind) or []
@@ -105,11 +107,40 @@ def parse_shapes(spec: dict, source: str) -> list[Box]:
                 sx, sy = _num(d, "size", source, where, n=2)
                 if sx <= 0 or sy <= 0:
                     raise ConfigError(source, f"{where}.size", "must be > 0")
-                out.append(Box(cx, cy, sx, sy, _num(d, "yaw", source, where, 0.0), h))
+                movable = d.get("movable", False)
+                if not isinstance(movable, bool):
+                    raise ConfigError(source, f"{where}.movable", f"expected true or false, got {movable!r}")
+                mass = _num(d, "mass", source, where, 0.0)
+                if movable and mass <= 0:
+                    raise ConfigError(source, f"{where}.mass", "a movable box needs a mass > 0 (kg)")
+                out.append(Box(cx, cy, sx, sy, _num(d, "yaw", source, where, 0.0), h, movable, mass))
             else:
                 cx, cy = _num(d, "center", source, where, n=2)
                 r = _num(d, "radius", source, where)
                 if r <= 0:
                     raise ConfigError(source, f"{where}.radius", "must be > 0")
                 out.append(Cylinder(cx, cy, 2 * r, 2 * r, 0.0, h))
+    return out
+
+
+def grid_boxes(heights: np.ndarray, origin: tuple[float, float], res: float) -> list[Box]:
+    """Axis-aligned boxes covering the obstacle cells of a height grid: runs of equal height along each
+    row, merged with the identical runs of the rows above (a map's walls become a few long boxes)."""
+    out: list[Box] = []
+    open_runs: dict[tuple[int, int, float], int] = {}  # (col0, col1, height) -> first row
+    for r in range(heights.shape[0] + 1):
+        runs = set()
+        if r < heights.shape[0]:
+            row = heights[r]
+            edges = np.flatnonzero(np.diff(np.concatenate(([0.0], row, [0.0]))) != 0)
+            for a, b in zip(edges[:-1], edges[1:]):
+                if row[a] > 0:
+                    runs.add((int(a), int(b), float(row[a])))
+        for key in [k for k in open_runs if k not in runs]:
+            r0 = open_runs.pop(key)
+            c0, c1, h = key
+            out.append(Box(origin[0] + (c0 + c1) * res / 2, origin[1] + (r0 + r) * res / 2, (c1 - c0) * res,
+                           (r - r0) * res, 0.0, h))
+        for key in runs:
+            open_runs.setdefault(key, r)
     return out
