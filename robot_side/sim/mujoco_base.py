@@ -8,8 +8,9 @@ Per physics step (``PhysicsParams.timestep``):
    ``cmd_vel_timeout``, clamped to the velocity limits and ramped at the acceleration limits of
    ``BaseParams`` (as the kinematic engine), becomes wheel speeds with the body's controller separation
    x ``wheel_separation_multiplier``: ω_l,r = (v ∓ w s/2) / r, each clipped to the motor's top speed;
-2. each wheel's velocity servo pushes with a torque clipped to the motor's limit (``robot_bodies``);
-   MuJoCo moves the body, with slip, inertia and contacts;
+2. each wheel's motor driver closes a PI loop on its wheel's speed (as the robots' motor controllers
+   do; ``WheelSpeedLoop``), its torque clipped to the motor's limit (``robot_bodies``), the integral
+   held while clipped; MuJoCo moves the body, with slip, inertia and contacts;
 3. odometry as the robot computes it: v = r (ω_l + ω_r)/2 and w = r (ω_r - ω_l)/s from the wheel
    joints, or w from a gyro (the true yaw rate plus white noise, sampled at the gyro's rate) for bodies
    whose ekf fuses the IMU (the Jackal); integrated in the odom frame. Wheel slip and skid become
@@ -27,13 +28,34 @@ import numpy as np
 from common.geometry import Pose2D
 from common.messages import Collision, Header, Odometry, Twist
 from robot_side.sim.base import BaseParams, _arc, _limit, _toward
-from robot_side.sim.mujoco_scene import Scene, build_scene, import_mujoco, rebuild
+from robot_side.sim.mujoco_scene import build_scene, import_mujoco, rebuild, wheel_loop_gain
 from robot_side.sim.physics_params import PhysicsParams
 from robot_side.sim.robot_bodies import body_for
 from robot_side.sim.world import World
 from robot_side.sim.world_shapes import Box
 
-__all__ = ["MujocoBase"]
+__all__ = ["MujocoBase", "WheelSpeedLoop"]
+
+
+class WheelSpeedLoop:
+    """PI speed control of the wheel motors, as the robots' motor controllers close it. The proportional
+    part is the MuJoCo velocity actuator (``wheel_loop_gain``, torque-limited, integrated implicitly);
+    the integral part shifts its set point by ∫error / tau (tau 0.05 s, our choice: no maker publishes
+    one), so a wheel holds its commanded speed under the scrubbing load of a skid-steer turn, up to the
+    motor's torque limit. The integral is held while the torque is clipped (anti-windup)."""
+
+    def __init__(self, n: int, kp: float, tau: float = 0.05, torque_max: float | None = None):
+        self.kp, self.tau = kp, tau
+        self.tmax = math.inf if torque_max is None else torque_max
+        self.integral = np.zeros(n)
+
+    def set_point(self, target: np.ndarray, speed: np.ndarray, dt: float) -> np.ndarray:
+        """The velocity actuators' ctrl: target + ∫(target - speed) dt / tau."""
+        err = target - speed
+        integral = self.integral + err * dt
+        free = np.abs(self.kp * (err + integral / self.tau)) < self.tmax
+        self.integral[free] = integral[free]
+        return target + self.integral / self.tau
 
 
 class MujocoBase:
@@ -47,6 +69,8 @@ class MujocoBase:
         s = start if start is not None else world.start
         self.scene = build_scene(world, self.body, physics, s.x, s.y, s.theta)
         self._index()
+        b = self.body
+        self.loop = WheelSpeedLoop(len(b.wheels), wheel_loop_gain(b), torque_max=b.wheel_torque_max)
         self.cmd, self.cmd_time = (0.0, 0.0), -math.inf
         self.motors_enabled = params.motors_enabled
         self.ref_v = self.ref_w = 0.0  # the controller's ramped command
@@ -76,8 +100,9 @@ class MujocoBase:
 
     def _settle(self) -> None:
         m, d = self.scene.model, self.scene.data
-        d.ctrl[:] = 0.0
-        for _ in range(round(self.phys.settle_time / m.opt.timestep)):
+        ts = m.opt.timestep
+        for _ in range(round(self.phys.settle_time / ts)):  # motors holding the wheels still
+            d.ctrl[:] = self.loop.set_point(np.zeros(len(self._wheel_dofs)), d.qvel[self._wheel_dofs], ts)
             self.mj.mj_step(m, d)
 
     # ------------------------------------------------------------------ state
@@ -130,7 +155,7 @@ class MujocoBase:
         n = max(1, round(dt / ts))
         for i in range(n):
             t = now - dt + (i + 1) * ts
-            d.ctrl[:] = self._wheel_targets(t, ts)
+            d.ctrl[:] = self.loop.set_point(self._wheel_targets(t, ts), d.qvel[self._wheel_dofs], ts)
             self.mj.mj_step(m, d)
             self._odometry(t, ts)
             self._contacts(t)

@@ -19,7 +19,7 @@ from robot_side.sim.robot_bodies import RobotBody
 from robot_side.sim.world import World
 from robot_side.sim.world_shapes import Cylinder
 
-__all__ = ["import_mujoco", "Scene", "build_scene", "OBSTACLE_GROUP", "ROBOT_GROUP", "FLOOR_GROUP"]
+__all__ = ["import_mujoco", "Scene", "build_scene", "wheel_loop_gain", "OBSTACLE_GROUP", "ROBOT_GROUP", "FLOOR_GROUP"]
 
 OBSTACLE_GROUP, ROBOT_GROUP, FLOOR_GROUP = 0, 1, 2
 # contype / conaffinity bits: two geoms touch when one's contype shares a bit with the other's conaffinity
@@ -84,18 +84,20 @@ def _add_robot(mj, spec, body: RobotBody, p: PhysicsParams, x: float, y: float, 
     for k, w in enumerate(body.wheels):
         wb = base.add_body(name=f"wheel{k}", pos=[w.x, w.y, w.radius])
         wb.mass, wb.ipos, wb.inertia, wb.explicitinertial = w.mass, [0.0, 0.0, 0.0], list(w.inertia), True
-        wb.add_joint(name=f"wheel{k}", type=mj.mjtJoint.mjJNT_HINGE, axis=[0.0, 1.0, 0.0])
+        wb.add_joint(name=f"wheel{k}", type=mj.mjtJoint.mjJNT_HINGE, axis=[0.0, 1.0, 0.0],
+                     armature=body.wheel_armature, damping=[body.wheel_damping, 0.0, 0.0],
+                     frictionloss=body.wheel_frictionloss)
         # a cylinder lying along y (its axis is the geom's z, turned onto y)
         wb.add_geom(type=mj.mjtGeom.mjGEOM_CYLINDER, size=[w.radius, w.width / 2, 0.0],
                     quat=[math.sqrt(0.5), math.sqrt(0.5), 0.0, 0.0], group=ROBOT_GROUP, contype=_WHEEL,
                     conaffinity=_FLOOR, mass=0.0, friction=[p.friction, 0.005, 0.0001], rgba=[0.1, 0.1, 0.1, 1])
         joints.append(f"wheel{k}")
+        # the motor and the proportional part of its speed loop: torque = kp (ctrl - speed), clipped to the
+        # motor's limit where one is known; MuJoCo integrates it implicitly (stable for light wheels)
         act = spec.add_actuator(name=f"wheel{k}", target=f"wheel{k}", trntype=mj.mjtTrn.mjTRN_JOINT)
-        # the motor driver's velocity loop: torque = kv (target - speed), clipped to the motor's torque
-        tmax = body.wheel_torque_max
-        act.set_to_velocity(kv=_servo_gain(body))
-        if tmax is not None:
-            act.forcelimited, act.forcerange = True, [-tmax, tmax]
+        act.set_to_velocity(kv=wheel_loop_gain(body))
+        if body.wheel_torque_max is not None:
+            act.forcelimited, act.forcerange = True, [-body.wheel_torque_max, body.wheel_torque_max]
     for k, (cx, cy, r) in enumerate(body.casters):
         base.add_geom(name=f"caster{k}", type=mj.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], pos=[cx, cy, r],
                       group=ROBOT_GROUP, contype=_WHEEL, conaffinity=_FLOOR, mass=0.0, friction=[0.0, 0.0, 0.0],
@@ -103,12 +105,11 @@ def _add_robot(mj, spec, body: RobotBody, p: PhysicsParams, x: float, y: float, 
     return joints
 
 
-def _servo_gain(body: RobotBody) -> float:
-    """Velocity-loop gain (N m s/rad) of a wheel motor's driver (no maker publishes one): 1 rad/s of
-    speed error asks for the torque that would accelerate the whole robot at 1 g, so the loop is stiff
-    next to the tyres' grip and the motor's torque limit clips it where one is known."""
-    r = body.wheels[0].radius
-    return body.total_mass * 9.81 * r / len(body.wheels)
+def wheel_loop_gain(body: RobotBody) -> float:
+    """Proportional gain (N m s/rad) of a wheel's speed loop. No maker publishes its motor drivers' gains:
+    1 rad/s of speed error asks for the torque that accelerates the whole robot at 1 g, so the loop is
+    stiff next to the tyres' grip and the motor's torque limit clips it where one is known."""
+    return body.total_mass * 9.81 * body.wheels[0].radius / len(body.wheels)
 
 
 def build_scene(world: World, body: RobotBody, p: PhysicsParams, x: float, y: float, yaw: float) -> Scene:

@@ -46,6 +46,9 @@ class RobotBody:
     wheel_separation_multiplier: float             # the controller's skid-steer factor (JK control.yaml)
     wheel_torque_max: float | None                 # N m per wheel motor; None: no published limit
     wheel_speed_max: float                         # rad/s, the motor's top speed
+    wheel_armature: float = 0.0                    # kg m^2, the motor's rotor inertia seen at the wheel
+    wheel_damping: float = 0.0                     # N m s/rad, viscous loss of the drive train
+    wheel_frictionloss: float = 0.0                # N m, dry friction of the drive train
     casters: tuple[tuple[float, float, float], ...] = ()  # frictionless balls (x, y, radius)
     heading_from_gyro: bool = False                # odometry heading from the IMU's yaw rate (ekf)
     gyro_noise: float = 0.0                        # rad/s white noise of the gyro at its rate
@@ -66,7 +69,9 @@ class RobotBody:
 # 1.5. Motors: Clearpath publishes no torque; BARN's Gazebo Jackal drives its wheels through a
 # VelocityJointInterface with no effort limit (JK: transmission, no <limit effort>), so none here either:
 # the wheels are stiff velocity servos and the tyres' friction limits the acceleration. Top wheel speed:
-# MENAG's actuator ctrlrange 26 rad/s (2.5 m/s at r = 0.098). IMU (JK jackal.gazebo, hector imu plugin):
+# MENAG's actuator ctrlrange 26 rad/s (2.5 m/s at r = 0.098). Drive train at each wheel (MENAG's
+# "throttle" joint class): armature 0.01 kg m^2 (the geared motor's rotor), damping 0.01, frictionloss
+# 0.001. IMU (JK jackal.gazebo, hector imu plugin):
 # 50 Hz, rateGaussianNoise 0.005 rad/s; the ekf (JK robot_localization.yaml) fuses the wheel odometry's
 # velocities with the IMU's yaw rate.
 _JK_R, _JK_Z = 0.098, 0.0635
@@ -76,7 +81,7 @@ JACKAL = RobotBody(
     wheels=tuple(Wheel(x, y, _JK_R, 0.040, 0.477, (0.0013, 0.0024, 0.0013))
                  for x in (0.131, -0.131) for y in (0.187795, -0.187795)),
     wheel_separation=0.37559, wheel_separation_multiplier=1.5, wheel_torque_max=None, wheel_speed_max=26.0,
-    heading_from_gyro=True, gyro_noise=0.005, gyro_rate=50.0)
+    wheel_armature=0.01, wheel_damping=0.01, wheel_frictionloss=0.001, heading_from_gyro=True, gyro_noise=0.005, gyro_rate=50.0)
 
 # Pioneer 3-AT. AMR: base_link mass 21.5 kg ("P3AT 18.6kg plus three batteries @ 2.4kg each minus four
 # wheels @ 1.4 kg ea and top plate"), inertia ixx 0.3338 iyy 0.4783 izz 0.3338, COM (-0.1, 0, 0.177);
@@ -87,6 +92,7 @@ JACKAL = RobotBody(
 # robot_side/p2os/sip.py): rotVel = (vR - vL) / 2 * 0.0034, an effective separation of 0.588 m = 1.49 x
 # the 0.394 m track (the skid-steer calibration), and reports its odometry with the same factor.
 # Motors: WB: maxTorque 20 N m, maxVelocity 6.4 rad/s (0.71 m/s at r = 0.111: the datasheet's 0.7 m/s).
+# No source gives the drive train's rotor inertia or losses: none modelled.
 P3AT = RobotBody(
     name="p3at", mass=21.5, inertia=(0.3338, 0.4783, 0.3338), com=(-0.1, 0.0, 0.177),
     hull=((0.0, 0.0, 0.508, 0.508), (0.2921, 0.0, 0.0762, 0.1016)), hull_z=(0.06, 0.277),
