@@ -42,6 +42,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--amcl", action="store_true",
                    help="known map, localised with AMCL (master_side/config/p3at_amcl.yaml) instead of "
                         "the simulator's ground truth")
+    p.add_argument("--engine", choices=("kinematic", "mujoco"), default="kinematic",
+                   help="simulator engine: kinematic (exact arcs, no slip) or mujoco (rigid-body physics: the "
+                        "skid-steered P3-AT with inertia, slip and torque limits)")
     p.add_argument("--goals", type=nonneg_int, default=0, help="at most this many goals per world (0 = all)")
     p.add_argument("--speed", type=positive, default=1.0, help="simulated time / real time")
     p.add_argument("--goal-timeout", type=positive, default=180.0, help="seconds allowed per goal")
@@ -81,7 +84,7 @@ def run(args) -> int:
     worlds = tuple(args.world or ("room", "corridor"))
     opts = DemoOptions(worlds=worlds, planner=args.planner, max_goals=args.goals, speed=args.speed,
                        goal_timeout=args.goal_timeout, monitor_args=monitor_args(args),
-                       workdir=args.workdir or "", slam=args.slam or "", amcl=args.amcl,
+                       workdir=args.workdir or "", slam=args.slam or "", amcl=args.amcl, engine=args.engine,
                        robot=getattr(args, "robot", None) or "demo")
     t0 = time.monotonic()
     demo = Demo(opts, echo=lambda s: print(s, flush=True))

@@ -64,6 +64,7 @@ class DemoOptions:
     workdir: str = ""
     slam: bool | str = False  # map the world with SLAM while navigating: "gmapping" (or True), "hector"
     amcl: bool = False  # known map, localised with AMCL instead of the simulator's ground truth
+    engine: str = "kinematic"  # the simulator's engine: kinematic or mujoco
     results: list[GoalResult] = field(default_factory=list)
 
 
@@ -163,13 +164,14 @@ class Demo:
             goals = list(spec.get("goals", {}).items())[: self.o.max_goals or None]
             mode = (f"SLAM ({slam_method(self.o.slam)}), unknown map" if self.o.slam
                     else "known map" + (", AMCL" if self.o.amcl else ""))
-            self.echo(f"[demo] world '{world}': starting the robot agent (simulated P3-AT) and the master "
+            self.echo(f"[demo] world '{world}': starting the robot agent (simulated P3-AT, "
+                      f"{'MuJoCo physics' if self.o.engine == 'mujoco' else 'kinematic engine'}) and the master "
                       f"agent ({self.o.planner} local planner, {mode}) ...")
             start = parse_pose(spec.get("start", [0.0, 0.0, 0.0]))
             n_truth, n_status = self.truth.received, self.status.received
             n_maps = [c.received for c in self.costmaps]
             self.spawn(f"robot_{world}", ["robot", "--config", str(robot_config(self.o.slam)), "--world", world,
-                                          "--speed", str(self.o.speed)])
+                                          "--speed", str(self.o.speed), "--engine", self.o.engine])
             self.spawn(f"master_{world}", ["master", "--config", str(master_config(
                 world, self.o.planner, self.work, self.o.slam, self.o.amcl))])
             self._wait("the simulator", lambda n=n_truth: self.truth.received > n, 60)

@@ -1,5 +1,5 @@
-"""The robot agent: ``zenav robot --config FILE [--world W] [--start X Y YAW] [--speed N] [--engine E]
-[--robot NAME]``.
+"""The robot agent: ``zenav robot --config FILE [--world W] [--start X Y YAW] [--speed N] [--engine E]``
+``[--robot NAME]``.
 
 Reads one YAML laid out like the tutorial's launch file (section 3.6) and runs every node as its own
 process under ``common.supervisor.Supervisor``:
@@ -13,9 +13,9 @@ process under ``common.supervisor.Supervisor``:
                   the base, which then listens on safety/cmd_vel (its cmd_vel_topic)
 
 ``--world``, ``--start``, ``--speed`` and ``--engine`` override the ``world``, ``start``, ``speed`` and
-``engine`` parameters of the simulator node(s) (module ``robot_side.sim.node``). Every node's parameters are checked before
-anything starts (``common.node_check``). Exit status: 0 after Ctrl-C / SIGTERM, 1 when a required node
-ended or failed, 2 for a bad config file.
+``engine`` parameters of the simulator node(s) (module ``robot_side.sim.node``). Every node's parameters
+are checked before anything starts (``common.node_check``). Exit status: 0 after Ctrl-C / SIGTERM, 1 when
+a required node ended or failed, 2 for a bad config file.
 """
 
 from __future__ import annotations

@@ -61,8 +61,7 @@ class WheelSpeedLoop:
 class MujocoBase:
     """A robot body on MuJoCo with ground truth (world frame) and wheel odometry (odom frame)."""
 
-    def __init__(self, world: World, params: BaseParams = BaseParams(), physics: PhysicsParams = PhysicsParams(),
-                 start: Pose2D | None = None):
+    def __init__(self, world: World, params: BaseParams, physics: PhysicsParams, start: Pose2D | None = None):
         self.mj = import_mujoco()
         self.world, self.p, self.phys = world, params, physics
         self.body = body_for(params.model)

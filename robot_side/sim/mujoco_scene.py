@@ -31,7 +31,7 @@ def import_mujoco():
     try:
         import mujoco
     except ImportError as e:
-        raise RuntimeError(f"engine 'mujoco' needs the mujoco package, which is not installed: {MUJOCO_INSTALL}") from e
+        raise RuntimeError(f"the mujoco package is not installed (engine 'mujoco' needs it): {MUJOCO_INSTALL}") from e
     return mujoco
 
 

@@ -56,7 +56,7 @@ class _Rays:
 class RayLaser(Laser):
     """A planar laser on the MuJoCo body (``robot`` arguments are ignored: the body's pose is used)."""
 
-    def __init__(self, base: MujocoBase, params: LaserParams = LaserParams()):
+    def __init__(self, base: MujocoBase, params: LaserParams):
         self.base = base
         super().__init__(base.world, params)
         a = self.angles
@@ -73,7 +73,7 @@ class RayLaser(Laser):
 class RayDepthCamera(DepthCamera):
     """A depth camera on the MuJoCo body: one ray per pixel through the optical centre."""
 
-    def __init__(self, base: MujocoBase, params: DepthCameraParams = DepthCameraParams()):
+    def __init__(self, base: MujocoBase, params: DepthCameraParams):
         self.base = base
         super().__init__(base.world, params)
         u, v = np.meshgrid(np.arange(self.width), np.arange(self.height))

@@ -142,6 +142,12 @@ class SimNode:
         if not (s.laser or s.camera):
             parts.append("no sensors")
         start = "wall time" if self.p.start_time is None else f"{self.p.start_time:g} s"
+        if s.params.engine == "mujoco":
+            ph = s.base.phys
+            parts.append(f"engine mujoco ({s.base.body.name} body, physics step {ph.timestep * 1e3:g} ms, "
+                         f"friction {ph.friction:g})")
+        else:
+            parts.append("engine kinematic")
         parts.append(f"speed {self.speed:g}x, dt {s.params.dt:g} s, sim time from {start}, "
                      f"{self.p.cmd_vel_topic} timeout {b.p.cmd_vel_timeout:g} s")
         return "simulator: " + ", ".join(parts)

@@ -81,7 +81,8 @@ JACKAL = RobotBody(
     wheels=tuple(Wheel(x, y, _JK_R, 0.040, 0.477, (0.0013, 0.0024, 0.0013))
                  for x in (0.131, -0.131) for y in (0.187795, -0.187795)),
     wheel_separation=0.37559, wheel_separation_multiplier=1.5, wheel_torque_max=None, wheel_speed_max=26.0,
-    wheel_armature=0.01, wheel_damping=0.01, wheel_frictionloss=0.001, heading_from_gyro=True, gyro_noise=0.005, gyro_rate=50.0)
+    wheel_armature=0.01, wheel_damping=0.01, wheel_frictionloss=0.001,
+    heading_from_gyro=True, gyro_noise=0.005, gyro_rate=50.0)
 
 # Pioneer 3-AT. AMR: base_link mass 21.5 kg ("P3AT 18.6kg plus three batteries @ 2.4kg each minus four
 # wheels @ 1.4 kg ea and top plate"), inertia ixx 0.3338 iyy 0.4783 izz 0.3338, COM (-0.1, 0, 0.177);

@@ -70,7 +70,8 @@ def resolve_world(name: str | Path, source: str = "<config>") -> Path:
     raise ConfigError(source, "world", f"world file {name!s} not found (also looked in {WORLDS_DIR})")
 
 
-_BASE, _LASER, _CAMERA, _SIM, _PHYS = BaseParams(), LaserParams(), DepthCameraParams(), SimulatorParams(), PhysicsParams()
+_BASE, _LASER, _CAMERA, _SIM = BaseParams(), LaserParams(), DepthCameraParams(), SimulatorParams()
+_PHYS = PhysicsParams()
 
 
 class Simulator:

@@ -80,7 +80,8 @@ def _num(d: dict, key: str, source: str, where: str, default: float | None = Non
 def parse_shapes(spec: dict, source: str) -> list[Box]:
     """The ``walls``, ``boxes`` and ``cylinders`` of a shapes YAML, each checked (ConfigError)."""
     out: list[Box] = []
-    keys = {"walls": {"from", "to", "thickness", "height"}, "boxes": {"center", "size", "yaw", "height", "movable", "mass"},
+    keys = {"walls": {"from", "to", "thickness", "height"},
+            "boxes": {"center", "size", "yaw", "height", "movable", "mass"},
             "cylinders": {"center", "radius", "height"}}
     for kind, allowed in keys.items():
         items = spec.get(kind) or []
