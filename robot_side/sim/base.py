@@ -47,7 +47,7 @@ P3AT_FOOTPRINT = ((0.3302, -0.0508), (0.254, -0.0508), (0.254, -0.254), (-0.254,
 
 @dataclass(frozen=True)
 class BaseParams:
-    model: builtins.str = param("p3at", choices=("p3at", "jackal"),
+    model: builtins.str = param("p3at", choices=("p3at", "jackal", "pioneer_lx"),
                                 doc="the robot (BASE_PRESETS: its defaults; the MuJoCo engine: its body)")
     footprint: tuple[tuple[float, float], ...] = param(P3AT_FOOTPRINT, unit="m", doc="polygon in base_link")
     max_vel_x: float = param(0.7, lo=0.0, hi=10.0, unit="m/s", doc="max |forward speed| (P3-AT: 0.7)")
@@ -86,8 +86,13 @@ class BaseParams:
 # max_velocity 4.0 rad/s, max_acceleration 25.0 rad/s^2; cmd_vel_timeout 0.25 s. Odometry fused with an
 # IMU (robot_localization ekf with the IMU's absolute yaw): small errors, little heading drift (our choice).
 JACKAL_FOOTPRINT = ((0.254, 0.215), (-0.254, 0.215), (-0.254, -0.215), (0.254, -0.215))
+# Pioneer LX (ARIA pioneer-lx.p): RobotLength 696 / RobotWidth 500 mm centred on base_link; TransVelMax
+# 1800 mm/s, RotVelMax 180 deg/s, TransAccel 500 / TransDecel 600 mm/s^2, RotAccel 150 / RotDecel 200 deg/s^2.
+LX_FOOTPRINT = ((0.348, 0.25), (-0.348, 0.25), (-0.348, -0.25), (0.348, -0.25))
 BASE_PRESETS: dict[str, dict] = {
     "p3at": {},
+    "pioneer_lx": dict(footprint=LX_FOOTPRINT, max_vel_x=1.8, max_vel_theta=math.pi, acc_lim_x=0.5, decel_lim_x=0.6,
+                       acc_lim_th=math.radians(150), decel_lim_th=math.radians(200)),
     "jackal": dict(footprint=JACKAL_FOOTPRINT, max_vel_x=2.0, max_vel_theta=4.0, acc_lim_x=20.0,
                    acc_lim_th=25.0, cmd_vel_timeout=0.25, srr=0.01, srt=0.01, str=0.002, stt=0.005,
                    odom_start_yaw_from_world=True),

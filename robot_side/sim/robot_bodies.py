@@ -50,6 +50,7 @@ class RobotBody:
     wheel_damping: float = 0.0                     # N m s/rad, viscous loss of the drive train
     wheel_frictionloss: float = 0.0                # N m, dry friction of the drive train
     casters: tuple[tuple[float, float, float], ...] = ()  # frictionless balls (x, y, radius)
+    caster_clearance: float = 0.0                  # m between a caster and the floor at rest
     heading_from_gyro: bool = False                # odometry heading from the IMU's yaw rate (ekf)
     gyro_noise: float = 0.0                        # rad/s white noise of the gyro at its rate
     gyro_rate: float = 50.0                        # Hz
@@ -104,7 +105,27 @@ P3AT = RobotBody(
 # (the wheel inertias: a solid cylinder of 1.2 kg, r 0.111, 0.075 long: iyy = m r^2 / 2, ixx = izz =
 # m (3 r^2 + l^2) / 12; the URDFs' 0.0152 about the axle is a placeholder larger than the solid value)
 
-BODIES: dict[str, RobotBody] = {"jackal": JACKAL, "p3at": P3AT}
+# Pioneer LX (differential drive). AMR pioneer-lx.urdf.xacro: 60 kg in all ("60 kg minus each wheel": base
+# 57.8 kg, wheels 1.1 kg each), drive wheels r 0.100 m, 0.05 m wide, at (0, +-0.2, 0.1); body box
+# 0.7 x 0.5 x 0.35 m centred 0.2 m up (its inertia is a placeholder of 1: ours is the solid box's).
+# Hull: ARIA pioneer-lx.p RobotLength 696 / RobotWidth 500 mm, centred (LengthFront = LengthRear = 348).
+# Drive: ARIA DiffConvFactor 0.0056 -> rotVel = (vR - vL)/2 * 0.0056: a separation of 0.357 m, which the
+# firmware uses for commands and odometry (0.893 x the URDF's 0.4 m). Motors: no published torque or speed
+# limit; the 1.8 m/s TransVelMax at r = 0.1 is 18 rad/s. Casters: no source gives their positions:
+# two frictionless balls on the centre line 0.25 m ahead of and behind the axle, 5 mm clear of the floor
+# (our choice: the weight rests on the drive wheels, a caster catches the body when it pitches 1 degree).
+_LX_BOX = (0.7, 0.5, 0.35)
+PIONEER_LX = RobotBody(
+    name="pioneer_lx", mass=57.8, com=(0.0, 0.0, 0.2),
+    inertia=(57.8 * (_LX_BOX[1] ** 2 + _LX_BOX[2] ** 2) / 12, 57.8 * (_LX_BOX[0] ** 2 + _LX_BOX[2] ** 2) / 12,
+             57.8 * (_LX_BOX[0] ** 2 + _LX_BOX[1] ** 2) / 12),
+    hull=((0.0, 0.0, 0.696, 0.5),), hull_z=(0.05, 0.4),
+    wheels=(Wheel(0.0, 0.2, 0.1, 0.05, 1.1, (0.003, 0.0055, 0.003)),
+            Wheel(0.0, -0.2, 0.1, 0.05, 1.1, (0.003, 0.0055, 0.003))),
+    wheel_separation=0.4, wheel_separation_multiplier=(2 / 0.0056) / 1000 / 0.4, wheel_torque_max=None,
+    wheel_speed_max=18.0, casters=((0.25, 0.0, 0.04), (-0.25, 0.0, 0.04)), caster_clearance=0.005)
+
+BODIES: dict[str, RobotBody] = {"jackal": JACKAL, "p3at": P3AT, "pioneer_lx": PIONEER_LX}
 
 
 def body_for(model: str | None) -> RobotBody:

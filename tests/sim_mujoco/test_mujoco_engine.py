@@ -117,6 +117,22 @@ def test_a_drive_into_a_cylinder_is_one_collision(tmp_path):
     assert math.hypot(x - 1.5, y) < 0.1
 
 
+@pytest.mark.parametrize("model", ["jackal", "pioneer_lx"])
+def test_every_body_drives_2m_straight_by_its_odometry(tmp_path, model):
+    world = _write(tmp_path, {"bounds": [-5, -5, 5, 5], "start": [0, 0, 0]})
+    sim = _sim(world, "mujoco", model=model)
+    brake = 0.5 ** 2 / (2 * (sim.base.p.decel_lim_x or sim.base.p.acc_lim_x))
+    while math.hypot(sim.base.odom.x, sim.base.odom.y) < 2.0 - brake:
+        sim.cmd_vel(Twist.planar(0.5, 0.0))
+        sim.step()
+    for _ in range(300):
+        sim.cmd_vel(Twist.planar(0.0, 0.0))
+        sim.step()
+    truth = math.hypot(sim.base.pose.x, sim.base.pose.y)
+    assert abs(truth - 2.0) < 0.05, f"{model}: ground truth {truth:.3f} m"
+    assert abs(sim.base.pose.theta) < 0.02
+
+
 def test_the_skid_steered_p3at_drives_2m_straight_and_turns_in_place(tmp_path, record_property):
     """Straight: drive at 0.5 m/s and brake where odometry says the stop lands at 2 m (as a controller
     does): ground truth within 5 cm of 2 m.
