@@ -2,6 +2,7 @@
 one process (simulator + depth→scan + Amcl, no bus), over several odometry-noise seeds.
 
 Run: python bench/amcl.py [--seeds 8] [--config master_side/config/p3at_amcl.yaml] [--set key=value ...]
+     [--engine mujoco]   (the skid-steered P3-AT on physics: its odometry error comes from wheel slip)
 
 Each seed drives the same route (start → (-1, 0) → (-1, 1.3) → (1.5, 1.3) → (1.5, -1.2)) with its own
 odometry error and camera noise; errors are map→base_link (AMCL correction ∘ odometry) against ground
@@ -45,10 +46,12 @@ def command(truth: Pose2D, goal) -> tuple[float, float, bool]:
     return (0.0 if abs(err) > 0.15 else min(0.35, dist)), max(-0.8, min(0.8, 1.5 * err)), False
 
 
-def run(seed: int, amcl_cfg: dict, grid, robot: dict) -> dict:
+def run(seed: int, amcl_cfg: dict, grid, robot: dict, engine: str | None = None) -> dict:
     """One drive of the route with noise ``seed``; ``robot`` is the robot agent's YAML (sim + depth_to_scan)."""
     sim_cfg = dict(robot["platform"]["sim"]["params"])
     sim_cfg["sim"] = {**sim_cfg.get("sim", {}), "seed": seed}
+    if engine:
+        sim_cfg["engine"] = engine
     _, sim, _ = load_sim(sim_cfg, str(ROBOT_CONFIG))
     d2s = DepthToScan(DepthToScanParams(**{k: v for k, v in robot["sensors"]["depth_to_scan"]["params"].items()
                                            if k in ("range_min", "range_max", "scan_height")}))
@@ -88,6 +91,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="master config whose nodes.localization.params are used (default p3at_amcl.yaml)")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override an amcl param, e.g. --set laser_model_type=likelihood_field (repeatable)")
+    ap.add_argument("--engine", choices=("kinematic", "mujoco"), help="simulator engine (default kinematic)")
     a = ap.parse_args(argv)
     amcl_cfg = dict(yaml.safe_load(Path(a.config).read_text())["nodes"]["localization"]["params"])
     for kv in a.set:
@@ -100,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{'update ms':>9}", flush=True)
     robot, rows = yaml.safe_load(ROBOT_CONFIG.read_text()), []
     for s in range(a.seeds):
-        r = run(s, amcl_cfg, grid, robot)
+        r = run(s, amcl_cfg, grid, robot, a.engine)
         rows.append(r)
         print(f"{r['seed']:>4} {r['n']:>6} {r['xy_mean']:>9.3f} {r['xy_p95']:>9.3f} {r['xy_max']:>9.3f} "
               f"{r['yaw_max']:>11.4f} {r['update_ms']:>9.2f}", flush=True)

@@ -99,9 +99,9 @@ def _add_robot(mj, spec, body: RobotBody, p: PhysicsParams, x: float, y: float, 
         if body.wheel_torque_max is not None:
             act.forcelimited, act.forcerange = True, [-body.wheel_torque_max, body.wheel_torque_max]
     for k, (cx, cy, r) in enumerate(body.casters):
-        base.add_geom(name=f"caster{k}", type=mj.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0], pos=[cx, cy, r + body.caster_clearance],
-                      group=ROBOT_GROUP, contype=_WHEEL, conaffinity=_FLOOR, mass=0.0, friction=[0.0, 0.0, 0.0],
-                      condim=1)
+        base.add_geom(name=f"caster{k}", type=mj.mjtGeom.mjGEOM_SPHERE, size=[r, 0, 0],
+                      pos=[cx, cy, r + body.caster_clearance], group=ROBOT_GROUP, contype=_WHEEL,
+                      conaffinity=_FLOOR, mass=0.0, friction=[0.0, 0.0, 0.0], condim=1)
     return joints
 
 
@@ -140,4 +140,5 @@ def rebuild(scene: Scene, body: RobotBody, add) -> Scene:
     mj = import_mujoco()
     add(mj, scene.spec)
     model, data = scene.spec.recompile(scene.model, scene.data)
+    mj.mj_forward(model, data)  # place the new geoms (rays and contacts read their world poses)
     return _scene(mj, model, data, scene.spec, body, [f"wheel{k}" for k in range(len(body.wheels))])

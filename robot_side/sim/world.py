@@ -10,7 +10,8 @@ Shapes YAML::
     start: [x, y, theta]                    # default start pose (map frame)
     goals: {name: [x, y, theta], ...}       # suggested goals (a list is accepted too)
     walls:     [{from: [x, y], to: [x, y], thickness: 0.1, height: 2.0}]   # square caps
-    boxes:     [{center: [x, y], size: [sx, sy], yaw: 0.0, height: 0.5}]
+    boxes:     [{center: [x, y], size: [sx, sy], yaw: 0.0, height: 0.5}]   # movable: true, mass: 5.0 (kg):
+                                            # the MuJoCo engine lets the robot push it (static otherwise)
     cylinders: [{center: [x, y], radius: 0.2, height: 0.8}]
 
 The shapes themselves are ``robot_side.sim.world_shapes``.

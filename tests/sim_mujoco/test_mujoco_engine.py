@@ -181,3 +181,35 @@ def test_engine_mujoco_without_the_package_is_one_line_naming_the_install(tmp_pa
     err = [ln for ln in r.stderr.splitlines() if ln.strip()]
     assert any("mujoco" in ln and "pip install" in ln for ln in err), r.stderr
     assert "Traceback" not in r.stderr
+
+
+def test_a_movable_box_is_pushed_and_a_static_one_is_not(tmp_path):
+    spec = {"bounds": [-2, -2, 5, 2], "start": [0, 0, 0],
+            "boxes": [{"center": [1.2, 0.0], "size": [0.3, 0.6], "height": 0.5, "movable": True, "mass": 2.0}]}
+    sim = _sim(_write(tmp_path, spec), "mujoco", model="p3at")
+    for _ in range(500):  # 5 s at 0.4 m/s: reaches the box after ~2 s and pushes it
+        sim.cmd_vel(Twist.planar(0.4, 0.0))
+        sim.step()
+    box = sim.base.scene.data.body("movable0").xpos
+    assert box[0] > 1.5, f"the box stayed at x = {box[0]:.2f}"
+    assert sim.base.collisions == 1  # one contact episode: touching it and pushing on
+    spec["boxes"][0]["movable"] = False
+    sim = _sim(_write(tmp_path, spec), "mujoco", model="p3at")
+    for _ in range(500):
+        sim.cmd_vel(Twist.planar(0.4, 0.0))
+        sim.step()
+    assert sim.base.pose.x < 1.2 - 0.15 - 0.25  # stopped by the box: front of the hull at its face
+
+
+def test_a_box_spawned_at_run_time_is_seen_and_felt(tmp_path):
+    sim = _sim(_write(tmp_path, {"bounds": [-3, -3, 3, 3], "start": [0, 0, 0]}), "mujoco", laser=LASER)
+    assert not np.isfinite(sim.laser.ranges_exact()[360])  # nothing ahead
+    for _ in range(20):
+        sim.step()
+    sim.add_box(1.0, 0.0, 0.2, 0.6, 0.5)
+    ahead = sim.laser.ranges_exact()[360]
+    assert abs(ahead - (0.9 - 0.055)) < 0.01
+    for _ in range(300):
+        sim.cmd_vel(Twist.planar(0.5, 0.0))
+        sim.step()
+    assert sim.base.collisions == 1 and sim.base.pose.x < 0.9
