@@ -38,8 +38,8 @@ from common.geometry import Pose2D, normalize_angle
 from common.messages import Collision, Header, Odometry, Twist
 from robot_side.sim.world import World
 
-__all__ = ["BaseParams", "DiffDriveBase", "P3AT_FOOTPRINT", "JACKAL_FOOTPRINT", "BASE_PRESETS", "base_preset",
-           "load_base_params"]
+__all__ = ["BaseParams", "CommandedBase", "DiffDriveBase", "P3AT_FOOTPRINT", "JACKAL_FOOTPRINT", "LX_FOOTPRINT",
+           "BASE_PRESETS", "base_preset", "load_base_params"]
 
 P3AT_FOOTPRINT = ((0.3302, -0.0508), (0.254, -0.0508), (0.254, -0.254), (-0.254, -0.254), (-0.254, 0.254),
                   (0.254, 0.254), (0.254, 0.0508), (0.3302, 0.0508))
@@ -153,7 +153,39 @@ def _toward(v: float, target: float, dv: float) -> tuple[float, float]:
     return nv, (v + nv) / 2
 
 
-class DiffDriveBase:
+class CommandedBase:
+    """What every simulated base shares (both engines): the latest cmd_vel with its timeout and limits,
+    and the odometry / collision messages of its state (``odom``, ``v``, ``w``, ``collisions``, ``contact``)."""
+
+    p: BaseParams
+    odom: Pose2D
+    v: float
+    w: float
+    collisions: int
+    contact: tuple[float, float] | None
+    cmd: tuple[float, float] = (0.0, 0.0)
+    cmd_time: float = -math.inf
+
+    def set_cmd_vel(self, twist: Twist, now: float) -> None:
+        self.cmd = (float(twist.linear.x), float(twist.angular.z))
+        self.cmd_time = now
+
+    def commanded(self, now: float) -> tuple[float, float]:
+        """(v, w) the base aims for at ``now``: the command clamped to the limits, zero after the timeout."""
+        p = self.p
+        tv, tw = self.cmd if now - self.cmd_time <= p.cmd_vel_timeout else (0.0, 0.0)
+        return max(-p.max_vel_x, min(p.max_vel_x, tv)), max(-p.max_vel_theta, min(p.max_vel_theta, tw))
+
+    def odometry(self, stamp: float) -> Odometry:
+        return Odometry(Header(stamp, self.p.odom_frame_id), self.p.base_frame_id, self.odom.to_transform(),
+                        Twist.planar(self.v, self.w))
+
+    def collision(self, stamp: float, frame_id: str = "map") -> Collision:
+        x, y = self.contact if self.contact else (0.0, 0.0)
+        return Collision(Header(stamp, frame_id), self.collisions, x, y)
+
+
+class DiffDriveBase(CommandedBase):
     """Differential drive with ground truth pose (world frame) and noisy odometry (odom frame)."""
 
     def __init__(self, world: World, params: BaseParams = BaseParams(), start: Pose2D | None = None):
@@ -161,8 +193,6 @@ class DiffDriveBase:
         self.pose = start if start is not None else world.start  # ground truth in the world (map) frame
         self.odom = Pose2D(0.0, 0.0, self.pose.theta) if params.odom_start_yaw_from_world else Pose2D()
         self.v = self.w = 0.0  # actual velocities
-        self.cmd = (0.0, 0.0)
-        self.cmd_time = -math.inf
         self.motors_enabled = params.motors_enabled
         self.collisions = 0
         self.contact: tuple[float, float] | None = None
@@ -170,10 +200,6 @@ class DiffDriveBase:
         self._last_contact_time = -math.inf
         self.rng = np.random.default_rng(params.seed)
         self.samples = _footprint_samples(np.asarray(params.footprint, float), world.resolution / 2)
-
-    def set_cmd_vel(self, twist: Twist, now: float) -> None:
-        self.cmd = (float(twist.linear.x), float(twist.angular.z))
-        self.cmd_time = now
 
     def set_motors(self, enabled: bool) -> None:
         self.motors_enabled = bool(enabled)
@@ -193,9 +219,7 @@ class DiffDriveBase:
         if not self.motors_enabled:
             self.v = self.w = 0.0
             return
-        tv, tw = self.cmd if now - self.cmd_time <= p.cmd_vel_timeout else (0.0, 0.0)
-        tv = max(-p.max_vel_x, min(p.max_vel_x, tv))
-        tw = max(-p.max_vel_theta, min(p.max_vel_theta, tw))
+        tv, tw = self.commanded(now)
         nv, mv = _toward(self.v, tv, _limit(self.v, tv, p.acc_lim_x, p.decel_lim_x) * dt)
         nw, mw = _toward(self.w, tw, _limit(self.w, tw, p.acc_lim_th, p.decel_lim_th) * dt)
         d_rho, d_th = mv * dt, mw * dt
@@ -225,13 +249,6 @@ class DiffDriveBase:
             d_th += math.sqrt(var_t) * e[1]
         self.odom = self.odom.compose(_arc(d_rho, d_th))
 
-    def odometry(self, stamp: float) -> Odometry:
-        return Odometry(Header(stamp, self.p.odom_frame_id), self.p.base_frame_id, self.odom.to_transform(),
-                        Twist.planar(self.v, self.w))
-
-    def collision(self, stamp: float, frame_id: str = "map") -> Collision:
-        x, y = self.contact if self.contact else (0.0, 0.0)
-        return Collision(Header(stamp, frame_id), self.collisions, x, y)
 
 
 def _arc(d_rho: float, d_th: float) -> Pose2D:

@@ -26,8 +26,7 @@ import math
 import numpy as np
 
 from common.geometry import Pose2D
-from common.messages import Collision, Header, Odometry, Twist
-from robot_side.sim.base import BaseParams, _arc, _limit, _toward
+from robot_side.sim.base import BaseParams, CommandedBase, _arc, _limit, _toward
 from robot_side.sim.mujoco_scene import build_scene, import_mujoco, rebuild, wheel_loop_gain
 from robot_side.sim.physics_params import PhysicsParams
 from robot_side.sim.robot_bodies import body_for
@@ -58,7 +57,7 @@ class WheelSpeedLoop:
         return target + self.integral / self.tau
 
 
-class MujocoBase:
+class MujocoBase(CommandedBase):
     """A robot body on MuJoCo with ground truth (world frame) and wheel odometry (odom frame)."""
 
     def __init__(self, world: World, params: BaseParams, physics: PhysicsParams, start: Pose2D | None = None):
@@ -70,7 +69,6 @@ class MujocoBase:
         self._index()
         b = self.body
         self.loop = WheelSpeedLoop(len(b.wheels), wheel_loop_gain(b), torque_max=b.wheel_torque_max)
-        self.cmd, self.cmd_time = (0.0, 0.0), -math.inf
         self.motors_enabled = params.motors_enabled
         self.ref_v = self.ref_w = 0.0  # the controller's ramped command
         self.v = self.w = 0.0          # odometry's velocities
@@ -127,10 +125,6 @@ class MujocoBase:
         return float(lin[0] * rot[0, 0] + lin[1] * rot[1, 0]), float(ang[2])
 
     # ------------------------------------------------------------------ inputs
-    def set_cmd_vel(self, twist: Twist, now: float) -> None:
-        self.cmd = (float(twist.linear.x), float(twist.angular.z))
-        self.cmd_time = now
-
     def set_motors(self, enabled: bool) -> None:
         self.motors_enabled = bool(enabled)
         if not enabled:
@@ -164,9 +158,7 @@ class MujocoBase:
         if not self.motors_enabled:
             self.ref_v = self.ref_w = 0.0
             return np.zeros(len(b.wheels))
-        tv, tw = self.cmd if t - self.cmd_time <= p.cmd_vel_timeout else (0.0, 0.0)
-        tv = max(-p.max_vel_x, min(p.max_vel_x, tv))
-        tw = max(-p.max_vel_theta, min(p.max_vel_theta, tw))
+        tv, tw = self.commanded(t)
         self.ref_v = _toward(self.ref_v, tv, _limit(self.ref_v, tv, p.acc_lim_x, p.decel_lim_x) * ts)[0]
         self.ref_w = _toward(self.ref_w, tw, _limit(self.ref_w, tw, p.acc_lim_th, p.decel_lim_th) * ts)[0]
         half = b.wheel_separation * b.wheel_separation_multiplier / 2
@@ -203,12 +195,3 @@ class MujocoBase:
                     self.collisions += 1
                 self._last_contact_time = t
         self.in_contact = touching
-
-    # ------------------------------------------------------------------ outputs
-    def odometry(self, stamp: float) -> Odometry:
-        return Odometry(Header(stamp, self.p.odom_frame_id), self.p.base_frame_id, self.odom.to_transform(),
-                        Twist.planar(self.v, self.w))
-
-    def collision(self, stamp: float, frame_id: str = "map") -> Collision:
-        x, y = self.contact if self.contact else (0.0, 0.0)
-        return Collision(Header(stamp, frame_id), self.collisions, x, y)

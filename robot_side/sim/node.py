@@ -222,7 +222,11 @@ class SimNode:
                 out.append((self.pub_gt, _restamp(sim.ground_truth_odometry(), off)))
             if sim.base.collisions != self._collisions:
                 self._collisions = sim.base.collisions
-                out.append((self.pub_collision, _restamp(sim.collision(), off)))
+                c = sim.collision()
+                g = sim.base.pose
+                log.warning("collision #%d at (%.2f, %.2f) in %s; robot at (%.2f, %.2f, %.2f rad)", c.count, c.x, c.y,
+                            c.header.frame_id, g.x, g.y, g.theta)
+                out.append((self.pub_collision, _restamp(c, off)))
             if self._motor_tick(t) or sim.base.motors_enabled != self._motors_sent:
                 out.append((self.pub_motor, self._motor_msg()))
             if self._battery_tick(t):

@@ -65,7 +65,7 @@ def test_jackal_preset_footprint_limits_and_p3at_defaults_unchanged():
     assert load_base_params({"model": "jackal", "seed": 4}).seed == 4
     assert base_preset("p3at") == BaseParams() == load_base_params({})
     assert not BaseParams().odom_start_yaw_from_world
-    assert set(BASE_PRESETS) == {"p3at", "jackal"}
+    assert set(BASE_PRESETS) == {"p3at", "jackal", "pioneer_lx"}
     with pytest.raises(ConfigError, match="base.model"):
         load_base_params({"model": "husky"})
 
