@@ -227,16 +227,30 @@ class DiffDriveBase(CommandedBase):
         if d_rho != 0.0 or d_th != 0.0:
             hits = self.footprint_hits(new)
             if len(hits):
-                if now - self._last_contact_time > p.collision_debounce:
-                    self.collisions += 1
-                self.contact = (float(hits[:, 0].mean()), float(hits[:, 1].mean()))
-                self._last_contact_time = now
-                self.in_contact = True
+                self._touch(hits, now)
+                # the obstacle stops what goes into it, not what leaves it: the whole step, its translation
+                # alone or its rotation alone happens if it ends free, or, for a robot already inside an
+                # obstacle (a box dropped onto it), no deeper than now (footprint samples on the obstacle)
+                deep = len(self.footprint_hits(self.pose))
+                for dr, da, v, w in ((d_rho, d_th, nv, nw), (d_rho, 0.0, nv, 0.0), (0.0, d_th, 0.0, nw)):
+                    moved = self.pose.compose(_arc(dr, da))
+                    if (dr != 0.0 or da != 0.0) and len(self.footprint_hits(moved)) <= deep:
+                        self.pose, self.v, self.w = moved, v, w
+                        self._odometry(dr, da)
+                        return
                 self.v = self.w = 0.0
                 return
         self.in_contact = False
         self.pose, self.v, self.w = new, nv, nw
         self._odometry(d_rho, d_th)
+
+    def _touch(self, hits: np.ndarray, now: float) -> None:
+        """A blocked step: a new collision unless the last contact is recent; where it touches."""
+        if now - self._last_contact_time > self.p.collision_debounce:
+            self.collisions += 1
+        self.contact = (float(hits[:, 0].mean()), float(hits[:, 1].mean()))
+        self._last_contact_time = now
+        self.in_contact = True
 
     def _odometry(self, d_rho: float, d_th: float) -> None:
         p = self.p

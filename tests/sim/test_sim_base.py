@@ -6,7 +6,7 @@ from sim_helpers import empty_world, wall_world
 
 from common.geometry import Pose2D
 from common.messages import Twist
-from robot_side.sim.base import BaseParams, DiffDriveBase
+from robot_side.sim.base import P3AT_FOOTPRINT, BaseParams, DiffDriveBase
 
 NOISE_OFF = dict(srr=0.0, srt=0.0, str=0.0, stt=0.0)
 
@@ -132,3 +132,29 @@ def test_odometry_is_reproducible_with_a_seed():
         return b.odom
     assert run(3) == run(3)
     assert run(3) != run(4)
+
+
+def _touching_wall(gap: float) -> DiffDriveBase:
+    """A P3-AT facing a wall, its bumper ``gap`` from the wall's face (negative: inside the wall)."""
+    world = wall_world(2.0)
+    front = max(x for x, _ in P3AT_FOOTPRINT)
+    return DiffDriveBase(world, BaseParams(srr=0, srt=0, str=0, stt=0), Pose2D(2.0 - front - gap, 0.0, 0.0))
+
+
+def _push(base: DiffDriveBase, v: float, w: float, seconds: float = 1.0) -> None:
+    t = 0.0
+    while t < seconds:
+        t = round(t + 0.01, 9)
+        base.set_cmd_vel(Twist.planar(v, w), t)
+        base.step(0.01, t)
+
+
+@pytest.mark.parametrize("gap", [0.005, -0.03])
+def test_a_robot_against_a_wall_can_back_away_but_not_push_into_it(gap):
+    base = _touching_wall(gap)
+    x0 = base.pose.x
+    _push(base, 0.3, 0.0)
+    assert base.pose.x <= x0 + max(gap, 0.0) + 0.01 and base.collisions == 1  # into the wall: it stays
+    _push(base, -0.2, -0.3)  # the escape of issue 32: back up while turning
+    assert base.pose.x < x0 - 0.1
+    assert not len(base.footprint_hits(base.pose))  # free again
