@@ -88,8 +88,12 @@ def send_goal(node, x: float, y: float, yaw: float, frame: str, timeout: float, 
         elif not accepted and time.monotonic() - t0 > 10.0:
             pub.publish(goal)  # the first one may have been lost while move_base started
             t0 = time.monotonic() - 5.0
-    echo(f"goal {gid}: no result within {timeout:.0f} s")
-    return 2, status.latest()
+    s = status.latest()
+    why = ""
+    if s is not None and s.goal_id == gid:
+        why = f": move_base {s.state}, {s.distance_to_goal_m:.2f} m to go, {s.reason or 'no reason given'}"
+    echo(f"goal {gid}: no result within {timeout:.0f} s{why}")
+    return 2, s
 
 
 def _final(s, gid: str, echo):

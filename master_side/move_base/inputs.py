@@ -44,3 +44,12 @@ def safety_override(sub) -> str:
         return ""
     why = f": {st.reason}" if st.reason else ""
     return f"robot's collision monitor: {st.action}{why} (speed x{st.ratio:.2f})"
+
+
+def collision_hint(sub, now: float, within: float = 120.0) -> str:
+    """The robot's last reported collision (the simulator's ``collision`` topic) if it is recent, in words."""
+    c = sub.latest()
+    if c is None or c.count <= 0 or not 0.0 <= now - c.header.stamp <= within:
+        return ""
+    return (f"collision #{c.count} at ({c.x:.2f}, {c.y:.2f}) in {c.header.frame_id or 'map'} "
+            f"{now - c.header.stamp:.0f} s ago")

@@ -31,6 +31,7 @@ from common.bus import Node
 from common.config import strip_frame
 from common.geometry import Pose2D
 from common.messages import (
+    Collision,
     CollisionMonitorState,
     Costmap,
     CostmapSensors,
@@ -51,7 +52,7 @@ from master_side.costmap.health import SensorHealth
 from master_side.move_base.config import check, load_move_base_config
 from master_side.move_base.controller import LocalController
 from master_side.move_base.global_planning_node import GlobalPlanning
-from master_side.move_base.inputs import robot_pose, safety_override
+from master_side.move_base.inputs import collision_hint, robot_pose, safety_override
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
 from master_side.move_base.state_machine import MoveBaseMachine, State
@@ -93,6 +94,7 @@ class MoveBaseNode:
             node.subscribe(f"{name}/sensors", CostmapSensors, callback=self.health.update, mode="queue")
         self.cmd = node.publisher("cmd_vel")
         self.safety = node.subscribe("collision_monitor/state", CollisionMonitorState)  # the robot's monitor
+        self.collision = node.subscribe("collision", Collision)  # a simulated robot's contacts (latched)
         self.status_pub = node.publisher("move_base/status")
         self.result_pub = node.publisher("move_base/result", latched=True)
         self.lplan_pub = node.publisher("move_base/local_plan")
@@ -241,6 +243,8 @@ class MoveBaseNode:
         override = safety_override(self.safety)
         if override and m.state is not State.IDLE:
             reason = f"{reason}; {override}" if reason else override
+        if reason.startswith("no progress") and (hit := collision_hint(self.collision, self.node.clock.now())):
+            reason = f"{reason}; {hit}"
         self._publish_status(m.status, reason, terminal, dist)
 
     def _publish_status(self, status: int, reason: str, terminal: bool, dist: float = 0.0,

@@ -49,3 +49,8 @@ class MoveBaseParams:
         4 * math.pi, lo=0.0, unit="rad",
         doc="zenav: in-place turning without translating (valid commands) that counts as a failed "
             "controller; 0 = off (ROS has no such check)")
+    no_progress_report: float = param(
+        5.0, lo=0.0, unit="s",
+        doc="zenav: while controlling with valid commands, the status says 'no progress' once the robot has "
+            "moved less than 5 cm or turned less than 0.2 rad (or a mix) for this long; 0 = off (reports only: "
+            "oscillation_timeout decides about recoveries, as in ROS)")

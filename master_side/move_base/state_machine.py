@@ -75,6 +75,12 @@ class Decision:
 
 ZERO = (0.0, 0.0, 0.0)
 IN_PLACE = 0.01  # m/s: a command slower than this turns the robot in place
+PROGRESS_M, PROGRESS_RAD = 0.05, 0.2  # moving or turning this much is progress (no_progress_report)
+
+
+def _progress(a: Pose2D, b: Pose2D) -> float:
+    """a to b in units of progress: 1 = PROGRESS_M moved, or PROGRESS_RAD turned, or a mix."""
+    return a.distance(b) / PROGRESS_M + abs(normalize_angle(b.theta - a.theta)) / PROGRESS_RAD
 
 
 @dataclass
@@ -106,8 +112,8 @@ class MoveBaseMachine:
         self._reset_clocks(0.0, None)
 
     def _reset_clocks(self, now: float, pose: Pose2D | None) -> None:
-        self._last_valid_plan = self._last_valid_control = self._osc_time = now
-        self._osc_pose = pose
+        self._last_valid_plan = self._last_valid_control = self._osc_time = self._prog_time = now
+        self._osc_pose = self._prog_pose = pose
         self._retries = 0
         self._spin = 0.0
         self._spin_yaw: float | None = None
@@ -146,6 +152,8 @@ class MoveBaseMachine:
             self._osc_pose, self._osc_time = pose, now
             if self.trigger is Trigger.OSCILLATION:
                 self.recovery_index = 0
+        if self._prog_pose is None or self.state is not State.CONTROLLING or _progress(self._prog_pose, pose) >= 1:
+            self._prog_pose, self._prog_time = pose, now
         if blocked:
             self.reason = blocked
             return self._decide(ZERO)
@@ -200,7 +208,7 @@ class MoveBaseMachine:
             if self.trigger is Trigger.CONTROLLING:
                 self.recovery_index = 0
             if self.state is State.CONTROLLING:
-                self.reason = ""
+                self.reason = self._no_progress(now, pose, res.cmd)
                 cmd = tuple(res.cmd)
             return self._decide(cmd, new_plan)
         if self.state is not State.CONTROLLING:  # the oscillation check started a recovery
@@ -218,6 +226,16 @@ class MoveBaseMachine:
             self.planner.start(self.goal.pose)
             self._enter(State.PLANNING, f"no valid command ({res.reason}); replanning")
         return self._decide(ZERO, new_plan)
+
+    def _no_progress(self, now: float, pose: Pose2D, cmd) -> str:
+        """'' or why valid commands got the robot nowhere for ``no_progress_report`` s (ROS is silent)."""
+        limit, stalled = self.params.no_progress_report, now - self._prog_time
+        if limit <= 0 or stalled < limit:
+            return ""
+        moved = pose.distance(self._prog_pose)
+        turned = abs(normalize_angle(pose.theta - self._prog_pose.theta))
+        return (f"no progress for {stalled:.0f} s: moved {moved:.2f} m and turned {turned:.2f} rad while "
+                f"commanding v={cmd[0]:.2f} m/s, w={cmd[2]:.2f} rad/s")
 
     def _spun(self, pose: Pose2D, cmd) -> str:
         """'' or why the in-place turning has gone on too long (zenav's max_in_place_rotation)."""

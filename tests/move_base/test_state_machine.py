@@ -168,3 +168,32 @@ def test_planning_failure_after_the_last_recovery_aborts_even_with_an_old_plan_i
         t += 0.1
         d = m.tick(t, Pose2D(1, 0, 0), (0, 0, 0))
     assert d.status == GoalStatus.ABORTED and "unreachable" in d.reason
+
+
+def test_a_robot_held_in_place_while_controlling_gets_a_no_progress_reason_and_keeps_its_goal():
+    """ROS stays silent while the local planner's commands get the robot nowhere (oscillation_timeout
+    0): zenav keeps controlling, as ROS does, but the status says so after no_progress_report."""
+    m = machine(no_progress_report=3.0)
+    m.set_goal("g", Pose2D(5, 0, 0), 0.0)
+    t, reasons = 0.0, []
+    while t < 6.0:
+        t = round(t + 0.05, 6)
+        d = m.tick(t, Pose2D(0.01, 0.0, 0.0), (0.0, 0.0, 0.0))  # commanded (0.3, 0.1), held in place
+        reasons.append((t, d.reason))
+    assert d.state is State.CONTROLLING and d.cmd == (0.3, 0.0, 0.1)
+    first = next(t for t, r in reasons if r)
+    assert 3.0 <= first <= 3.2
+    assert reasons[-1][1].startswith("no progress for 6 s: moved 0.00 m and turned 0.00 rad while commanding "
+                                     "v=0.30 m/s, w=0.10 rad/s")
+    d = m.tick(t + 0.05, Pose2D(0.2, 0.0, 0.0), (0.3, 0.0, 0.0))  # it moves again: the reason clears
+    assert d.reason == ""
+
+
+def test_slow_progress_is_progress():
+    m = machine(no_progress_report=3.0)
+    m.set_goal("g", Pose2D(5, 0, 0), 0.0)
+    t = 0.0
+    while t < 10.0:  # 2 cm/s forward, then turning 0.1 rad/s in place: never 'no progress'
+        t = round(t + 0.05, 6)
+        pose = Pose2D(0.02 * min(t, 5.0), 0.0, 0.1 * max(0.0, t - 5.0))
+        assert m.tick(t, pose, (0.02, 0.0, 0.0)).reason == ""

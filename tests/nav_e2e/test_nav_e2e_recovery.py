@@ -69,3 +69,37 @@ def test_nav_e2e_cancel_during_the_rotate_recovery_zeroes_cmd_vel_at_once(stack)
     RESULTS.append(f"room/dwa cancel while CLEARING (rotate recovery): first zero cmd_vel after "
                    f"{delay * 1000:.0f} ms")
     assert delay <= CANCEL_LATENCY_S, delay
+
+
+def test_nav_e2e_a_robot_held_in_place_says_no_progress_and_zenav_goal_prints_it(stack):
+    """Issue 32: the base does not move (its motors disabled) while move_base keeps CONTROLLING with valid
+    commands: the status names it within a few seconds, and `zenav goal` prints it when it gives up."""
+    import time
+
+    from common.messages import Empty, Header, MotorState
+    from deploy.cmd_goal import send_goal
+    from tests.nav_e2e.nav_e2e_stack import publisher_ready
+
+    motors = stack.node.publisher("cmd_motor_state")
+    state = stack.node.subscribe("motor_state", MotorState)
+    publisher_ready(motors)
+    motors.publish(MotorState(Header(0.0, "base_link"), False))
+    wait_until(lambda: state.latest() is not None and not state.latest().enabled, 30.0, "motors disabled")
+    lines: list[str] = []
+    t0 = time.monotonic()
+    try:
+        code, st = send_goal(stack.node, -1.5, 1.2, 0.0, "map", 20.0, echo=lines.append)
+        assert code == 2, lines
+        assert st is not None and st.state == "CONTROLLING", lines
+        assert st.reason.startswith("no progress for "), st.reason
+        assert "no result within 20 s: move_base CONTROLLING" in lines[-1] and "no progress for" in lines[-1], lines
+        # said within a few seconds of controlling: no_progress_report is 5 s of sim time (2.5 s wall)
+        seen = stack.status.since(t0)
+        t_ctrl = next(t for t, m in seen if m.state == "CONTROLLING")
+        t_said = next(t for t, m in seen if m.reason.startswith("no progress for "))
+        assert t_said - t_ctrl < 8.0, (t_ctrl, t_said)
+    finally:
+        stack.cancel_pub.publish(Empty())
+        motors.publish(MotorState(Header(0.0, "base_link"), True))
+        wait_until(lambda: state.latest() is not None and state.latest().enabled, 30.0, "motors enabled")
+        wait_until(lambda: stack.status.last().state == "IDLE", 30.0, "move_base idle after the cancel")
