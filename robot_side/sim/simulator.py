@@ -54,7 +54,7 @@ WORLDS_DIR = Path(__file__).resolve().parents[1] / "worlds"
 class SimulatorParams:
     dt: float = param(0.01, lo=1e-4, hi=0.5, unit="s", doc="physics step")
     real_time_factor: float = param(1.0, lo=0.01, hi=1000.0, doc="simulated seconds per wall second")
-    seed: int | None = param(None, lo=0, doc="if set, overrides the base/laser/camera seeds (seed, +1, +2)")
+    seed: int | None = param(None, lo=0, doc="if set, overrides the base/laser/camera/physics seeds (seed, +1, +2, +3)")
     map_frame_id: str = param("map", doc="frame of the ground truth (the world)")
     engine: str = param("kinematic", choices=ENGINES,
                         doc="kinematic: exact arcs on the grid (fast, exact geometry); mujoco: rigid-body "

@@ -188,7 +188,11 @@ def _reached(probe: Stream, since: float, timeout: float = 300.0, what: str = "g
         if st and int(st[-1][2]) not in (ACTIVE, SUCCEEDED, 0):
             raise AssertionError(f"{what} ended with status {st[-1][2]}: {' '.join(st[-1][3:])}")
         return [w for w in st if int(w[2]) == SUCCEEDED]
-    wait_until(done, timeout, f"{what} reached")
+    try:
+        wait_until(done, timeout, f"{what} reached")
+    except AssertionError as e:  # say where move_base stood (state, reason: 'no progress' = no cmd_vel route?)
+        st = [w for w in probe.events("ST", since) if w[3] == gid]
+        raise AssertionError(f"{e}; last status of {gid}: {' '.join(st[-1][2:]) if st else 'none'}") from None
 
 
 def _speed_at_least(probe: Stream, v: float, since: float) -> None:
