@@ -117,8 +117,10 @@ def test_a_drive_into_a_cylinder_is_one_collision(tmp_path):
     assert math.hypot(x - 1.5, y) < 0.1
 
 
-@pytest.mark.parametrize("model", ["jackal", "pioneer_lx"])
+@pytest.mark.parametrize("model", ["p3at", "jackal", "pioneer_lx"])
 def test_every_body_drives_2m_straight_by_its_odometry(tmp_path, model):
+    """Drive at 0.5 m/s and brake where odometry says the stop lands at 2 m (as a controller does):
+    ground truth within 5 cm of 2 m (for the skid-steered P3-AT: the issue's fact check)."""
     world = _write(tmp_path, {"bounds": [-5, -5, 5, 5], "start": [0, 0, 0]})
     sim = _sim(world, "mujoco", model=model)
     brake = 0.5 ** 2 / (2 * (sim.base.p.decel_lim_x or sim.base.p.acc_lim_x))
@@ -133,23 +135,10 @@ def test_every_body_drives_2m_straight_by_its_odometry(tmp_path, model):
     assert abs(sim.base.pose.theta) < 0.02
 
 
-def test_the_skid_steered_p3at_drives_2m_straight_and_turns_in_place(tmp_path, record_property):
-    """Straight: drive at 0.5 m/s and brake where odometry says the stop lands at 2 m (as a controller
-    does): ground truth within 5 cm of 2 m.
-    In place at 1 rad/s: the yaw rate and the odometry's error that the physics gives (the README
+def test_the_skid_steered_p3at_turns_in_place(tmp_path, record_property):
+    """In place at 1 rad/s: the yaw rate and the odometry's error that the physics gives (the README
     states them); the firmware's DiffConvFactor is a calibration, so they are close, not equal."""
     world = _write(tmp_path, {"bounds": [-5, -5, 5, 5], "start": [0, 0, 0]})
-    sim = _sim(world, "mujoco", model="p3at")
-    brake = 0.5 ** 2 / (2 * sim.base.p.acc_lim_x)  # the base ramps down at its acceleration limit
-    while math.hypot(sim.base.odom.x, sim.base.odom.y) < 2.0 - brake:
-        sim.cmd_vel(Twist.planar(0.5, 0.0))
-        sim.step()
-    for _ in range(200):
-        sim.cmd_vel(Twist.planar(0.0, 0.0))
-        sim.step()
-    odom, truth = math.hypot(sim.base.odom.x, sim.base.odom.y), math.hypot(sim.base.pose.x, sim.base.pose.y)
-    assert abs(truth - 2.0) < 0.05, f"ground truth {truth:.3f} m after odometry {odom:.3f} m"
-
     sim = _sim(world, "mujoco", model="p3at")
     for _ in range(100):
         sim.cmd_vel(Twist.planar(0.0, 1.0))
