@@ -27,7 +27,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from robot_side.sim.base import BaseParams, CommandedBase, _arc, _limit, _toward
-from robot_side.sim.mujoco_scene import build_scene, import_mujoco, rebuild, wheel_loop_gain
+from robot_side.sim.mujoco_scene import add_obstacles, build_scene, import_mujoco, rebuild, wheel_loop_gain
 from robot_side.sim.physics_params import PhysicsParams
 from robot_side.sim.robot_bodies import body_for
 from robot_side.sim.world import World
@@ -119,7 +119,7 @@ class MujocoBase(CommandedBase):
     def true_twist(self) -> tuple[float, float]:
         """Forward speed and yaw rate of the body (world frame, ground truth)."""
         d = self.scene.data
-        pos, rot = self.frame3d()
+        rot = d.xmat[self.scene.base_body].reshape(3, 3)
         lin = d.qvel[self._free_dof:self._free_dof + 3]        # world frame for a free joint
         ang = rot @ d.qvel[self._free_dof + 3:self._free_dof + 6]  # body frame -> world
         return float(lin[0] * rot[0, 0] + lin[1] * rot[1, 0]), float(ang[2])
@@ -132,10 +132,8 @@ class MujocoBase(CommandedBase):
 
     def add_box(self, box: Box) -> None:
         """A static box appears (the world's grid has it already): the model is recompiled, state kept."""
-        from robot_side.sim.mujoco_scene import _add_obstacles
-
-        one = World(np.zeros((1, 1), np.float32), 1.0, shapes=[box])
-        self.scene = rebuild(self.scene, self.body, lambda mj, spec: _add_obstacles(mj, spec, one, self.phys))
+        self.scene = rebuild(self.scene, self.body, lambda mj, spec: add_obstacles(mj, spec, [box], self.phys,
+                                                                                   self.scene.model.nbody))
         self._index()
 
     # ------------------------------------------------------------------ physics

@@ -17,9 +17,10 @@ from dataclasses import dataclass
 from robot_side.sim.physics_params import MUJOCO_INSTALL, PhysicsParams
 from robot_side.sim.robot_bodies import RobotBody
 from robot_side.sim.world import World
-from robot_side.sim.world_shapes import Cylinder
+from robot_side.sim.world_shapes import Box, Cylinder
 
-__all__ = ["import_mujoco", "Scene", "build_scene", "wheel_loop_gain", "OBSTACLE_GROUP", "ROBOT_GROUP", "FLOOR_GROUP"]
+__all__ = ["import_mujoco", "Scene", "build_scene", "add_obstacles", "rebuild", "wheel_loop_gain", "OBSTACLE_GROUP",
+           "ROBOT_GROUP", "FLOOR_GROUP"]
 
 OBSTACLE_GROUP, ROBOT_GROUP, FLOOR_GROUP = 0, 1, 2
 # contype / conaffinity bits: two geoms touch when one's contype shares a bit with the other's conaffinity
@@ -52,9 +53,10 @@ def _quat_z(yaw: float) -> list[float]:
     return [math.cos(yaw / 2), 0.0, 0.0, math.sin(yaw / 2)]
 
 
-def _add_obstacles(mj, spec, world: World, p: PhysicsParams) -> None:
+def add_obstacles(mj, spec, shapes: list[Box], p: PhysicsParams, first: int = 0) -> None:
+    """Geoms for ``shapes`` (movable boxes become free bodies ``movable<first + i>``)."""
     fr = [p.obstacle_friction, 0.005, 0.0001]
-    for i, s in enumerate(world.solid_boxes()):
+    for i, s in enumerate(shapes, first):
         h = s.height
         kw = dict(group=OBSTACLE_GROUP, contype=_OBST, conaffinity=_OBST | _HULL | _FLOOR, friction=fr,
                   rgba=[0.6, 0.45, 0.3, 1.0])
@@ -119,7 +121,7 @@ def build_scene(world: World, body: RobotBody, p: PhysicsParams, x: float, y: fl
     spec.option.integrator = mj.mjtIntegrator.mjINT_IMPLICITFAST
     spec.worldbody.add_geom(name="floor", type=mj.mjtGeom.mjGEOM_PLANE, size=[0.0, 0.0, 1.0], group=FLOOR_GROUP,
                             contype=_FLOOR, conaffinity=_WHEEL | _OBST, friction=[p.friction, 0.005, 0.0001])
-    _add_obstacles(mj, spec, world, p)
+    add_obstacles(mj, spec, world.solid_boxes(), p)
     joints = _add_robot(mj, spec, body, p, x, y, yaw)
     model = spec.compile()
     return _scene(mj, model, mj.MjData(model), spec, body, joints)
