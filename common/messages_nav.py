@@ -28,6 +28,7 @@ class GoalStatus:
     ABORTED = 4
     REJECTED = 5
     RECALLED = 8
+    LOST = 9  # actionlib: the receiver does not know this goal id
 
     header: Header = Header()
     goal_id: str = ""

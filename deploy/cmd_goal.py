@@ -15,6 +15,9 @@ Send a goal to move_base (like publishing on move_base_simple/goal in ROS), prin
 wait for the result. The pose may be given in any TF frame: `--frame base_link` means relative to
 where the robot is now. Ctrl-C cancels the goal.
 
+The goal is acknowledged by move_base itself (retried until it answers), so a goal sent while the
+network is down is taken in once it is back, or reported failed after --wait seconds; never lost.
+
 exit status: 0 goal reached, 1 aborted / rejected / cancelled, 2 no answer from move_base (within
 --wait seconds of the start, or no result within --timeout)
 """
@@ -37,36 +40,46 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 def send_goal(node, x: float, y: float, yaw: float, frame: str, timeout: float, echo=print,
               cancel: threading.Event | None = None, wait: float = 60.0):
-    """Send one goal and wait; returns (exit code, final MoveBaseStatus or None)."""
+    """Send one goal and wait; returns (exit code, final MoveBaseStatus or None).
+
+    The goal goes through move_base's acknowledged service (common/delivery.py): retried until move_base
+    answers or ``wait`` s pass — then one line saying so, exit 2. A goal sent while the link is down
+    is thus either taken in once the link is back or reported failed, never silently lost."""
+    from common.delivery import DeliveryFailed, cancel_goal, last_seen
+    from common.delivery import send_goal as send_acknowledged_goal
     from common.geometry import Pose2D
-    from common.messages import Empty, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
+    from common.messages import GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
 
     gid = f"goal-{uuid.uuid4().hex[:8]}"
     status = node.subscribe("move_base/status", MoveBaseStatus, mode="latest")
     result = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
-    pub = node.publisher("move_base/goal")
-    cancel_pub = node.publisher("move_base/cancel")
+    seen = last_seen(status, "its status")
     goal = MoveBaseGoal(gid, PoseStamped(Header(node.clock.now(), frame), Pose2D(x, y, yaw).to_transform()))
     t0 = time.monotonic()
-    # move_base may still be starting: wait until it is there (its status stream) before sending.
-    if status.latest() is None:
-        echo(f"waiting for move_base of robot '{node.robot}' ({node.key('move_base/status')}) ...")
-    while status.latest() is None:
-        if time.monotonic() - t0 > min(timeout, wait):
-            echo(f"zenav goal: no move_base of robot '{node.robot}' answered within {min(timeout, wait):.0f} s "
-                 f"(is `zenav master` running, and is --robot right? `zenav nodes` lists what is there)")
-            return 2, None
+    echo(f"goal {gid}: ({x:.2f}, {y:.2f}, {yaw:.2f}) in {frame}, to move_base of robot '{node.robot}'")
+    try:
+        answer = send_acknowledged_goal(node, goal, min(timeout, wait), seen,
+                                        cancelled=lambda: cancel is not None and cancel.is_set())
+    except DeliveryFailed as e:
         if cancel is not None and cancel.is_set():
             return 1, None
-        time.sleep(0.05)
-    pub.publish(goal)
-    echo(f"goal {gid}: ({x:.2f}, {y:.2f}, {yaw:.2f}) in {frame}")
-    last_line, last_print, accepted = "", 0.0, False
+        echo(f"zenav goal: {e} (is `zenav master` running, and is --robot right? `zenav nodes` lists what "
+             f"is there)")
+        return 2, None
+    if answer.status == GoalStatus.REJECTED:
+        return _final(answer, gid, echo)
+    echo(f"goal {gid}: accepted by move_base after {time.monotonic() - t0:.1f} s")
+    last_line, last_print, last_heard = "", 0.0, time.monotonic()
     while time.monotonic() - t0 < timeout:
         if cancel is not None and cancel.is_set():
-            cancel_pub.publish(Empty())
-            echo(f"goal {gid}: cancel sent")
             cancel = None
+            try:
+                s = cancel_goal(node, gid, seen=seen)
+                echo(f"goal {gid}: cancel acknowledged")
+                return _final(s, gid, echo) if s.status != GoalStatus.ACTIVE else (1, s)
+            except DeliveryFailed as e:
+                echo(f"goal {gid}: cancel not acknowledged: {e}")
+                return 2, status.latest()
         try:
             r = result.get(timeout=0.2)
             if r.goal_id == gid:
@@ -74,10 +87,8 @@ def send_goal(node, x: float, y: float, yaw: float, frame: str, timeout: float, 
         except TimeoutError:
             pass
         s = status.latest()
-        if s is None:
-            continue
-        if s.goal_id == gid:
-            accepted = True
+        if s is not None and s.goal_id == gid and status.last_receive_time > last_heard:
+            last_heard = status.last_receive_time
             line = f"  {s.state:<11} {s.distance_to_goal_m:5.2f} m to go  {s.reason}"
             if line != last_line or time.monotonic() - last_print > 5.0:
                 echo(line)
@@ -85,9 +96,17 @@ def send_goal(node, x: float, y: float, yaw: float, frame: str, timeout: float, 
             if s.status in (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED,
                             GoalStatus.REJECTED) and s.state == "IDLE":
                 return _final(s, gid, echo)
-        elif not accepted and time.monotonic() - t0 > 10.0:
-            pub.publish(goal)  # the first one may have been lost while move_base started
-            t0 = time.monotonic() - 5.0
+        elif time.monotonic() - last_heard > 3.0:
+            # no word on our goal for 3 s (a cut link, a result lost on the way): ask move_base itself;
+            # the same goal id again is answered with its state and never restarts it
+            last_heard = time.monotonic()
+            try:
+                s = send_acknowledged_goal(node, goal, 2.0, seen)
+            except DeliveryFailed as e:
+                echo(f"  (no answer from move_base: {e})")
+                continue
+            if s.status in (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED, GoalStatus.REJECTED):
+                return _final(s, gid, echo)
     s = status.latest()
     why = ""
     if s is not None and s.goal_id == gid:

@@ -14,12 +14,16 @@ in the status), TF. Out ``cmd_vel``, ``move_base/status`` + ``move_base/result``
 ``move_base/global_plan``, ``move_base/local_plan`` (Path), ``move_base/current_goal`` (PoseStamped),
 ``move_base/loop_time``, ``move_base/cmd_trace`` (Scalar after each cycle's cmd_vel: value = header stamp
 of the local costmap it was computed from, -1 without one; bench/loop.py). Service ``make_plan``
-(PlanRequest -> PlanResult), as ROS move_base offers. Global planning on the bus (the planner thread's
-plan call, the service) is ``master_side.move_base.global_planning_node``.
+(PlanRequest -> PlanResult), as ROS move_base offers. Acknowledged commands (common/delivery.py):
+services ``move_base/send_goal`` (MoveBaseGoal -> MoveBaseStatus: the goal's state once taken in) and
+``move_base/cancel_goal`` (Text with a goal id, or empty for any -> MoveBaseStatus). A goal id seen before
+(a sender's retry, on either path) is answered with that goal's state and never restarts it. Global
+planning on the bus (the planner thread's plan call, the service) is ``master_side.move_base.global_planning_node``.
 """
 
 from __future__ import annotations
 
+import collections
 import itertools
 import sys
 import threading
@@ -45,6 +49,7 @@ from common.messages import (
     PlanResult,
     PoseStamped,
     Scalar,
+    Text,
     Twist,
 )
 from common.tf import TFListener
@@ -59,6 +64,7 @@ from master_side.move_base.state_machine import MoveBaseMachine, State
 from master_side.planning.warmup import warm_local_planners
 
 TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)
+SEEN_GOALS = 256  # goal ids remembered (with their last answer) so that a resent goal is not restarted
 SENSORS_MAX_AGE = 3.0  # s without a costmap's sensor report before it counts as not reporting
 
 __all__ = ["MoveBaseNode", "start", "check"]
@@ -75,6 +81,7 @@ class MoveBaseNode:
         self.tf = TFListener(node)
         self.planning = GlobalPlanning(node, c, self.tf)
         self.lock = threading.RLock()
+        self.intake_lock = threading.Lock()  # one goal taken in at a time (a TF wait inside: not self.lock)
         self.cmd_lock = threading.Lock()  # orders cycle commands against cancel's immediate stop
         self._cancels = 0
         self.planner = PlannerThread(self.planning.plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
@@ -84,6 +91,7 @@ class MoveBaseNode:
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None
         self._last_terminal = None
+        self._answers: collections.OrderedDict[str, MoveBaseStatus] = collections.OrderedDict()
         self._pose_global: Pose2D | None = None
         self._blind = ""
         self._last_event = ("", float("-inf"), 0)
@@ -102,8 +110,9 @@ class MoveBaseNode:
         self.loop_pub = node.publisher("move_base/loop_time")
         self.trace_pub = node.publisher("move_base/cmd_trace")
         node.subscribe("move_base_simple/goal", PoseStamped, callback=self._on_goal, mode="queue")
-        node.subscribe("move_base/goal", MoveBaseGoal, mode="queue",
-                       callback=lambda g: self._on_goal(g.target_pose, g.goal_id))
+        node.subscribe("move_base/goal", MoveBaseGoal, mode="queue", callback=self._on_goal_with_id)
+        node.service("move_base/send_goal", self._send_goal_service, MoveBaseGoal)
+        node.service("move_base/cancel_goal", self._cancel_service)
         self._cancel_sub = None
         self._cancel_sub = node.subscribe("move_base/cancel", None, mode="queue", callback=lambda _m: self.cancel(
             self._cancel_sub.last_publisher if self._cancel_sub is not None else ""))
@@ -123,6 +132,43 @@ class MoveBaseNode:
         return self.planning.result
 
     # -- inputs ------------------------------------------------------------------------------------
+    def _on_goal_with_id(self, g: MoveBaseGoal) -> None:
+        with self.intake_lock:
+            if g.goal_id and self._answer(g.goal_id) is not None:
+                self.node.log.debug("goal %s again: already taken in", g.goal_id)
+                return
+            self._on_goal(g.target_pose, g.goal_id)
+
+    def _send_goal_service(self, g: MoveBaseGoal) -> MoveBaseStatus:
+        if not g.goal_id:
+            raise ValueError("move_base/send_goal needs a goal_id (a resent goal is known by it)")
+        with self.intake_lock:  # two deliveries of one goal at once: the second finds the first's answer
+            if self._answer(g.goal_id) is None:
+                self._on_goal(g.target_pose, g.goal_id)
+            return self._answer(g.goal_id)
+
+    def _cancel_service(self, req) -> MoveBaseStatus:
+        gid = req.data if isinstance(req, Text) else ""
+        with self.lock:
+            current = self.machine.goal.goal_id if self.machine.goal else ""
+        if not gid or gid == current:  # (cancel takes cmd_lock before self.lock: not called holding it)
+            self.cancel(f"a cancel_goal call ({gid or 'any goal'})")
+        return self._answer(gid or current) or self._status_msg(GoalStatus.LOST, "no such goal", 0.0, gid)
+
+    def _answer(self, gid: str) -> MoveBaseStatus | None:
+        """The state of goal ``gid`` if it was ever taken in (current, finished or rejected), else None."""
+        with self.lock:
+            m = self.machine
+            if m.goal is not None and m.goal.goal_id == gid:
+                return self._status_msg(m.status, m.reason, 0.0, gid)
+            return self._answers.get(gid)
+
+    def _remember(self, msg: MoveBaseStatus) -> None:
+        self._answers[msg.goal_id] = msg
+        self._answers.move_to_end(msg.goal_id)
+        while len(self._answers) > SEEN_GOALS:
+            self._answers.popitem(last=False)
+
     def _on_goal(self, msg: PoseStamped, goal_id: str = "") -> None:
         gf = self.global_frame
         frame = strip_frame(msg.header.frame_id) or gf
@@ -138,6 +184,9 @@ class MoveBaseNode:
         goal = to_global.compose(msg.pose.to_pose2d())
         with self.lock:
             gid = goal_id or f"goal-{next(self.ids)}"
+            old = self.machine.goal
+            if old is not None and old.goal_id != gid and self.machine.state is not State.IDLE:
+                self._remember(self._status_msg(GoalStatus.PREEMPTED, f"replaced by goal {gid}", 0.0, old.goal_id))
             self.goal_msg = PoseStamped(Header(now, gf), goal.to_transform())
             self.planning.result = PlanResult()
             self.machine.set_goal(gid, goal, now)
@@ -247,22 +296,28 @@ class MoveBaseNode:
             reason = f"{reason}; {hit}"
         self._publish_status(m.status, reason, terminal, dist)
 
-    def _publish_status(self, status: int, reason: str, terminal: bool, dist: float = 0.0,
-                        gid: str | None = None) -> None:
+    def _status_msg(self, status: int, reason: str, dist: float, gid: str | None = None) -> MoveBaseStatus:
         m = self.machine
         now = self.node.clock.now()
         frame = self.global_frame or ""
         if gid is None:
             gid = m.goal.goal_id if m.goal else ""
         used = self.result.goal_used
-        msg = MoveBaseStatus(Header(now, frame), gid, status, m.state.value, reason,
-                             self.goal_msg or PoseStamped(),
-                             PoseStamped(Header(now, frame), used.to_transform()),
-                             self.result.goal_offset_m, dist, m.recovery_index)
+        return MoveBaseStatus(Header(now, frame), gid, status, m.state.value, reason,
+                              self.goal_msg or PoseStamped(),
+                              PoseStamped(Header(now, frame), used.to_transform()),
+                              self.result.goal_offset_m, dist, m.recovery_index)
+
+    def _publish_status(self, status: int, reason: str, terminal: bool, dist: float = 0.0,
+                        gid: str | None = None) -> None:
+        msg = self._status_msg(status, reason, dist, gid)
         self.status_pub.publish(msg)
-        if terminal and self._last_terminal != (gid, status):
-            self._last_terminal = (gid, status)
-            self.result_pub.publish(msg)
+        if terminal:
+            with self.lock:
+                self._remember(msg)
+            if self._last_terminal != (msg.goal_id, status):
+                self._last_terminal = (msg.goal_id, status)
+                self.result_pub.publish(msg)
 
     def close(self) -> None:
         self.timer.cancel()

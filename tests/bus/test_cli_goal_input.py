@@ -30,15 +30,46 @@ def test_goal_without_move_base_names_the_robot_at_once_and_gives_up_after_wait(
                          stderr=subprocess.PIPE, text=True, cwd=REPO)
     try:
         first = p.stdout.readline()
-        assert f"waiting for move_base of robot '{robot_name}'" in first, first
+        assert f"to move_base of robot '{robot_name}'" in first, first
         out, err = p.communicate(timeout=60)
     finally:
         if p.poll() is None:
             p.kill()
     assert p.returncode == 2
     assert "Traceback" not in err
-    assert f"no move_base of robot '{robot_name}' answered within 2 s" in out, out
+    lines = out.splitlines()
+    assert len(lines) == 1, out  # one line saying why
+    assert f"move_base of robot '{robot_name}' did not answer within 2 s" in lines[0], out
+    assert "no node serving it was reachable; its status never seen" in lines[0], out
     assert time.monotonic() - t0 < 45  # the default used to be a silent minute
+
+
+def test_goal_to_a_move_base_that_never_answers_exits_2_in_time_with_one_line(node_pair, robot_name):
+    """A move_base that is there (its status flows, its goal service is declared) but never answers: a hung
+    node, or a link that carries one direction only. `zenav goal` must not wait past --wait."""
+    import threading
+
+    from common.messages import Header, MoveBaseStatus
+
+    hung = node_pair("move_base")
+    release = threading.Event()
+    hung.service("move_base/send_goal", lambda _req: release.wait(60))
+    status = hung.publisher("move_base/status")
+    hung.timer(0.1, lambda: status.publish(MoveBaseStatus(Header(hung.clock.now(), "map"), state="IDLE")))
+    env = child_env(robot_name, multicast=False, connect=hung.config.listen)
+    t0 = time.monotonic()
+    try:
+        r = subprocess.run([*ZENAV, "goal", "1", "2", "0", "--wait", "4"], env=env, capture_output=True,
+                           text=True, timeout=60, cwd=REPO)
+    finally:
+        release.set()
+    took = time.monotonic() - t0
+    assert r.returncode == 2, r.stdout + r.stderr
+    assert "Traceback" not in r.stderr
+    last = r.stdout.strip().splitlines()[-1]
+    assert f"move_base of robot '{robot_name}' did not answer within 4 s" in last, r.stdout
+    assert "it was reachable but did not answer; its status last seen" in last, r.stdout
+    assert took < 4 + 20, took  # the deadline, plus the start of a Python process on a loaded machine
 
 
 def test_tools_use_the_only_robot_on_the_network_and_say_so(node_pair, robot_name):

@@ -156,19 +156,21 @@ def cancel_and_measure(stack: NavStack) -> float:
     return first - t_pub
 
 
-def send_goal_async(stack: NavStack, goal: tuple[float, float, float], frame: str = "map") -> str:
-    """Publish a goal (move_base/goal with an id) and return the id; does not wait."""
+def send_goal_async(stack: NavStack, goal: tuple[float, float, float], frame: str = "map",
+                    gid: str | None = None):
+    """Send a goal as `zenav goal` does (acknowledged by move_base) and return its id once move_base has
+    taken it in; does not wait for the result. ``gid``: resend a known goal (returns move_base's answer)."""
     import uuid
 
+    from common.delivery import send_goal
     from common.messages import Header, MoveBaseGoal, PoseStamped
-    from tests.nav_e2e.nav_e2e_stack import publisher_ready
 
-    if not hasattr(stack, "_goal_pub"):
-        stack._goal_pub = stack.node.publisher("move_base/goal")
-        publisher_ready(stack._goal_pub)
-    gid = f"nav-{uuid.uuid4().hex[:8]}"
-    stack._goal_pub.publish(MoveBaseGoal(gid, PoseStamped(Header(0.0, frame), Pose2D(*goal).to_transform())))
-    return gid
+    new = gid is None
+    gid = gid or f"nav-{uuid.uuid4().hex[:8]}"
+    answer = send_goal(stack.node, MoveBaseGoal(gid, PoseStamped(Header(0.0, frame), Pose2D(*goal).to_transform())),
+                       deadline=60.0)
+    assert answer.goal_id == gid, answer
+    return gid if new else answer
 
 
 def status_of(stack: NavStack, gid: str, pred, timeout: float, what: str):

@@ -57,3 +57,21 @@ def test_nav_e2e_room_dwa_cancel_while_driving_zeroes_cmd_vel_at_once(stack):
     RESULTS.append(f"room/dwa cancel while CONTROLLING: first zero cmd_vel after {delay * 1000:.0f} ms")
     assert delay <= CANCEL_LATENCY_S, delay
     assert stack.status.last().status == GoalStatus.PREEMPTED
+
+
+def test_nav_e2e_room_dwa_a_resent_goal_is_answered_with_its_state_and_never_restarted(stack):
+    goal = (-1.2, 0.0, 0.0)
+    gid = send_goal_async(stack, goal)
+    again = send_goal_async(stack, goal, gid=gid)  # a sender's retry while the goal runs
+    assert again.status == GoalStatus.ACTIVE, again
+    done = status_of(stack, gid, lambda m: m.status == GoalStatus.SUCCEEDED and m.state == "IDLE", 150.0,
+                     "SUCCEEDED")
+    t = done.header.stamp
+    late = send_goal_async(stack, goal, gid=gid)  # a retry whose first delivery was only acknowledged late
+    assert late.status == GoalStatus.SUCCEEDED, late
+    n = len(stack.cmd.since(0))
+    wait_until(lambda: (m := stack.status.last()) and m.header.stamp > t + 1.0, 30.0, "1 s more of status")
+    st = stack.status.last()
+    assert (st.goal_id, st.status, st.state) == (gid, GoalStatus.SUCCEEDED, "IDLE"), st
+    moving = [m for _, m in stack.cmd.since(0)[n:] if not m.is_zero()]
+    assert not moving, f"the finished goal was started again: {moving[:3]}"

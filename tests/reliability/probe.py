@@ -6,8 +6,9 @@ Prints one line per event, wall time first (the robot PC's clock)::
     CMD t v w               cmd_vel from the master    COLL t count   a collision
     MON t action            collision monitor state    ST t status goal_id state reason   move_base/status
 
-stdin: ``goal X Y YAW`` (map frame), ``box DX DY SX SY`` (a box appears relative to the robot); each
-prints ``SENDING kind`` before its put and ``SENT kind`` after it.
+stdin: ``goal X Y YAW`` (map frame): sent as `zenav goal` sends it (acknowledged by move_base, retried
+inside up to 90 s), then ``ACK goal_id status`` or ``NOACK goal_id why``; ``box DX DY SX SY`` (a box
+appears relative to the robot): ``SENDING box`` before its put and ``SENT box`` after it.
 """
 
 from __future__ import annotations
@@ -15,13 +16,16 @@ from __future__ import annotations
 import sys
 import threading
 import time
+import uuid
 
 from common.bus import Node
+from common.delivery import DeliveryFailed, send_goal
 from common.geometry import Pose2D
 from common.messages import (
     Collision,
     CollisionMonitorState,
     Header,
+    MoveBaseGoal,
     MoveBaseStatus,
     Odometry,
     PoseStamped,
@@ -51,16 +55,22 @@ def main() -> None:
     node.subscribe("move_base/status", MoveBaseStatus, mode="queue",
                    callback=lambda m: say("ST", m.status, m.goal_id or "-", m.state or "-",
                                           (m.reason or "-").replace("\n", " ")))
-    goal = node.publisher("move_base_simple/goal")
+
+    def goal(x: float, y: float, yaw: float) -> None:
+        gid = f"probe-{uuid.uuid4().hex[:8]}"
+        say("SENDING", "goal", gid)
+        try:
+            st = send_goal(node, MoveBaseGoal(gid, PoseStamped(Header(time.time(), "map"),
+                                                               Pose2D(x, y, yaw).to_transform())), deadline=90.0)
+            say("ACK", gid, st.status)
+        except DeliveryFailed as e:
+            say("NOACK", gid, str(e).replace("\n", " "))
     box = node.publisher("sim/spawn_box")
     say("READY")
     for line in sys.stdin:
         w = line.split()
         if w[:1] == ["goal"]:
-            x, y, yaw = map(float, w[1:4])
-            say("SENDING", "goal")  # a put that never returns shows as SENDING without SENT
-            goal.publish(PoseStamped(Header(time.time(), "map"), Pose2D(x, y, yaw).to_transform()))
-            say("SENT", "goal")
+            threading.Thread(target=goal, args=tuple(map(float, w[1:4])), daemon=True).start()
         elif w[:1] == ["box"]:
             dx, dy, sx, sy = map(float, w[1:5])
             say("SENDING", "box")
