@@ -174,15 +174,40 @@ def fit_robots_views(rec):
     return observe
 
 
-def bus_publisher(session, robot: str):
-    """``publish(topic, msg)`` on the robot's bus (what the page's tools send)."""
-    from common.bus_topics import topic_key
-    from common.codec import encode
+def bus_commands(session, robot: str, deadline: float = 10.0):
+    """``send(what, msg)`` for the page's tools: each command acknowledged by the node that acts on it
+    (common/delivery.py), so the page says "accepted by move_base" or who did not answer — never a
+    silent put into a link that is down."""
+    import uuid
 
-    def publish(topic: str, msg) -> None:
-        session.put(topic_key(robot, topic), encode(msg), attachment=b"zenav_monitor_web")
+    from common.bus import Node, ServiceError
+    from common.delivery import DeliveryFailed, cancel_goal, send_acknowledged, send_goal
+    from common.messages import GoalStatus, MoveBaseGoal, PoseStamped
+    from deploy.monitor.webserver import CommandNotAcknowledged
 
-    return publish
+    node = Node(f"monitor_web_{uuid.uuid4().hex[:6]}", robot=robot, session=session)
+
+    def send(what: str, msg) -> str:
+        try:
+            if what == "goal":
+                gid = f"web-{uuid.uuid4().hex[:8]}"
+                st = send_goal(node, MoveBaseGoal(gid, msg), deadline)
+                if st.status == GoalStatus.REJECTED:
+                    raise ValueError(f"move_base rejected the goal: {st.reason}")
+                return f"goal {gid} accepted by move_base"
+            if what == "cancel":
+                st = cancel_goal(node, "", deadline)
+                return f"cancel acknowledged by move_base ({st.goal_id or 'no goal'})"
+            pose = send_acknowledged(node, "set_initial_pose", msg, PoseStamped, deadline,
+                                     what=f"AMCL of robot '{robot}'").pose.to_pose2d()
+            return f"AMCL set its pose to ({pose.x:.2f}, {pose.y:.2f})"
+        except DeliveryFailed as e:
+            raise CommandNotAcknowledged(str(e)) from None
+        except ServiceError as e:  # the node answered: no (e.g. AMCL without a map yet)
+            raise ValueError(str(e)) from None
+
+    send.node = node  # closed with the monitor
+    return send
 
 
 def run(args) -> int:
@@ -231,7 +256,8 @@ def run(args) -> int:
 
         state_subs = subscribe_state(session, robot, web_state)
         try:
-            web = WebServer(web_state, bus_publisher(session, robot), args.serve_web, args.grpc_port, args.bind,
+            commands = bus_commands(session, robot)
+            web = WebServer(web_state, commands, args.serve_web, args.grpc_port, args.bind,
                             args.token, args.memory_limit, assets)
         except OSError as e:
             mon.close()
@@ -246,6 +272,7 @@ def run(args) -> int:
         stop.wait(min(left, 1.0))
     if web is not None:
         web.close()
+        commands.node.close()
     for h in state_subs:
         with contextlib.suppress(zenoh.ZError):
             h.undeclare()

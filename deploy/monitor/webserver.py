@@ -7,9 +7,10 @@ Serves, on the address the user chose (``--bind``, default 127.0.0.1) only:
   GET  /api/state        robot pose, AMCL pose / particles / covariance ellipse, plan, footprint, goal,
                          move_base state and the "why not moving" line (WebState.snapshot)
   GET  /api/map          the map as grey levels (WebState.map_payload)
-  POST /api/goal         {"x", "y", "yaw"} -> PoseStamped on move_base_simple/goal (map frame)
-  POST /api/initialpose  {"x", "y", "yaw"} -> PoseStamped on initialpose (AMCL)
-  POST /api/cancel       {} -> Empty on move_base/cancel
+  POST /api/goal         {"x", "y", "yaw"} -> a goal (map frame), acknowledged by move_base
+  POST /api/initialpose  {"x", "y", "yaw"} -> an initial pose, acknowledged by AMCL
+  POST /api/cancel       {} -> cancel, acknowledged by move_base
+  (each answers with what the node said, or 504 naming the node that did not answer in time)
 POSTs need ``Content-Type: application/json`` (a cross-site form cannot send it) and, with ``--token``,
 the header ``X-Zenav-Token`` (403 otherwise).
 """
@@ -56,13 +57,19 @@ def subscribe_state(session, robot: str, state: WebState) -> list:
     return [session.declare_subscriber(topic_key(robot, t), handler(t)) for t in STATE_TOPICS]
 
 
-class WebServer:
-    """``publish(topic, msg)`` puts a message on the robot's bus (the monitor's Zenoh session)."""
+class CommandNotAcknowledged(RuntimeError):
+    """The node that should act on a command from the page did not answer in time (HTTP 504)."""
 
-    def __init__(self, state: WebState, publish: Callable[[str, object], None], port: int, grpc_port: int,
+
+class WebServer:
+    """``send(what, msg)`` hands a command from the page ("goal", "initialpose": a PoseStamped in the map
+    frame; "cancel": None) to the robot's bus and returns the acting node's answer as one line of text; it
+    raises ``CommandNotAcknowledged`` when that node did not answer, ``ValueError`` when it said no."""
+
+    def __init__(self, state: WebState, send: Callable[[str, object], str], port: int, grpc_port: int,
                  bind: str = "127.0.0.1", token: str | None = None, memory_limit: str = "2GiB",
                  assets: Path | None = None) -> None:
-        self.state, self.publish, self.token = state, publish, token or None
+        self.state, self.send, self.token = state, send, token or None
         self.config = {"robot": state.robot, "grpc_port": grpc_port, "memory_limit": memory_limit,
                        "token_required": bool(token), "map_frame": state.map_frame}
         self.assets = assets
@@ -83,12 +90,12 @@ class WebServer:
     # -- control -----------------------------------------------------------------------------------
     def control(self, what: str, body: dict) -> dict:
         from common.geometry import Pose2D
-        from common.messages import Empty, Header, PoseStamped
+        from common.messages import Header, PoseStamped
 
         if what == "cancel":
-            self.publish("move_base/cancel", Empty())
-            self.state.note("cancel sent")
-            return {"ok": True}
+            answer = self.send("cancel", None)
+            self.state.note(f"cancel: {answer}")
+            return {"ok": True, "answer": answer}
         try:
             x, y, yaw = (float(body[k]) for k in ("x", "y", "yaw"))
         except (KeyError, TypeError, ValueError):
@@ -96,11 +103,10 @@ class WebServer:
         if not all(map(math.isfinite, (x, y, yaw))):
             raise ValueError("x, y, yaw must be finite")
         msg = PoseStamped(Header(0.0, self.state.map_frame), Pose2D(x, y, yaw).to_transform())
-        topic = {"goal": "move_base_simple/goal", "initialpose": "initialpose"}[what]
-        self.publish(topic, msg)
-        self.state.note(f"{what} ({x:.2f}, {y:.2f}, {math.degrees(yaw):.0f} deg) sent on {topic}")
-        log.info("web page: %s (%.2f, %.2f, %.2f)", topic, x, y, yaw)
-        return {"ok": True, "topic": topic, "x": x, "y": y, "yaw": yaw}
+        answer = self.send(what, msg)
+        self.state.note(f"{what} ({x:.2f}, {y:.2f}, {math.degrees(yaw):.0f} deg): {answer}")
+        log.info("web page: %s (%.2f, %.2f, %.2f): %s", what, x, y, yaw, answer)
+        return {"ok": True, "answer": answer, "x": x, "y": y, "yaw": yaw}
 
 
 class _Handler(BaseHTTPRequestHandler):
@@ -168,6 +174,9 @@ class _Handler(BaseHTTPRequestHandler):
             return self._json(200, self.app.control(what, body if isinstance(body, dict) else {}))
         except ValueError as e:
             return self._json(400, {"error": str(e)})
+        except CommandNotAcknowledged as e:
+            self.app.state.note(f"{what}: {e}")
+            return self._json(504, {"error": str(e)})
         except Exception as e:  # noqa: BLE001 - the bus may be closing
             log.warning("web control %s failed: %s", what, e)
             return self._json(500, {"error": str(e)})

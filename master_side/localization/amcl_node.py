@@ -64,6 +64,7 @@ class AmclNode:
             node.subscribe("scan", LaserScan, callback=self._on_scan, mode="latest"),
             node.subscribe("initialpose", PoseStamped, callback=self._on_initial_pose, mode="queue"),
         ]
+        node.service("set_initial_pose", self._set_initial_pose, request_type=PoseStamped)  # acknowledged
         node.service("global_localization", self._on_global_localization, request_type=Empty)
         self.timer = node.timer(float(period), self._publish_tf) if period > 0 else None
 
@@ -102,22 +103,29 @@ class AmclNode:
         self.cloud_pub.publish(Path(Header(t, self.map_frame), cloud))
 
     def _on_initial_pose(self, msg: PoseStamped) -> None:
+        try:
+            self._set_initial_pose(msg)
+        except (LookupError, RuntimeError) as e:
+            log.warning("initialpose ignored: %s", e)
+
+    def _set_initial_pose(self, msg: PoseStamped) -> PoseStamped:
+        """``initialpose`` (topic) and ``set_initial_pose`` (service: the pose set, in the map frame, or
+        the reason it was not)."""
         frame = strip_frame(msg.header.frame_id) or self.map_frame
         pose = msg.pose.to_pose2d()
         if frame != self.map_frame:
             try:
                 pose = self.tf.buffer.lookup_pose2d(self.map_frame, frame, 0.0, timeout=0.5).compose(pose)
             except LookupError as e:
-                log.warning("initialpose in frame %r ignored: %s", frame, e)
-                return
+                raise LookupError(f"no transform {self.map_frame} <- {frame}: {e}") from None
         with self.lock:
             if self.filter is None:
-                log.warning("initialpose before any map: ignored")
-                return
+                raise RuntimeError("no map received yet")
             self.filter.init_pose(pose, (self.p.initial_cov_xx, self.p.initial_cov_yy, self.p.initial_cov_aa))
             cloud = self.filter.poses.copy()
         self.cloud_pub.publish(Path(Header(msg.header.stamp, self.map_frame), cloud))
         log.info("initial pose set to (%.2f, %.2f, %.2f)", pose.x, pose.y, pose.theta)
+        return PoseStamped(Header(msg.header.stamp, self.map_frame), pose.to_transform())
 
     def _on_global_localization(self, _req: Empty) -> Empty:
         with self.lock:

@@ -153,7 +153,7 @@ function setTool(t) {
 document.getElementById("tool-goal").onclick = () => setTool("goal");
 document.getElementById("tool-initialpose").onclick = () => setTool("initialpose");
 document.getElementById("cancel").onclick = () =>
-  post("api/cancel").then(() => note("cancel sent")).catch((e) => note(`cancel failed: ${e.message}`));
+  post("api/cancel").then((out) => note(out.answer)).catch((e) => note(`cancel failed: ${e.message}`));
 
 canvas.addEventListener("mousedown", (ev) => {
   const v = view();
@@ -192,7 +192,7 @@ window.addEventListener("mouseup", async () => {
     const out = await post(`api/${tool}`, { x: d.x, y: d.y, yaw: d.yaw });
     Z.sent.push({ tool, x: out.x, y: out.y, yaw: out.yaw });
     note(`${tool === "goal" ? "goal" : "initial pose"} (${d.x.toFixed(2)}, ${d.y.toFixed(2)}, ` +
-         `${(d.yaw * 180 / Math.PI).toFixed(0)}°) sent`);
+         `${(d.yaw * 180 / Math.PI).toFixed(0)}°): ${out.answer}`);
   } catch (e) {
     note(`${tool} refused: ${e.message}`);
   }
