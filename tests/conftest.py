@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import fcntl
 import os
-import tempfile
 import uuid
 from pathlib import Path
 
@@ -59,28 +57,3 @@ def pytest_collection_modifyitems(items):
         return _LONG_FIRST.index(parts[1]) if len(parts) > 2 and parts[1] in _LONG_FIRST else len(_LONG_FIRST)
 
     items.sort(key=rank)  # stable: the order inside each folder is kept
-
-
-# A module marked `alone` (pytestmark = pytest.mark.alone) runs while no other module runs on the other
-# xdist worker: its timing is the point (the link-fault tests' netem link and partitions). Every other
-# module holds a shared lock for its whole run; an `alone` module first closes a gate (new modules wait
-# there), then takes the lock exclusively once the running module is done. Without xdist: no locks.
-@pytest.fixture(scope="module", autouse=True)
-def _module_turn(request):
-    run = os.environ.get("PYTEST_XDIST_TESTRUNUID")
-    if not run:
-        yield
-        return
-    base = Path(tempfile.gettempdir()) / f"zenav-tests-{run}"
-    alone = request.node.get_closest_marker("alone") is not None
-    with open(f"{base}.gate", "a") as gate, open(f"{base}.turn", "a") as turn:
-        fcntl.flock(gate, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
-        fcntl.flock(turn, fcntl.LOCK_EX if alone else fcntl.LOCK_SH)
-        if not alone:
-            fcntl.flock(gate, fcntl.LOCK_UN)  # the gate is only passed through
-        try:
-            yield
-        finally:
-            fcntl.flock(turn, fcntl.LOCK_UN)
-            if alone:
-                fcntl.flock(gate, fcntl.LOCK_UN)
