@@ -32,7 +32,9 @@ def topic_key(robot: str, topic: str) -> str:
     return f"zenav/{robot}/{topic}"
 
 
-LATCHED_RETRY_S = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0)  # waits before asking again when a new publisher gave no reply
+# waits before asking again when a new publisher gave no reply: quickly at first, then every 16 s for
+# about two minutes (a query right after a reconnect can find no route for a while: Zenoh issue #2767)
+LATCHED_RETRY_S = (0.5, 1.0, 2.0, 4.0, 8.0) + (16.0,) * 7
 
 
 def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sample], None],

@@ -118,21 +118,10 @@ def check_odom_tf_ground_truth_agree(rig: Rig, tf, base: BaseParams, start: Pose
 
 def check_stale_cmd_vel_stops(rig: Rig, base: BaseParams, v: float = 0.4) -> None:
     """One cmd_vel, then silence: the robot moves for the timeout, then stops (sim time), and stays."""
-    # A single command can meet a moment where the robot may not move (the collision monitor holds it
-    # while a scan is late on a loaded machine): send it again, up to 3 times, until the robot moves;
-    # the check below starts from the last one.
-    for attempt in range(3):
-        rig.cmd.publish(Twist.planar(v, 0.0))
-        t0 = rig.now()
-        try:
-            moving = wait_until(lambda t0=t0: [m for m in rig.odom.msgs()
-                                               if m.header.stamp > t0 - 0.5 and _speed(m) > 0],
-                                20, "motion after a single cmd_vel")
-            break
-        except AssertionError:
-            if attempt == 2:
-                raise
-            rig.wait_stopped()
+    rig.cmd.publish(Twist.planar(v, 0.0))  # once, on a reliable publisher matched to the base
+    t0 = rig.now()
+    moving = wait_until(lambda: [m for m in rig.odom.msgs() if m.header.stamp > t0 - 0.5 and _speed(m) > 0],
+                        20, "motion after a single cmd_vel")
     t1 = moving[0].header.stamp
     last = rig.wait_stopped()
     rig.wait_sim(1.0)
