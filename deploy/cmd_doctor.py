@@ -3,7 +3,9 @@
 Checks, in order: the Zenoh session opens with the effective config (mode, endpoints, multicast,
 lease); configured endpoints / routers are reached; multicast scouting finds other Zenoh processes;
 zenav nodes alive per robot (liveliness); expected topics flow (rates); TF odom→base_link is fresh;
-clock skew between this machine and the robot's header stamps; every costmap observation source
+clock skew between this machine and the robot's header stamps; every live node answers a query from
+here (its ``node_stats`` service: a node whose token arrives but whose queries do not has a missing
+route — goals to it would not be acknowledged); every costmap observation source
 delivers (``<costmap>/sensors``: a late or silent source fails, naming its topic); optionally the
 serial port (on the robot). Exit 0 only if every check passes (SKIP counts as passed).
 """
@@ -218,6 +220,45 @@ def _robot_checks(lis: _Listener, robots: list[str], topics: list[str], window: 
                 report(c)
 
 
+def _route_checks(session, robot: str, nodes: list[str], report, timeout: float = 3.0) -> None:
+    """Ask every live node of ``robot`` for its node_stats at once; a node that does not answer is named."""
+    import zenoh
+
+    answered: set[str] = set()
+    done = threading.Event()
+    left = [len(nodes)]
+    lock = threading.Lock()
+
+    def handler(name: str):
+        def on_reply(reply) -> None:
+            if reply.ok is not None or not reply.err.payload.to_string().lower().startswith("timeout"):
+                with lock:  # an error reply is an answer too: the route works
+                    answered.add(name)
+
+        def on_done() -> None:
+            with lock:
+                left[0] -= 1
+                if left[0] == 0:
+                    done.set()
+        return zenoh.handlers.Callback(on_reply, on_done)
+
+    from common.codec import encode
+    from common.messages import Empty
+
+    for n in nodes:
+        session.get(f"zenav/{robot}/srv/node_stats/{n}", handler(n), payload=encode(Empty()), timeout=timeout)
+    done.wait(timeout + 2.0)
+    missing = sorted(set(nodes) - answered)
+    if not missing:
+        report(Check(f"[{robot}] routes to its nodes", "PASS", f"{len(nodes)} of {len(nodes)} answer a query"))
+    else:
+        report(Check(f"[{robot}] routes to its nodes", "FAIL",
+                     f"{', '.join(missing)} alive (token seen) but no answer within {timeout:.0f} s",
+                     "a missing route: commands to it (goals, cancels) would not be acknowledged;\n"
+                     "a node that is busy or hung also shows here (`zenav nodes --stats`); after a network "
+                     "change, restarting the node re-forms its routes"))
+
+
 def run(args) -> int:
     import zenoh
 
@@ -265,6 +306,10 @@ def run(args) -> int:
                 report(Check(f"topic {t}", "FAIL", "no robot", "see 'zenav nodes alive'"))
         else:
             _robot_checks(lis, robots, topics, time.monotonic() - t0, args, report)
+            with lis.lock:
+                live = {r: sorted(n for rr, k, n, _ in lis.tokens if rr == r and k == "node") for r in robots}
+            for r in robots:
+                _route_checks(session, r, live[r], report)
     finally:
         close_quietly(lis, session)
     if args.serial:

@@ -48,8 +48,33 @@ def test_doctor_passes_when_robot_topics_flow_on_loopback(fake_robot, robot_name
         assert any(f"topic {t}:" in line and "Hz" in line for line in _lines(out, "PASS")), out
     assert any("TF odom→base_link fresh" in line for line in _lines(out, "PASS")), out
     assert any("clock skew" in line for line in _lines(out, "PASS")), out
+    assert any("routes to its nodes: 1 of 1 answer a query" in line for line in _lines(out, "PASS")), out
     assert not _lines(out, "FAIL")
     assert not _lines(out, "WARN")
+
+
+def test_doctor_names_a_node_whose_token_arrives_but_whose_queries_do_not(fake_robot, robot_name):
+    """A node seen alive that answers no query (a hung node, or a route that formed one way only)."""
+    import zenoh
+
+    from common.zenoh_config import BusConfig
+
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    fake_robot(env_for(robot_name, ZENAV_MULTICAST="0", ZENAV_LISTEN=ep))
+    ghost_ep = f"tcp/127.0.0.1:{free_port()}"
+    ghost = zenoh.open(BusConfig(robot=robot_name, multicast=False, connect=(ep,), listen=(ghost_ep,)).to_zenoh())
+    try:
+        token = ghost.liveliness().declare_token(f"zenavlive/{robot_name}/node/ghost")  # and no node_stats
+        r = zenav(["doctor", "--robot", robot_name, "--no-multicast", "--connect", f"{ep},{ghost_ep}",
+                   "--timeout", "2"], env_for())
+        token.undeclare()
+    finally:
+        ghost.close()
+    assert r.returncode == 1, r.stdout + r.stderr
+    fails = _lines(r.stdout, "FAIL")
+    assert any("routes to its nodes" in line and "ghost alive (token seen) but no answer" in line
+               for line in fails), r.stdout
+    assert "fake_base" not in " ".join(line for line in fails if "routes" in line), r.stdout
 
 
 def test_doctor_fails_with_fixes_when_nothing_runs(robot_name, tmp_path):
