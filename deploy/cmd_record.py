@@ -182,7 +182,36 @@ class Recorder:
         if self.throttle.offer(entity, self.throttle.period(topic, name), item):
             self.writer.write(*item)
 
+    def _fetch_missing_latched(self, timeout: float = 3.0) -> None:
+        """Before closing: ask once more, and wait for, every topic whose publisher was seen but of which
+        nothing was recorded — a latched map whose first query found no route yet (a short recording on
+        a busy machine) is then still in the file. A topic nobody latches is answered at once (no one)."""
+        zenoh = self._zenoh
+        with self._lock:
+            topics = {k.split("/", 4)[4] for k in self._queried}
+        missing = sorted(t for t in topics if t not in self._last_hash)
+        if not missing:
+            return
+        left = [len(missing)]
+        done = threading.Event()
+
+        def finished() -> None:
+            with self._lock:
+                left[0] -= 1
+                if left[0] == 0:
+                    done.set()
+        for t in missing:
+            try:
+                self.session.get(self.prefix + t, zenoh.handlers.Callback(lambda r: r.ok is not None and
+                                                                          self._on_sample(r.ok, True), finished),
+                                 target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE,
+                                 timeout=timeout)
+            except zenoh.ZError:
+                finished()
+        done.wait(timeout + 1.0)
+
     def close(self) -> None:
+        self._fetch_missing_latched()
         self._closing = True  # no more latched retries
         close_quietly(*self._handles)
         self.q.put(False)
