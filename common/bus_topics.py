@@ -85,6 +85,15 @@ class Publisher:
         if last is not None:
             query.reply(self.key, last, attachment=self._attachment)
 
+    @property
+    def matching(self) -> bool:
+        """Whether some subscriber is reachable now (Zenoh's matching status): False for a publisher
+        whose readers are gone or whose route has not formed (yet) — what a lost link looks like."""
+        try:
+            return bool(self._pub.matching_status.matching)
+        except zenoh.ZError:  # undeclared
+            return False
+
     def publish(self, msg: Any) -> None:
         data = encode(msg)
         if self.latched:

@@ -64,6 +64,7 @@ from master_side.move_base.state_machine import MoveBaseMachine, State
 from master_side.planning.warmup import warm_local_planners
 
 TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)
+NO_CMD_ROUTE = "cmd_vel reaches no subscriber (no route to the robot's base or collision monitor)"
 SEEN_GOALS = 256  # goal ids remembered (with their last answer) so that a resent goal is not restarted
 SENSORS_MAX_AGE = 3.0  # s without a costmap's sensor report before it counts as not reporting
 
@@ -294,6 +295,8 @@ class MoveBaseNode:
             reason = f"{reason}; {override}" if reason else override
         if reason.startswith("no progress") and (hit := collision_hint(self.collision, self.node.clock.now())):
             reason = f"{reason}; {hit}"
+        if m.state is not State.IDLE and not self.cmd.matching:  # a route watched, not trusted
+            reason = f"{reason}; {NO_CMD_ROUTE}" if reason else NO_CMD_ROUTE
         self._publish_status(m.status, reason, terminal, dist)
 
     def _status_msg(self, status: int, reason: str, dist: float, gid: str | None = None) -> MoveBaseStatus:
