@@ -1,4 +1,4 @@
-"""Hostile bus input against every node type (see tests/fuzz/harness.py for what is started and checked).
+"""Hostile bus input against every node type (see testkit/fuzz_harness.py for what is started and checked).
 
     python bench/fuzz.py [--per-topic 10000]
 
@@ -17,7 +17,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests.fuzz.harness import run  # noqa: E402
+from testkit.fuzz_harness import run  # noqa: E402
 
 
 def main() -> int:

@@ -149,8 +149,8 @@ def main() -> int:
     a = ap.parse_args()
     if a.role == "hop":
         return run_hop(a.robot, a.port)
-    from tests.nav_e2e import nav_e2e_stack
-    from tests.nav_e2e.nav_e2e_stack import NavStack, publisher_ready, world_goals
+    import testkit.nav_stack as nav_e2e_stack
+    from testkit.nav_stack import NavStack, publisher_ready, world_goals
 
     tmp = Path(tempfile.mkdtemp(prefix="zenav_loop_"))
     mb = {"controller_frequency": a.controller_frequency} if a.controller_frequency > 0 else None

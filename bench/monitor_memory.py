@@ -28,9 +28,9 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
 from deploy.cmd_monitor import HISTORY_LIMIT  # noqa: E402
-from tests.monitor.webrig import ZENAV, Page, master_yaml  # noqa: E402
-from tests.nav_e2e.nav_e2e_stack import ROBOT_CONFIG, NavProc, world_goals  # noqa: E402
-from tests.support import free_port, wait_until  # noqa: E402
+from testkit.nav_stack import ROBOT_CONFIG, NavProc, world_goals  # noqa: E402
+from testkit.wait import free_port, wait_until  # noqa: E402
+from testkit.webrig import ZENAV, Page, master_yaml  # noqa: E402
 
 START = (-2.2, 0.0, 0.0)  # robot_side/worlds/room.yaml
 

@@ -6,31 +6,15 @@ import contextlib
 import os
 import shutil
 import subprocess
-import time
 import uuid
-from typing import Any, Callable, Iterator
+from typing import Iterator
 
 import pytest
 
 from deploy import free_port
+from testkit.wait import wait_until
 
 __all__ = ["free_port", "ip", "listening", "two_netns", "wait_until"]
-
-
-def wait_until(cond: Callable[[], Any], timeout: float, what: str = "condition", period: float = 0.01,
-               alive: Callable[[], str] | None = None) -> Any:
-    """Poll ``cond()`` until it is truthy (its value is returned) or fail after ``timeout`` wall seconds.
-
-    ``alive()`` returning a non-empty text (e.g. "robot.log exited: ...") fails at once with it."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        v = cond()
-        if v:
-            return v
-        if alive is not None and (dead := alive()):
-            raise AssertionError(f"{dead} while waiting for {what}")
-        time.sleep(period)
-    raise AssertionError(f"timed out after {timeout} s waiting for {what}")
 
 
 def listening(port: int) -> bool:

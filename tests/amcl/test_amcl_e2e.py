@@ -12,7 +12,7 @@ import time
 import numpy as np
 import yaml
 
-from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
+from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
 from tests.support import free_port, wait_until
 
 WAYPOINTS = [(-1.0, 0.0), (-1.0, 1.3), (1.5, 1.3), (1.5, -1.2)]  # room: start (-2.2, 0, 0), crate at 0, 0

@@ -1,6 +1,6 @@
 """500 hostile payloads on every subscribed topic of every node type, each node its own process.
 
-What is started and what each payload is: ``tests/fuzz/harness.py`` and ``tests/fuzz/hostile.py``.
+What is started and what each payload is: ``testkit/fuzz_harness.py`` and ``testkit/hostile.py``.
 Every node must count every payload where it belongs (malformed / invalid / received, read from its
 ``node_stats`` service), no callback may raise, no process may die or restart, and the topics that
 carried traffic before the fuzz must still carry it. ``python bench/fuzz.py`` prints the full table
@@ -17,7 +17,7 @@ import os
 
 import pytest
 
-from tests.fuzz.harness import run
+from testkit.fuzz_harness import run
 
 PER_TOPIC = 500
 NODE_TYPES = {"sim", "depth_to_scan", "cloud", "virtualizer", "merger", "collision_monitor", "p2os_driver",

@@ -17,8 +17,8 @@ from common.bus import Node
 from common.messages import Costmap, MoveBaseStatus
 from common.zenoh_config import BusConfig
 from deploy.logs.mcap_io import read_info
+from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
 from tests.monitor.monhelp import has_footer, read_rrd
-from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
 from tests.support import free_port, wait_until
 
 REPO = Path(__file__).resolve().parents[2]

@@ -90,7 +90,7 @@ def test_the_rerun_view_and_our_panel_show_the_block_where_it_is(tmp_path):
     from deploy.monitor.layout import blueprint, fit_height
     from deploy.monitor.web_assets import ensure_assets
     from deploy.monitor.webserver import WebServer
-    from tests.monitor.webrig import Page, rgb
+    from testkit.webrig import Page, rgb
     from tests.support import free_port
 
     grid, block = asymmetric_grid()

@@ -29,7 +29,7 @@ def _robot_at(state: WebState, x: float, y: float, yaw: float = 0.0) -> None:
 @pytest.mark.slow
 @pytest.mark.skipif(find_chromium() is None, reason="chromium not installed (deploy/install.sh --test)")
 def test_the_panel_follows_the_robot_can_be_fixed_zoomed_panned_and_clicks_land_on_the_map(tmp_path):
-    from tests.monitor.webrig import Page
+    from testkit.webrig import Page
 
     big, _ = asymmetric_grid(40.0, 30.0, 0.1, (-20.0, -15.0))
     state, sent = WebState("r1"), []

@@ -13,7 +13,7 @@ import numpy as np
 
 from common.geometry import Pose2D
 from common.messages import Empty, GoalStatus
-from tests.nav_e2e.nav_e2e_stack import NavStack, pose_error, world_goals
+from testkit.nav_stack import NavStack, pose_error, world_goals
 from tests.support import wait_until
 
 XY_TOL, YAW_TOL = 0.3, 0.1  # the acceptance's bounds, against the simulator's ground truth

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import pytest
 
+from testkit.nav_stack import NavStack
 from tests.nav_e2e.nav_e2e_checks import check_world_goals
-from tests.nav_e2e.nav_e2e_stack import NavStack
 
 SPEED = 2.0  # the master follows the sim clock (use_sim_time), measured stable at 2x on 2 loaded cores
 

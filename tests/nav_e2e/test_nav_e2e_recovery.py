@@ -10,6 +10,7 @@ import math
 import pytest
 
 from common.messages import GoalStatus
+from testkit.nav_stack import NavStack
 from tests.nav_e2e.nav_e2e_checks import (
     CANCEL_LATENCY_S,
     RESULTS,
@@ -19,7 +20,6 @@ from tests.nav_e2e.nav_e2e_checks import (
     send_goal_async,
     status_of,
 )
-from tests.nav_e2e.nav_e2e_stack import NavStack
 from tests.support import wait_until
 
 SPEED = 2.0
@@ -78,7 +78,7 @@ def test_nav_e2e_a_robot_held_in_place_says_no_progress_and_zenav_goal_prints_it
 
     from common.messages import Empty, Header, MotorState
     from deploy.cmd_goal import send_goal
-    from tests.nav_e2e.nav_e2e_stack import publisher_ready
+    from testkit.nav_stack import publisher_ready
 
     motors = stack.node.publisher("cmd_motor_state")
     state = stack.node.subscribe("motor_state", MotorState)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from common.messages import GoalStatus
+from testkit.nav_stack import NavStack
 from tests.nav_e2e.nav_e2e_checks import (
     CANCEL_LATENCY_S,
     RESULTS,
@@ -17,7 +18,6 @@ from tests.nav_e2e.nav_e2e_checks import (
     send_goal_async,
     status_of,
 )
-from tests.nav_e2e.nav_e2e_stack import NavStack
 from tests.support import wait_until
 
 SPEED = 2.0  # the master follows the sim clock (use_sim_time), measured stable at 2x on 2 loaded cores

@@ -29,9 +29,9 @@ import zenoh
 
 from common.bus import Node, list_live
 from common.messages import REGISTRY, Empty, NodeStats
-from tests.fuzz.hostile import payloads
+from testkit.hostile import payloads
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[1]
 ROBOT_CFG, MASTER_CFG = REPO / "robot_side" / "config", REPO / "master_side" / "config"
 PY = sys.executable
 ZENAV = [PY, "-m", "deploy.cli"]

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import yaml
 
-from tests.support import free_port, wait_until
+from testkit.wait import free_port, wait_until
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[1]
 MASTER_DIR = REPO / "master_side" / "config"
 ROBOT_CONFIG = REPO / "robot_side" / "config" / "p3at_sim.yaml"
 WORLDS = REPO / "robot_side" / "worlds"

@@ -19,10 +19,10 @@ import yaml
 
 from deploy.check_web_viewer import find_chromium
 from deploy.monitor.cdp import CDP
-from tests.nav_e2e.nav_e2e_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, absolute_param_paths
-from tests.support import free_port, wait_until
+from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, absolute_param_paths
+from testkit.wait import free_port, wait_until
 
-REPO = Path(__file__).resolve().parents[2]
+REPO = Path(__file__).resolve().parents[1]
 ZENAV = [sys.executable, "-m", "deploy.cli"]  # this checkout's code, whatever `zenav` on PATH is
 
 
