@@ -31,8 +31,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("yaw", type=finite, help="rad")
     p.add_argument("--frame", default="map", help="frame of the pose (default map)")
     p.add_argument("--timeout", type=positive, default=300.0, help="give up after this many seconds")
-    p.add_argument("--wait", type=positive, default=10.0, metavar="S",
-                   help="exit 2 when move_base has not answered within S seconds (default 10)")
+    p.add_argument("--wait", type=positive, default=20.0, metavar="S",
+                   help="exit 2 when move_base has not answered within S seconds (default 20: a link that "
+                        "just came back takes up to ~11 s to carry data again, bench/reconnect.py)")
     p.add_argument("--quiet", action="store_true", help="print only the result")
     p.set_defaults(func=run)
     return p

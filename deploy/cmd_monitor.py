@@ -174,7 +174,7 @@ def fit_robots_views(rec):
     return observe
 
 
-def bus_commands(session, robot: str, deadline: float = 10.0):
+def bus_commands(session, robot: str, deadline: float = 20.0):
     """``send(what, msg)`` for the page's tools: each command acknowledged by the node that acts on it
     (common/delivery.py), so the page says "accepted by move_base" or who did not answer — never a
     silent put into a link that is down."""
