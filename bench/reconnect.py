@@ -92,6 +92,8 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--peers", type=int, default=3,
                     help="bystander processes per side (each one more Zenoh session, as a real stack's nodes)")
+    ap.add_argument("--autoconnect", choices=("greater-zid", "always"), default="greater-zid",
+                    help="which scouted peer dials (ZENAV_AUTOCONNECT; zenav's default greater-zid, Zenoh's always)")
     ap.add_argument("--logs", type=Path, default=Path("/tmp/zenav_reconnect"), help="peer logs go here")
     args = ap.parse_args()
     if os.geteuid() != 0:
@@ -102,7 +104,8 @@ def main() -> int:
     sfx = uuid.uuid4().hex[:6]
     ns_m, ns_r = f"zrcm{sfx}", f"zrcr{sfx}"
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
-    env.update(PYTHONPATH=str(REPO), PYTHONUNBUFFERED="1", ZENAV_ROBOT=f"rc{sfx}", ZENAV_SHM="0")
+    env.update(PYTHONPATH=str(REPO), PYTHONUNBUFFERED="1", ZENAV_ROBOT=f"rc{sfx}", ZENAV_SHM="0",
+               ZENAV_AUTOCONNECT=args.autoconnect)
     procs: list[Proc] = []
     hogs: list[multiprocessing.Process] = []
     rows: list[dict] = []
@@ -154,6 +157,11 @@ def main() -> int:
                    "ack": (float(ack[0]) - t_heal) if ack and ack[1] == "ACK" else None,
                    "latched": float(lat[0]) - t_heal if lat else None}
             rows.append(row)
+            if row["ack"] is None:  # say what was seen: a query path lost while puts get through?
+                why = " ".join(ack[2:]) if ack else "no answer line at all"
+                srv = ("the master's service ran" if master.first("SRV", f"c{i}")
+                       else "the query never reached the master")
+                print(f"  goal c{i} not acknowledged: {srv}; {why}", flush=True)
             fmt = lambda v: f"{v:6.2f}" if v is not None else "  LOST"  # noqa: E731
             print(f"cycle {i:4d}/{args.cycles}  cut {cut:3.1f} s  {'fresh' if fresh else 'old  '} publisher  "
                   f"route {fmt(row['recovery'])} s  ack {fmt(row['ack'])} s  latched {fmt(row['latched'])} s"
@@ -186,7 +194,7 @@ def main() -> int:
           f"recovery_p50_s={np.percentile(rec, 50) if rec else float('nan'):.2f} "
           f"recovery_p99_s={np.percentile(rec, 99) if rec else float('nan'):.2f} "
           f"ack_p99_s={np.percentile(ack, 99) if ack else float('nan'):.2f} hog_procs={args.hog} "
-          f"peers_per_side={args.peers + 1}")
+          f"peers_per_side={args.peers + 1} autoconnect={args.autoconnect}")
     return 0 if len(ack) == len(rows) and all(r["latched"] is not None for r in rows) else 1
 
 

@@ -7,6 +7,7 @@ environment so that agents pass the same settings to the processes they start:
 
     ZENAV_ROBOT=pioneer1  ZENAV_MODE=peer|client|router  ZENAV_CONNECT=tcp/10.0.0.2:7447,...
     ZENAV_LISTEN=tcp/0.0.0.0:7447  ZENAV_MULTICAST=1|0  ZENAV_LEASE_MS=1000  ZENAV_SHM=1|0
+    ZENAV_AUTOCONNECT=greater-zid|always
     ZENAV_ZENOH_CONFIG=/path/to/zenoh.json5   (a full Zenoh config file, e.g. with auth / TLS;
                                                the settings above are applied on top of it)
 """
@@ -36,6 +37,11 @@ class BusConfig:
     # machine visible (liveliness DELETE) in about a second.
     lease_ms: int = 1000
     shared_memory: bool | None = None  # None = Zenoh's default
+    # Two scouted peers that both dial each other can end up with one merged session whose declarations
+    # are not sent again after a link loss (Zenoh issue #2806): data then flows one way only. With
+    # "greater-zid" only the peer with the greater Zenoh id dials another peer (routers: always), as
+    # rmw_zenoh's default session config does. "always" is Zenoh's default.
+    autoconnect: str = "greater-zid"
     zenoh_config_file: str = ""
     # Settings given explicitly (environment / options): with a Zenoh config file, only these and the
     # ones that differ from the defaults are applied on top of the file, so the file's own mode,
@@ -49,6 +55,8 @@ class BusConfig:
             raise ValueError(f"robot name {self.robot!r} must be non-empty with no '/' or '*'")
         if self.lease_ms < 100:
             raise ValueError("lease_ms must be >= 100")
+        if self.autoconnect not in ("greater-zid", "always"):
+            raise ValueError(f"autoconnect must be greater-zid or always, not {self.autoconnect!r}")
 
     @staticmethod
     def from_env(env: dict | None = None, **overrides) -> BusConfig:
@@ -59,7 +67,8 @@ class BusConfig:
 
         shm = e.get("ZENAV_SHM")
         names = {"ZENAV_MODE": "mode", "ZENAV_CONNECT": "connect", "ZENAV_LISTEN": "listen",
-                 "ZENAV_MULTICAST": "multicast", "ZENAV_LEASE_MS": "lease_ms", "ZENAV_SHM": "shared_memory"}
+                 "ZENAV_MULTICAST": "multicast", "ZENAV_LEASE_MS": "lease_ms", "ZENAV_SHM": "shared_memory",
+                 "ZENAV_AUTOCONNECT": "autoconnect"}
         explicit = tuple(f for k, f in names.items() if e.get(k, "") != "")
         cfg = BusConfig(
             robot=e.get("ZENAV_ROBOT", DEFAULT_ROBOT),
@@ -70,6 +79,7 @@ class BusConfig:
             lease_ms=int(e.get("ZENAV_LEASE_MS", "1000")),
             shared_memory=None if shm is None else shm not in ("0", "false", "no"),
             zenoh_config_file=e.get("ZENAV_ZENOH_CONFIG", ""),
+            autoconnect=e.get("ZENAV_AUTOCONNECT", "") or "greater-zid",
             explicit=explicit,
         )
         return replace(cfg, **overrides) if overrides else cfg
@@ -79,7 +89,8 @@ class BusConfig:
         env = {"ZENAV_ROBOT": self.robot, "ZENAV_CONNECT": ",".join(self.connect),
                "ZENAV_LISTEN": ",".join(self.listen), "ZENAV_ZENOH_CONFIG": self.zenoh_config_file}
         values = {"ZENAV_MODE": ("mode", self.mode), "ZENAV_MULTICAST": ("multicast", "1" if self.multicast else "0"),
-                  "ZENAV_LEASE_MS": ("lease_ms", str(self.lease_ms))}
+                  "ZENAV_LEASE_MS": ("lease_ms", str(self.lease_ms)),
+                  "ZENAV_AUTOCONNECT": ("autoconnect", self.autoconnect)}
         for var, (name, text) in values.items():
             if self._applies(name):
                 env[var] = text
@@ -110,6 +121,10 @@ class BusConfig:
             conf.insert_json5("transport/link/tx/keep_alive", "4")
         if self.shared_memory is not None:
             conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
+        if apply("autoconnect"):
+            strategy = json.dumps({"peer": {"to_router": "always", "to_peer": self.autoconnect}})
+            conf.insert_json5("scouting/multicast/autoconnect_strategy", strategy)
+            conf.insert_json5("scouting/gossip/autoconnect_strategy", strategy)
         if json.loads(conf.get_json("transport/link/tx/queue/size/data")) == 2:  # a file's other value wins
             conf.insert_json5("transport/link/tx/queue/size/data", str(TX_QUEUE_BATCHES))
         return conf

@@ -65,7 +65,7 @@ def robot() -> None:
 
     node = Node("rc_robot", use_sim_time=False)
     goal = node.publisher("goal")
-    node.subscribe("status", Text, mode="latest")
+    status = node.subscribe("status", Text, mode="latest")
     streams: dict[str, threading.Event] = {}
 
     def stream(ident: str, pub) -> None:
@@ -82,7 +82,9 @@ def robot() -> None:
             send_acknowledged(node, "rc_goal", Text(Header(time.time(), ""), ident), Text, deadline=20.0)
             say("ACK", ident)
         except Exception as e:  # noqa: BLE001 - reported, counted by the benchmark
-            say("NOACK", ident, str(e).replace("\n", " "))
+            age = time.monotonic() - status.last_receive_time if status.received else float("inf")
+            say("NOACK", ident, f"(master's status stream last heard {age:.1f} s ago)",
+                str(e).replace("\n", " "))
 
     def latched(ident: str) -> None:
         node.subscribe("map", Text, mode="latest", callback=lambda m: say("LATCHED", ident))

@@ -101,7 +101,9 @@ def build(o: Options) -> dict:
         conf["listen"] = {"endpoints": list(o.listen)}
     if o.connect:
         conf["connect"] = {"endpoints": list(o.connect)}
-    conf["scouting"] = {"multicast": {"enabled": multicast}}
+    strategy = {"peer": {"to_router": "always", "to_peer": "greater-zid"}}  # common.zenoh_config.BusConfig
+    conf["scouting"] = {"multicast": {"enabled": multicast, "autoconnect_strategy": strategy},
+                        "gossip": {"autoconnect_strategy": strategy}}
     transport: dict = {"link": {"tx": {"lease": o.lease_ms, "keep_alive": 4,
                                        "queue": {"size": {"data": TX_QUEUE_BATCHES}}}}}
     usrpwd = {}

@@ -82,6 +82,25 @@ def test_generated_config_has_short_lease_and_parses(tmp_path):
     assert conf["mode"] == "peer"
     assert json.loads(zenoh.Config.from_file(path).get_json("transport/link/tx/lease")) == 1000
     assert json.loads(zenoh.Config.from_file(path).get_json("transport/link/tx/queue/size/data")) == 16
+    strategy = json.loads(zenoh.Config.from_file(path).get_json("scouting/multicast/autoconnect_strategy"))
+    assert strategy == {"peer": {"to_router": "always", "to_peer": "greater-zid"}}
+
+
+def test_scouted_peers_dial_one_way_unless_told_otherwise():
+    """Only the peer with the greater Zenoh id dials another peer (Zenoh issue #2806: two peers dialling
+    each other could leave a merged session carrying data one way after a link loss)."""
+    import pytest
+
+    from common.zenoh_config import BusConfig
+
+    def to_peer(cfg: BusConfig) -> str:
+        return json.loads(cfg.to_zenoh().get_json("scouting/multicast/autoconnect_strategy"))["peer"]["to_peer"]
+
+    assert to_peer(BusConfig()) == "greater-zid"
+    assert to_peer(BusConfig.from_env({"ZENAV_AUTOCONNECT": "always"})) == "always"
+    assert BusConfig.from_env({"ZENAV_AUTOCONNECT": "always"}).to_env()["ZENAV_AUTOCONNECT"] == "always"
+    with pytest.raises(ValueError, match="greater-zid or always"):
+        BusConfig(autoconnect="sometimes")
 
 
 def test_send_queue_holds_16_stream_messages_unless_a_config_file_says_otherwise(tmp_path):
