@@ -138,62 +138,19 @@ class Subscription:
             self._worker = threading.Thread(target=self._deliver, daemon=True, name=f"sub:{topic}")
             self._worker.start()
         self._sub = node.session.declare_subscriber(self.key, self._on_sample)
-        # Latched topics: ask every latched publisher (a queryable on the topic's key) for its last
-        # message now; again whenever a route to one forms — a new publisher, or a session re-formed
-        # after a link loss (the querier's matching status) — or a publisher's token appears; and again
-        # (LATCHED_RETRY_S) while one is reachable but no answer came. Neither start order nor a cut
-        # link loses a map. Replies already delivered (the same bytes) are not delivered twice.
-        self._replied: set[int] = set()
-        self._querier = node.session.declare_querier(self.key, target=zenoh.QueryTarget.ALL,
-                                                     consolidation=zenoh.ConsolidationMode.NONE)
+        # Latched topics: ask every publisher for its last message now, and again whenever a new
+        # publisher of this topic appears (its liveliness token), so neither start order matters.
         self._fetch_latched()
-        self._route_watch = self._querier.declare_matching_listener(self._on_matching)
         self._pub_watch = node.session.liveliness().declare_subscriber(
             f"zenavlive/{node.robot}/pub/*/{topic.strip('/')}", self._on_publisher)
 
-    def _fetch_latched(self, attempt: int = 0) -> None:
-        if self._closed:
-            return
-        answered = [False]
-
-        def on_reply(reply: zenoh.Reply) -> None:
-            if reply.ok is not None:
-                answered[0] = True
-                self._on_reply(reply.ok)
-
-        def on_done() -> None:
-            if (not answered[0] and attempt < len(LATCHED_RETRY_S) and not self._closed
-                    and self._latched_reachable()):
-                t = threading.Timer(LATCHED_RETRY_S[attempt], self._fetch_latched, (attempt + 1,))
-                t.daemon = True
-                t.start()
-        try:
-            self._querier.get(zenoh.handlers.Callback(on_reply, on_done))
-        except zenoh.ZError as e:  # the session is closing
-            log.debug("latched query on %s failed: %s", self.key, e)
-
-    def _latched_reachable(self) -> bool:
-        try:
-            return bool(self._querier.matching_status.matching)
-        except zenoh.ZError:
-            return False
-
-    def _on_matching(self, status) -> None:
-        if status.matching:
-            self._fetch_latched()
+    def _fetch_latched(self, retry: bool = False) -> None:
+        if not self._closed:
+            fetch_latched(self._node.session, self.key, self._on_sample, retry, lambda: self._closed)
 
     def _on_publisher(self, sample: zenoh.Sample) -> None:
         if sample.kind == zenoh.SampleKind.PUT:
-            self._fetch_latched()
-
-    def _on_reply(self, sample: zenoh.Sample) -> None:
-        data = sample.payload.to_bytes()
-        h = hash(data)
-        with self._cv:
-            if h in self._replied:
-                return
-            self._replied.add(h)
-        self._ingest(data, sample.attachment)
+            self._fetch_latched(retry=True)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         self._ingest(sample.payload.to_bytes(), sample.attachment)
@@ -299,6 +256,6 @@ class Subscription:
             self._closed = True
             self._cv.notify_all()
         self._kick.put(None)
-        for ent in (self._sub, self._pub_watch, self._route_watch, self._querier):
+        for ent in (self._sub, self._pub_watch):
             with contextlib.suppress(zenoh.ZError):
                 ent.undeclare()
