@@ -57,3 +57,15 @@ def pytest_collection_modifyitems(items):
         return _LONG_FIRST.index(parts[1]) if len(parts) > 2 and parts[1] in _LONG_FIRST else len(_LONG_FIRST)
 
     items.sort(key=rank)  # stable: the order inside each folder is kept
+
+
+# move_base's start() shortens the interpreter's thread switch interval for its whole process (it hands
+# the GIL to the bus threads every 1 ms). A test that starts move_base in the test process must not leave
+# that to the tests after it on the same worker: every later test then ran up to twice as slowly.
+@pytest.fixture(autouse=True)
+def _switch_interval():
+    import sys
+
+    before = sys.getswitchinterval()
+    yield
+    sys.setswitchinterval(before)
