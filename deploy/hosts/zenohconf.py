@@ -101,9 +101,7 @@ def build(o: Options) -> dict:
         conf["listen"] = {"endpoints": list(o.listen)}
     if o.connect:
         conf["connect"] = {"endpoints": list(o.connect)}
-    strategy = {"peer": {"to_router": "always", "to_peer": "greater-zid"}}  # common.zenoh_config.BusConfig
-    conf["scouting"] = {"multicast": {"enabled": multicast, "autoconnect_strategy": strategy},
-                        "gossip": {"autoconnect_strategy": strategy}}
+    conf["scouting"] = {"multicast": {"enabled": multicast}}
     transport: dict = {"link": {"tx": {"lease": o.lease_ms, "keep_alive": 4,
                                        "queue": {"size": {"data": TX_QUEUE_BATCHES}}}}}
     usrpwd = {}

@@ -82,13 +82,11 @@ def test_generated_config_has_short_lease_and_parses(tmp_path):
     assert conf["mode"] == "peer"
     assert json.loads(zenoh.Config.from_file(path).get_json("transport/link/tx/lease")) == 1000
     assert json.loads(zenoh.Config.from_file(path).get_json("transport/link/tx/queue/size/data")) == 16
-    strategy = json.loads(zenoh.Config.from_file(path).get_json("scouting/multicast/autoconnect_strategy"))
-    assert strategy == {"peer": {"to_router": "always", "to_peer": "greater-zid"}}
 
 
-def test_scouted_peers_dial_one_way_unless_told_otherwise():
-    """Only the peer with the greater Zenoh id dials another peer (Zenoh issue #2806: two peers dialling
-    each other could leave a merged session carrying data one way after a link loss)."""
+def test_which_scouted_peer_dials_is_a_setting():
+    """ZENAV_AUTOCONNECT: both peers dial (Zenoh's default) or only the one with the greater Zenoh id
+    (Zenoh issue #2806: two peers dialling each other could leave a one-way session after a link loss)."""
     import pytest
 
     from common.zenoh_config import BusConfig
@@ -96,9 +94,9 @@ def test_scouted_peers_dial_one_way_unless_told_otherwise():
     def to_peer(cfg: BusConfig) -> str:
         return json.loads(cfg.to_zenoh().get_json("scouting/multicast/autoconnect_strategy"))["peer"]["to_peer"]
 
-    assert to_peer(BusConfig()) == "greater-zid"
-    assert to_peer(BusConfig.from_env({"ZENAV_AUTOCONNECT": "always"})) == "always"
-    assert BusConfig.from_env({"ZENAV_AUTOCONNECT": "always"}).to_env()["ZENAV_AUTOCONNECT"] == "always"
+    assert to_peer(BusConfig()) == "always"
+    assert to_peer(BusConfig.from_env({"ZENAV_AUTOCONNECT": "greater-zid"})) == "greater-zid"
+    assert BusConfig.from_env({"ZENAV_AUTOCONNECT": "greater-zid"}).to_env()["ZENAV_AUTOCONNECT"] == "greater-zid"
     with pytest.raises(ValueError, match="greater-zid or always"):
         BusConfig(autoconnect="sometimes")
 
