@@ -167,7 +167,21 @@ def apply_bus_env(args: argparse.Namespace, env=os.environ) -> None:
         env["ZENAV_MULTICAST"] = "0"
 
 
+def _interruptible() -> None:
+    """Ctrl-C and SIGQUIT back to their defaults when we were started with them ignored — as every
+    command put in the background by a non-interactive shell is (`zenav robot &` in a script): the tools
+    would not stop on Ctrl-C, and an agent's nodes (which inherit it) would ignore the SIGINT that stops
+    them gracefully."""
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    if signal.getsignal(signal.SIGQUIT) is signal.SIG_IGN:
+        signal.signal(signal.SIGQUIT, signal.SIG_DFL)
+
+
 def main(argv: list[str] | None = None) -> int:
+    _interruptible()
     ap = build_parser()
     args = ap.parse_args(argv)
     logging.basicConfig(

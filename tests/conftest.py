@@ -69,3 +69,12 @@ def _switch_interval():
     before = sys.getswitchinterval()
     yield
     sys.setswitchinterval(before)
+
+
+def pytest_configure(config):
+    """A suite started in the background by a non-interactive shell inherits SIGINT ignored, and so would
+    every process the tests start (nodes an agent stops with SIGINT, tools a test stops with Ctrl-C)."""
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
