@@ -40,8 +40,8 @@ class BusConfig:
     # Which of two scouted peers dials the other: "always" (Zenoh's default: both) or "greater-zid" (only
     # the peer with the greater Zenoh id; routers always), as rmw_zenoh's default session config does.
     # Two peers that dial each other can end up with one merged session whose declarations are not sent
-    # again after a link loss (Zenoh issue #2806). greater-zid is not the default yet: full test runs
-    # with it were slower and flakier, not understood yet (bench/reconnect.py --autoconnect compares).
+    # again after a link loss (Zenoh issue #2806). greater-zid is not the default until measured
+    # (bench/reconnect.py --autoconnect compares).
     autoconnect: str = "always"
     zenoh_config_file: str = ""
     # Settings given explicitly (environment / options): with a Zenoh config file, only these and the
