@@ -192,7 +192,7 @@ class NavStack:
                                                     "--world", world, "--speed", str(speed)], env_r, tmp)
             env_m = {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{master_port}",
                      "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port},tcp/127.0.0.1:{robot_port}"}
-            master_cfg = master_config_for(planner, world, tmp, move_base, navfn)
+            master_cfg = self.master_cfg = master_config_for(planner, world, tmp, move_base, navfn)
             self.master_proc = self._start("master", [*_zenav(), "master", "--config", str(master_cfg)],
                                            env_m, tmp)
             wait_until(lambda: self.gt.latest() is not None and self.status.last() is not None
@@ -228,6 +228,13 @@ class NavStack:
     # -- measurements ---------------------------------------------------------------------------------
     def truth(self):
         return self.gt.latest().pose2d
+
+    def local_planner_params(self):
+        """The local planner's parameters as move_base loads them from the master's YAML."""
+        from master_side.move_base.config import load_move_base_config
+
+        cfg = yaml.safe_load(Path(self.master_cfg).read_text())
+        return load_move_base_config(cfg["nodes"]["move_base"]["params"], str(self.master_cfg)).local_params
 
     def collision_count(self) -> int:
         last = self.collisions.last()
