@@ -135,7 +135,7 @@ def stack(tmp_path_factory):
         except AssertionError:
             st = probe.events("ST")
             raise AssertionError(f"not ready; last status: {' '.join(st[-1][2:]) if st else 'none'}") from None
-        yield {"probe": probe, "link": link, "tmp": tmp}
+        yield {"probe": probe, "link": link, "tmp": tmp, "ns_m": ns_m, "robot": robot, "env": env}
     finally:
         # agents and probe first, all at once (each takes its nodes' grace time), the link last: over a
         # cut link every Zenoh session would wait for its peers before closing
@@ -163,7 +163,20 @@ def _goal(probe: Stream, x: float, y: float, yaw: float) -> tuple[float, str]:
     return t0, ans[2]
 
 
-def _reached(probe: Stream, goal: tuple[float, str], timeout: float = 300.0, what: str = "goal") -> None:
+def _master_stats(stack) -> str:
+    """`zenav nodes --stats` from the master's side: which subscription stopped receiving (a route that
+    did not re-form after the heal shows as a topic whose count no longer grows)."""
+    try:
+        out = subprocess.run(["ip", "netns", "exec", stack["ns_m"], sys.executable, "-m", "deploy.cli", "nodes",
+                              "--stats", "--robot", stack["robot"]], env=stack["env"], capture_output=True,
+                             text=True, timeout=60)
+        return out.stdout + out.stderr
+    except subprocess.TimeoutExpired:
+        return "(zenav nodes --stats did not finish within 60 s)"
+
+
+def _reached(probe: Stream, goal: tuple[float, str], timeout: float = 300.0, what: str = "goal",
+             stack=None) -> None:
     since, gid = goal
 
     def done():
@@ -175,7 +188,8 @@ def _reached(probe: Stream, goal: tuple[float, str], timeout: float = 300.0, wha
         wait_until(done, timeout, f"{what} reached")
     except AssertionError as e:  # say where move_base stood (state, reason: 'no progress' = no cmd_vel route?)
         st = [w for w in probe.events("ST", since) if w[3] == gid]
-        raise AssertionError(f"{e}; last status of {gid}: {' '.join(st[-1][2:]) if st else 'none'}") from None
+        stats = f"\nmaster side:\n{_master_stats(stack)}" if stack else ""
+        raise AssertionError(f"{e}; last status of {gid}: {' '.join(st[-1][2:]) if st else 'none'}{stats}") from None
 
 
 def _speed_at_least(probe: Stream, v: float, since: float) -> None:
@@ -188,7 +202,7 @@ def test_a_goal_is_reached_over_100ms_delay_and_5_percent_loss(stack):
     _link(stack, "loss 0.05")
     try:
         g = _goal(probe, 2.0, 1.4, 1.5708)
-        _reached(probe, g, what="far corner over the lossy link")
+        _reached(probe, g, what="far corner over the lossy link", stack=stack)
     finally:
         _link(stack, "loss 0")
         _link(stack, "delay 0")
@@ -218,7 +232,7 @@ def test_b_a_partition_stops_the_robot_and_the_goal_completes_after_it(stack):
     assert took <= bound
     assert not [w for w in probe.events("GT", float(stopped[0][0])) if float(w[0]) < t_cut + 2.9
                 and abs(float(w[5])) > 1e-3], "moved again while partitioned"
-    _reached(probe, g, what="the same goal after the link healed")
+    _reached(probe, g, what="the same goal after the link healed", stack=stack)
     assert not probe.events("COLL", t0)
 
 
@@ -231,7 +245,7 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
     # arc out of that turn may never run at 0.3 m/s with the heading within 0.15 rad of north). On a
     # loaded machine localization can pause the drive (stale map->odom): then go back and drive again.
     for attempt in range(3):
-        _reached(probe, _goal(probe, -2.2, -0.2, math.pi / 2), what="facing north at the start")
+        _reached(probe, _goal(probe, -2.2, -0.2, math.pi / 2), what="facing north at the start", stack=stack)
         g = _goal(probe, -2.2, 1.9, math.pi / 2)  # 2.1 m straight north along the west wall, 0.85 m from it
         t0 = g[0]
         try:
@@ -246,7 +260,7 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
             print(f"attempt {attempt + 1}: {why}")
             if attempt == 2:
                 raise AssertionError(why) from None
-            _reached(probe, g, what="the north goal after an attempt without cruising")
+            _reached(probe, g, what="the north goal after an attempt without cruising", stack=stack)
     v = float(probe.events("GT", t0)[-1][5])  # >= 0.3 m/s: command expiry alone then exceeds the 0.1 m gap
     # the box is placed inside what command expiry alone would cover (the last command for cmd_vel_timeout,
     # then braking) but beyond what braking after 0.2 s of reaction needs: only a robot-side reaction stops
