@@ -26,6 +26,7 @@ from common.bus_topics import Publisher, Subscription, topic_key
 from common.clock import SimClock, Timer, WallClock
 from common.codec import DecodeError, decode, encode
 from common.messages import Clock, Header, NodeStats, TopicStats
+from common.route_watch import RouteWatch
 from common.zenoh_config import BusConfig
 
 log = logging.getLogger("zenav.bus")
@@ -56,6 +57,7 @@ class Node:
         self._owns_session = session is None
         self.session = session if session is not None else zenoh.open(self.config.to_zenoh())
         self._entities: list[Any] = []
+        self.routes = RouteWatch(self.session, self.robot, name)  # silent streams declared again
         self._timers: list[Timer] = []
         self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"srv:{name}")
         self._closed = False
@@ -94,6 +96,7 @@ class Node:
                   mode: str = "latest", queue_size: int = 100) -> Subscription:
         sub = Subscription(self, topic, msg_type, callback, mode, queue_size)
         self._entities.append(sub)
+        self.routes.add(sub)
         self.stats_sources.append(sub)
         return sub
 
@@ -163,6 +166,7 @@ class Node:
         if self._closed:
             return
         self._closed = True
+        self.routes.close()
         for t in self._timers:
             t.cancel()
         if isinstance(self.clock, SimClock):

@@ -18,6 +18,7 @@ import zenoh
 from common.codec import DecodeError, decode, encode
 from common.log_util import RateLimitedLog
 from common.msg_check import problem
+from common.route_watch import count_source
 
 if TYPE_CHECKING:
     from common.bus import Node
@@ -128,6 +129,8 @@ class Subscription:
         self.errors = 0  # messages whose callback raised
         self.dropped = 0  # valid messages overwritten before being consumed
         self.last_receive_time = 0.0  # time.monotonic() of the last valid message
+        # per publisher (its name, as the attachment bytes): [messages, last time, smoothed period]
+        self.sources: dict[bytes, list] = {}  # (common.route_watch)
         self._last_attachment = None  # the publisher's name, as it came (decoded when asked)
         self._waiting = 0  # threads in wait() / wait_first() / get(): notified per message only if any
         self._kick: queue.SimpleQueue = queue.SimpleQueue()  # one token per message for the callback thread
@@ -143,6 +146,20 @@ class Subscription:
         self._fetch_latched()
         self._pub_watch = node.session.liveliness().declare_subscriber(
             f"zenavlive/{node.robot}/pub/*/{topic.strip('/')}", self._on_publisher)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def redeclare(self) -> None:
+        """Declare the Zenoh subscriber again (common.route_watch): the old one goes first, so the
+        session announces the new one to its peers even if it merges subscribers of one key."""
+        with self._cv:
+            if self._closed:
+                return
+            with contextlib.suppress(zenoh.ZError):
+                self._sub.undeclare()
+            self._sub = self._node.session.declare_subscriber(self.key, self._on_sample)
 
     def _fetch_latched(self, retry: bool = False) -> None:
         if not self._closed:
@@ -174,10 +191,12 @@ class Subscription:
             if len(self._queue) == self._queue.maxlen:
                 self.dropped += 1
             self._queue.append(msg)
+            now = time.monotonic()
             self.received += 1
-            self.last_receive_time = time.monotonic()
+            self.last_receive_time = now
             if attachment is not None:
                 self._last_attachment = attachment
+                count_source(self.sources, attachment.to_bytes(), now)
             if self._waiting:
                 self._cv.notify_all()
         if self._worker is not None:

@@ -18,12 +18,14 @@ import logging
 import math
 import operator
 import threading
+import time
 from typing import Any
 
 from common.config import strip_frame
 from common.geometry import Quaternion, Transform, Vector3
 from common.messages import Header, TFMessage, TransformStamped
 from common.msg_check import problem
+from common.route_watch import count_source
 from common.tf_buffer import (
     ConnectivityError,
     EdgeInfo,
@@ -196,6 +198,9 @@ class TFListener:
         self.malformed = 0  # payloads that are not a TFMessage
         self.invalid = 0  # TFMessages refused whole: NaN, zero quaternion, far-future stamp, bad frames
         self.received = 0
+        self.topic = "tf"  # the stream common.route_watch looks at (tf_static is latched, not a stream)
+        self.sources: dict[bytes, list] = {}
+        self._closed = False
         node.stats_sources.append(self)
         self._key_tf, self._key_static = node.key("tf"), node.key("tf_static")
         self._handles: list[Any] = [
@@ -205,6 +210,19 @@ class TFListener:
                 f"zenavlive/{node.robot}/pub/*/tf_static", self._on_static_publisher, history=True),
         ]
         self._query_static()
+        node.routes.add(self)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    def redeclare(self) -> None:
+        """Declare the tf subscriber again (common.route_watch), the old one first."""
+        if self._closed:
+            return
+        with contextlib.suppress(self._zenoh.ZError):
+            self._handles[0].undeclare()
+        self._handles[0] = self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False))
 
     def _on_static_publisher(self, sample) -> None:
         if sample.kind == self._zenoh.SampleKind.PUT:
@@ -246,6 +264,8 @@ class TFListener:
             self._dropped("invalid", self.invalid, e)
             return
         self.received += 1
+        if not static and attachment is not None:
+            count_source(self.sources, attachment.to_bytes(), time.monotonic())
 
     def _dropped(self, kind: str, n: int, why) -> None:
         if n == 1 or n % 100 == 0:
@@ -256,6 +276,7 @@ class TFListener:
         return (("tf+tf_static", "TFMessage", self.received, self.malformed, self.invalid, 0, 0),)
 
     def close(self) -> None:
+        self._closed = True
         for h in self._handles:
             with contextlib.suppress(Exception):  # the session may already be closed
                 h.undeclare()

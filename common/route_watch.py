@@ -1,0 +1,135 @@
+"""Streams are watched, not trusted: a subscription that its live publisher stopped reaching is declared
+again.
+
+After a link is cut and healed, Zenoh re-forms the links between the sessions, but a subscriber's
+declaration may not reach a publisher again (Zenoh's tracker has bugs of that shape: interests and write
+filters not re-propagated after a reconnect). Data then never comes, though the publisher is alive and
+announced. Seen once in the link-fault tests on a loaded machine: after a 3 s partition, fake_localization
+received nothing from the simulator for 10 minutes while move_base, in the same namespace, did.
+
+A *stream* is a subscription that has received messages at a regular period. When it falls silent for
+``SILENT_PERIODS`` periods (at least ``SILENT_MIN_S``) while the publisher of its last message still holds
+its liveliness token — so that publisher is alive and its announcements reach us — the subscription is
+declared again (undeclared, then declared: every peer recomputes its routes toward it). While the silence
+lasts, the wait doubles after each attempt, up to ``MAX_WAIT_S``: a publisher that merely stopped
+publishing costs one declaration a minute. A publisher whose token is gone is not a route to repair: the
+watch waits for it (its new token or its data). When data flows again after an attempt, the node logs the
+repair as a warning (a route was lost; which topic, from whom, for how long) and counts it
+(``Node.route_repairs``).
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+log = logging.getLogger("zenav.bus")
+
+STREAM_MIN_MSGS = 5  # messages before a subscription's period is trusted
+SILENT_PERIODS = 20.0  # silence, in periods of the stream, before its route is doubted
+SILENT_MIN_S = 2.0
+MAX_WAIT_S = 60.0
+CHECK_EVERY_S = 0.5
+
+
+class Watched(Protocol):
+    """What the watch needs of a subscription (common.bus_topics.Subscription, common.tf.TFListener)."""
+
+    topic: str
+    sources: dict[bytes, list]  # publisher name -> [messages, last monotonic time, smoothed period]
+
+    @property
+    def closed(self) -> bool: ...
+
+    def redeclare(self) -> None: ...
+
+
+def count_source(sources: dict[bytes, list], who: bytes, now: float) -> None:
+    """Count one message of publisher ``who`` in ``sources`` (see ``Watched``)."""
+    src = sources.get(who)
+    if src is None:
+        sources[who] = [1, now, 0.0]
+        return
+    gap = now - src[1]
+    src[2] = gap if src[0] == 1 else 0.9 * src[2] + 0.1 * gap
+    src[0] += 1
+    src[1] = now
+
+
+@dataclass
+class _Doubt:
+    silent_from: float  # the publisher's last message before the silence (monotonic)
+    attempts: int = 0  # declarations made during this silence
+    next_at: float = 0.0  # monotonic time of the next look
+    decision: str = ""  # the last look's outcome (tests, debugging)
+
+
+class RouteWatch:
+    """One thread per node looking at its subscriptions every ``CHECK_EVERY_S``, per publisher."""
+
+    def __init__(self, session: Any, robot: str, node_name: str) -> None:  # a zenoh.Session
+        self.session, self.robot, self.node_name = session, robot, node_name
+        self.subs: list[Watched] = []
+        self.repairs = 0
+        self.doubts: dict[tuple[str, str], _Doubt] = {}  # (topic, publisher) -> a silent stream
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True, name=f"routes:{node_name}")
+        self._thread.start()
+
+    def add(self, sub: Watched) -> None:
+        self.subs.append(sub)
+
+    def close(self) -> None:
+        self._stop.set()
+
+    def _run(self) -> None:
+        import zenoh
+
+        while not self._stop.wait(CHECK_EVERY_S):
+            for sub in list(self.subs):
+                try:
+                    if not sub.closed:
+                        for who, (n, last, period) in list(sub.sources.items()):
+                            self.look(sub, who.decode(errors="replace"), n, last, period, time.monotonic())
+                except zenoh.ZError:  # the session is closing
+                    return
+
+    def look(self, sub: Watched, publisher: str, n: int, last: float, period: float, now: float) -> None:
+        """One stream (``publisher`` on ``sub.topic``): ``n`` messages so far, the last at ``last``."""
+        if n < STREAM_MIN_MSGS:
+            return
+        key = (sub.topic, publisher)
+        doubt = self.doubts.get(key)
+        if doubt is not None and last > doubt.silent_from:  # data again
+            del self.doubts[key]
+            if doubt.attempts:
+                self.repairs += 1
+                log.warning("[%s] route repaired: '%s' from %s was silent for %.1f s; it flows again after "
+                            "the subscription was declared again (%d time%s)", self.node_name, sub.topic,
+                            publisher, last - doubt.silent_from, doubt.attempts, "s" * (doubt.attempts > 1))
+            return
+        silence = now - last
+        limit = max(SILENT_MIN_S, SILENT_PERIODS * period)
+        if doubt is None:
+            if silence < limit:
+                return
+            doubt = self.doubts[key] = _Doubt(silent_from=last)
+        if now < doubt.next_at:
+            return
+        if not self._alive(publisher, sub.topic):
+            doubt.decision, doubt.next_at = "publisher gone", now + limit
+            return
+        sub.redeclare()
+        doubt.attempts += 1
+        doubt.decision = f"declared again ({doubt.attempts})"
+        doubt.next_at = now + min(limit * 2 ** doubt.attempts, MAX_WAIT_S)
+        log.debug("[%s] '%s' from %s silent for %.1f s, the publisher alive: subscription declared again",
+                  self.node_name, sub.topic, publisher, silence)
+
+    def _alive(self, publisher: str, topic: str) -> bool:
+        """Whether the publisher's liveliness token for ``topic`` is known to this session now."""
+        key = f"zenavlive/{self.robot}/pub/{publisher}/{topic.strip('/')}"
+        return any(r.ok is not None for r in self.session.liveliness().get(key, timeout=1.0))

@@ -1,0 +1,76 @@
+"""Streams are watched (common.route_watch), on two real peers over loopback.
+
+The fault a lost route leaves behind is a subscriber whose declaration no longer reaches the publisher's
+session: data stops while the publisher is alive and announced. It is made here by undeclaring the
+subscription's Zenoh subscriber behind the Node's back — from the publisher's side exactly what a
+declaration lost in a reconnect looks like. The watch must notice the silence, see the publisher's token,
+declare the subscription again, and say so once data flows. A publisher that is gone is not a route to
+repair: nothing is declared for it."""
+
+from __future__ import annotations
+
+import threading
+
+from bushelp import wait_for
+
+from common.geometry import Transform
+from common.messages import Header, Text, TransformStamped
+from common.tf import TFBroadcaster, TFListener
+
+
+def _stream(stop: threading.Event, send, period: float = 0.02) -> threading.Thread:
+    def run():
+        while not stop.wait(period):
+            send()
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    return t
+
+
+def test_a_stream_whose_subscriber_declaration_is_lost_is_declared_again_and_flows(node_pair):
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text, callback=lambda m: None)
+    pub = talker.publisher("chatter")
+    stop = threading.Event()
+    _stream(stop, lambda: pub.publish(Text(data="hello")))
+    try:
+        wait_for(lambda: sub.received >= 20, 30, "the stream")
+        sub._sub.undeclare()  # the fault: the publisher's session no longer routes to this subscriber
+        lost_at = sub.received
+        wait_for(lambda: sub.received > lost_at + 20, 30, "the stream after its route was lost")
+        wait_for(lambda: listener.routes.repairs == 1, 10, "the repair counted")
+        assert not listener.routes.doubts
+    finally:
+        stop.set()
+
+
+def test_the_tf_stream_of_one_publisher_is_repaired_too(node_pair):
+    listener, talker = node_pair("listener"), node_pair("odom_pub")
+    tf = TFListener(listener)
+    out = TFBroadcaster(talker)
+    stop = threading.Event()
+    _stream(stop, lambda: out.send([TransformStamped(Header(talker.clock.now(), "odom"), "base_link", Transform())]))
+    try:
+        wait_for(lambda: tf.received >= 20, 30, "the tf stream")
+        tf._handles[0].undeclare()
+        lost_at = tf.received
+        wait_for(lambda: tf.received > lost_at + 20, 30, "tf after its route was lost")
+        wait_for(lambda: listener.routes.repairs == 1, 10, "the repair counted")
+    finally:
+        stop.set()
+
+
+def test_a_publisher_that_is_gone_is_waited_for_not_repaired(node_pair):
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text)
+    pub = talker.publisher("chatter")
+    stop = threading.Event()
+    sender = _stream(stop, lambda: pub.publish(Text(data="hello")))
+    wait_for(lambda: sub.received >= 20, 30, "the stream")
+    stop.set()
+    sender.join()
+    talker.close()  # its liveliness tokens go with it
+    wait_for(lambda: (d := listener.routes.doubts.get(("chatter", "talker"))) and d.decision == "publisher gone",
+             30, "the watch to find the publisher gone")
+    assert listener.routes.doubts[("chatter", "talker")].attempts == 0
+    assert listener.routes.repairs == 0
