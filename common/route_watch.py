@@ -13,9 +13,10 @@ its liveliness token — so that publisher is alive and its announcements reach 
 declared again (undeclared, then declared: every peer recomputes its routes toward it). While the silence
 lasts, the wait doubles after each attempt, up to ``MAX_WAIT_S``: a publisher that merely stopped
 publishing costs one declaration a minute. A publisher whose token is gone is not a route to repair: the
-watch waits for it (its new token or its data). When data flows again after an attempt, the node logs the
-repair as a warning (a route was lost; which topic, from whom, for how long) and counts it
-(``Node.route_repairs``).
+watch waits for it (its new token or its data). When data flows again within ``REPAIR_WINDOW_S`` of a
+declaration, the node logs the repair as a warning (a route was lost; which topic, from whom, for how
+long) and counts it (``Node.routes.repairs``); data that comes back later was a pause of the publisher
+(move_base's cmd_vel between goals), not a repair.
 """
 
 from __future__ import annotations
@@ -33,13 +34,16 @@ SILENT_PERIODS = 20.0  # silence, in periods of the stream, before its route is 
 SILENT_MIN_S = 2.0
 MAX_WAIT_S = 60.0
 CHECK_EVERY_S = 0.5
+REPAIR_WINDOW_S = 1.0  # data back this soon after a declaration: the declaration repaired the route (else
+# the publisher had only paused, e.g. move_base's cmd_vel between goals)
 
 
 class Watched(Protocol):
     """What the watch needs of a subscription (common.bus_topics.Subscription, common.tf.TFListener)."""
 
     topic: str
-    sources: dict[bytes, list]  # publisher name -> [messages, last monotonic time, smoothed period]
+    # publisher name -> [messages, last time, smoothed period, first message after the last pause] (monotonic)
+    sources: dict[bytes, list]
 
     @property
     def closed(self) -> bool: ...
@@ -48,13 +52,19 @@ class Watched(Protocol):
 
 
 def count_source(sources: dict[bytes, list], who: bytes, now: float) -> None:
-    """Count one message of publisher ``who`` in ``sources`` (see ``Watched``)."""
+    """Count one message of publisher ``who`` in ``sources`` (see ``Watched``). A gap over 10 periods is a
+    pause, not the stream's rate: it is not averaged in, and the message that ends it is remembered."""
     src = sources.get(who)
     if src is None:
-        sources[who] = [1, now, 0.0]
+        sources[who] = [1, now, 0.0, now]
         return
     gap = now - src[1]
-    src[2] = gap if src[0] == 1 else 0.9 * src[2] + 0.1 * gap
+    if src[0] == 1:
+        src[2] = gap
+    elif gap > 10.0 * src[2]:
+        src[3] = now
+    else:
+        src[2] = 0.9 * src[2] + 0.1 * gap
     src[0] += 1
     src[1] = now
 
@@ -62,6 +72,7 @@ def count_source(sources: dict[bytes, list], who: bytes, now: float) -> None:
 @dataclass
 class _Doubt:
     silent_from: float  # the publisher's last message before the silence (monotonic)
+    declared_at: float = float("-inf")  # the last declaration (monotonic)
     attempts: int = 0  # declarations made during this silence
     next_at: float = 0.0  # monotonic time of the next look
     decision: str = ""  # the last look's outcome (tests, debugging)
@@ -92,24 +103,28 @@ class RouteWatch:
             for sub in list(self.subs):
                 try:
                     if not sub.closed:
-                        for who, (n, last, period) in list(sub.sources.items()):
-                            self.look(sub, who.decode(errors="replace"), n, last, period, time.monotonic())
+                        for who, (n, last, period, resumed) in list(sub.sources.items()):
+                            self.look(sub, who.decode(errors="replace"), n, last, period, resumed,
+                                      time.monotonic())
                 except zenoh.ZError:  # the session is closing
                     return
 
-    def look(self, sub: Watched, publisher: str, n: int, last: float, period: float, now: float) -> None:
-        """One stream (``publisher`` on ``sub.topic``): ``n`` messages so far, the last at ``last``."""
+    def look(self, sub: Watched, publisher: str, n: int, last: float, period: float, resumed: float,
+             now: float) -> None:
+        """One stream (``publisher`` on ``sub.topic``): ``n`` messages so far, the last at ``last``, the first
+        after its last pause at ``resumed``."""
         if n < STREAM_MIN_MSGS:
             return
         key = (sub.topic, publisher)
         doubt = self.doubts.get(key)
         if doubt is not None and last > doubt.silent_from:  # data again
             del self.doubts[key]
-            if doubt.attempts:
+            first = resumed if resumed > doubt.silent_from else last
+            if doubt.attempts and 0.0 <= first - doubt.declared_at <= REPAIR_WINDOW_S:
                 self.repairs += 1
-                log.warning("[%s] route repaired: '%s' from %s was silent for %.1f s; it flows again after "
-                            "the subscription was declared again (%d time%s)", self.node_name, sub.topic,
-                            publisher, last - doubt.silent_from, doubt.attempts, "s" * (doubt.attempts > 1))
+                log.warning("[%s] route repaired: '%s' from %s, silent for %.1f s, flows again %.2f s after the "
+                            "subscription was declared again (attempt %d)", self.node_name, sub.topic, publisher,
+                            first - doubt.silent_from, first - doubt.declared_at, doubt.attempts)
             return
         silence = now - last
         limit = max(SILENT_MIN_S, SILENT_PERIODS * period)
@@ -123,6 +138,7 @@ class RouteWatch:
             doubt.decision, doubt.next_at = "publisher gone", now + limit
             return
         sub.redeclare()
+        doubt.declared_at = time.monotonic()
         doubt.attempts += 1
         doubt.decision = f"declared again ({doubt.attempts})"
         doubt.next_at = now + min(limit * 2 ** doubt.attempts, MAX_WAIT_S)

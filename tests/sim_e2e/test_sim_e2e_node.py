@@ -67,10 +67,11 @@ def test_speed_5_runs_ten_sim_seconds_in_about_two_wall_seconds(bus, sim, tmp_pa
     for name, s in (("clock", clocks), ("odom", odoms), ("scan", scans)):
         assert len(s) > 10, name
         assert np.all(np.diff(s) > 0), f"{name} stamps not strictly increasing"
-    # one time base: every odom / scan stamp is a published clock value, on its rate's grid
-    grid = set(np.round(clocks, 6))
-    assert all(round(t, 6) in grid for t in odoms[odoms <= clocks[-1]])
-    assert all(round(t, 6) in grid for t in scans[scans <= clocks[-1]])
+    # one time base: every odom / scan stamp is a step of the clock's 0.01 s grid (a clock message may be
+    # dropped on the way, see below, so not every stamp is a clock value this test received)
+    for name, s in (("odom", odoms), ("scan", scans)):
+        k = (s - clocks[0]) / 0.01
+        assert np.allclose(k, np.round(k), atol=1e-3), f"{name} stamps off the clock's grid"
     # Stream topics use Zenoh's drop congestion control (README, Reliability): on a loaded machine a
     # message may be dropped on the way, but the simulator itself never skips a step of its grid.
     for name, s, step in (("clock", clocks, 0.01), ("odom", odoms, 0.02), ("scan", scans, 0.04)):
