@@ -91,6 +91,9 @@ class Recorder:
     def start(self) -> None:
         import zenoh
 
+        # before any declaration: the liveliness history is delivered at once, on Zenoh's threads, and a
+        # publisher token handled before this line was lost for good (its latched map never fetched)
+        self._zenoh = zenoh
         self._thread.start()
         keys = [f"{self.prefix}**"] if self.topics is None else [self.prefix + t for t in sorted(self.topics)]
         if self.topics is not None and "clock" not in self.topics:
@@ -99,7 +102,6 @@ class Recorder:
             self._handles.append(self.session.declare_subscriber(k, lambda s: self._on_sample(s, False)))
         self._handles.append(self.session.liveliness().declare_subscriber(
             f"zenavlive/{self.robot}/pub/**", self._on_publisher, history=True))
-        self._zenoh = zenoh
 
     def _on_publisher(self, sample) -> None:
         """A publisher appeared: fetch its latched message (a no-op for unlatched topics)."""
