@@ -65,6 +65,7 @@ class CostmapNode:
         self.sensors_pub = node.publisher(f"{self.name}/sensors")
         self.trace_pub = node.publisher(f"{self.name}/costmap_trace")
         self.subs = []
+        self.timers: list = []  # set below; _on_observation may run before that (it kicks the update timer)
         self.source_subs = {}  # (layer, source) -> Subscription
         for layer in self.lcm.layers:
             if isinstance(layer, ObstacleLayer):

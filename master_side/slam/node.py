@@ -91,6 +91,7 @@ class SlamNode:
         self.tf_out = TFBroadcaster(node)
         self.map_pub = node.publisher("map", latched=True)
         # bounded queue, as ROS's MessageFilter: every scan is processed unless the filter falls behind
+        self.sub = None  # _lookup reads its counters; a scan can come in before subscribe() returns
         self.sub = node.subscribe("scan", LaserScan, callback=self._on_scan, mode="queue",
                                   queue_size=np_.scan_queue_size)
         period = np_.transform_publish_period
@@ -132,7 +133,8 @@ class SlamNode:
             try:
                 return self.tf.buffer.lookup(target, source, t)
             except Exception as e:
-                waiting = self.sub.received - self.sub.dropped - self.handled - 1  # scans queued behind
+                sub = self.sub
+                waiting = sub.received - sub.dropped - self.handled - 1 if sub else 0  # scans queued behind
                 # "into the past": older than every transform held, waiting cannot help
                 if ("into the past" in str(e) or waiting >= self.queue_size
                         or self.node.clock.now() - clock0 > TF_WAIT_S or time.monotonic() - wall0 > TF_WAIT_S):

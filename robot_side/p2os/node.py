@@ -61,9 +61,9 @@ class P2OSNode(DeviceNode):
         node.log.info("p2os: %s (%s %s) on %s, %d baud, pulse %g s, motors %s on start, %s timeout %g s",
                       info.name, info.robot_class, info.subclass, p.port, p.baud, p.pulse,
                       "enabled" if p.motors_on_start else "left", p.cmd_vel_topic, p.cmd_vel_timeout)
+        self.driver.start()  # first: a motor command taken in before start() would be marked sent unsent
         self.subs = [node.subscribe(p.cmd_vel_topic, Twist, callback=self._on_cmd_vel),
                      node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state)]
-        self.driver.start()
         self.watch(1.0, self._check)
 
     def _on_cmd_vel(self, t: Twist) -> None:

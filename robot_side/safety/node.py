@@ -65,12 +65,12 @@ class MonitorNode:
         self.started: float | None = None  # first valid clock reading (sim time is 0 until the clock runs)
         self.out = node.publisher(self.p.cmd_vel_out_topic)
         self.state_pub = node.publisher(self.p.state_topic, latched=True)
+        self._last_state: tuple = ()  # before the subscriptions: their callbacks publish the state
+        self._last_state_time = 0.0
         self.subs = [node.subscribe(self.p.cmd_vel_in_topic, Twist, callback=self._on_cmd)]
         for name, sp in self.sources.items():
             if sp.enabled:
                 self.subs.append(node.subscribe(sp.topic, LaserScan, callback=lambda s, n=name: self._on_scan(n, s)))
-        self._last_state: tuple = ()
-        self._last_state_time = 0.0
         self._publish_state(force=True)
         names = ", ".join(f"{n} ({pp.action_type})" for n, pp in polys if pp.enabled) or "none"
         node.log.info("collision monitor: %s -> %s, sources %s, polygons %s, cmd_vel timeout %g s%s",
