@@ -18,7 +18,9 @@ def robot_pose(buffer: TFBuffer, global_frame: str | None, local_frame: str, bas
         lo = buffer.lookup(local_frame, base_frame, 0.0)
         lg = buffer.lookup_pose2d(local_frame, global_frame, 0.0)
     except Exception as e:  # noqa: BLE001 - any TF problem is the reason not to move
-        return None, None, None, f"no robot pose: {e}"
+        # the edge that went quiet is the cause to name (seen: map -> odom 293 s old after a healed link,
+        # reported only as an extrapolation on odom -> base_link)
+        return None, None, None, f"no robot pose: {e}{slowest_edge(buffer, now)}"
     for ts, a, b in ((g, global_frame, base_frame), (lo, local_frame, base_frame)):
         age = now - ts.header.stamp
         if ts.header.stamp > 0 and age > tol:
