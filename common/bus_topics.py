@@ -39,24 +39,30 @@ LATCHED_RETRY_S = (0.5, 1.0, 2.0, 4.0, 8.0) + (16.0,) * 7
 
 
 def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sample], None],
-                  retry: bool = False, closed: Callable[[], bool] = lambda: False, attempt: int = 0) -> None:
+                  retry: bool = False, closed: Callable[[], bool] = lambda: False, attempt: int = 0,
+                  expect: str = "") -> None:
     """Ask every latched publisher of ``key`` for its last message (``on_ok`` per answer).
 
     ``retry`` (the query follows a publisher's liveliness token): when no one answered, ask again after
     ``LATCHED_RETRY_S``. The token can arrive before the publisher's queryable is routable (it may travel
     another way through the peers), and that publisher announces itself only once: without a second
-    query its latched map would never come (seen on a loaded machine)."""
+    query its latched map would never come (seen on a loaded machine). ``expect``: the name of the
+    publisher whose token started this; only its answer counts (another publisher of the same key, e.g. a
+    second static TF publisher, answering at once must not end the retries before this one answers). A
+    reply without the publisher's name (not a zenav publisher) counts: it cannot be told apart."""
     answered = [False]
 
     def on_reply(reply: zenoh.Reply) -> None:
         if reply.ok is not None:
-            answered[0] = True
+            att = reply.ok.attachment
+            if not expect or att is None or att.to_bytes().decode(errors="replace") == expect:
+                answered[0] = True
             on_ok(reply.ok)
 
     def on_done() -> None:
         if retry and not answered[0] and attempt < len(LATCHED_RETRY_S) and not closed():
             t = threading.Timer(LATCHED_RETRY_S[attempt], fetch_latched,
-                                (session, key, on_ok, True, closed, attempt + 1))
+                                (session, key, on_ok, True, closed, attempt + 1, expect))
             t.daemon = True
             t.start()
 
@@ -161,13 +167,14 @@ class Subscription:
                 self._sub.undeclare()
             self._sub = self._node.session.declare_subscriber(self.key, self._on_sample)
 
-    def _fetch_latched(self, retry: bool = False) -> None:
+    def _fetch_latched(self, retry: bool = False, expect: str = "") -> None:
         if not self._closed:
-            fetch_latched(self._node.session, self.key, self._on_sample, retry, lambda: self._closed)
+            fetch_latched(self._node.session, self.key, self._on_sample, retry, lambda: self._closed,
+                          expect=expect)
 
     def _on_publisher(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT:
-            self._fetch_latched(retry=True)
+        if sample.kind == zenoh.SampleKind.PUT:  # zenavlive/<robot>/pub/<node>/<topic>
+            self._fetch_latched(retry=True, expect=str(sample.key_expr).split("/")[3])
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         self._ingest(sample.payload.to_bytes(), sample.attachment)

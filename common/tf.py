@@ -225,8 +225,14 @@ class TFListener:
         self._handles[0] = self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False))
 
     def _on_static_publisher(self, sample) -> None:
-        if sample.kind == self._zenoh.SampleKind.PUT:
-            self._query_static()
+        """A static publisher's token: ask until *that* publisher answers (common.bus_topics.fetch_latched;
+        another one answering at once does not count)."""
+        if sample.kind == self._zenoh.SampleKind.PUT:  # zenavlive/<robot>/pub/<node>/tf_static
+            from common.bus_topics import fetch_latched
+
+            fetch_latched(self._session, self._key_static,
+                          lambda s: self._ingest(s.payload.to_bytes(), s.attachment, True), retry=True,
+                          closed=lambda: self._closed, expect=str(sample.key_expr).split("/")[3])
 
     def _query_static(self) -> None:
         try:

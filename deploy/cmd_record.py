@@ -116,7 +116,7 @@ class Recorder:
         from common.bus_topics import fetch_latched
 
         fetch_latched(self.session, self.prefix + parts[4], lambda s: self._on_sample(s, True), retry=True,
-                      closed=lambda: self._closing)
+                      closed=lambda: self._closing, expect=parts[3])
 
     def _wanted(self, topic: str) -> bool:
         return not topic.startswith("srv/") and (self.topics is None or topic in self.topics)

@@ -59,3 +59,28 @@ def _live_pubs(node) -> list[str]:
     from common.bus import list_live
 
     return list_live(node.session, node.robot, kind="pub")
+
+
+def test_a_second_static_tf_publisher_is_asked_until_it_answers_itself(node_pair):
+    """Two static TF publishers: the first answers every query at once; the second's token comes before
+    its queryable. A listener must not take the first one's answer as the second's: it gets both frames."""
+    from common.geometry import Transform
+    from common.messages import TFMessage, TransformStamped
+    from common.tf import TFListener
+
+    listener_node = node_pair("listener")
+    first = node_pair("base_to_laser")
+    first.publisher("tf_static", latched=True).publish(
+        TFMessage((TransformStamped(Header(0.0, "base_link"), "laser", Transform()),)))
+    tf = TFListener(listener_node)
+    wait_until(lambda: tf.buffer.can_transform("base_link", "laser"), 30, "the first static transform")
+    second = node_pair("base_to_camera")
+    key = second.key("tf_static")
+    camera = encode(TFMessage((TransformStamped(Header(0.0, "base_link"), "camera", Transform()),)))
+    second._declare_token(f"pub/{second.name}/tf_static")
+    wait_until(lambda: any("base_to_camera" in k for k in _live_pubs(listener_node)), 30, "the second's token")
+    # its token is seen (and asked for, answered by the first publisher only) before its queryable exists
+    second.session.declare_queryable(key, lambda q: q.reply(key, camera, attachment=second.name.encode()),
+                                     complete=False)
+    wait_until(lambda: tf.buffer.can_transform("base_link", "camera"), 5 + sum(LATCHED_RETRY_S),
+               "the second static transform")
