@@ -23,6 +23,7 @@ import rerun as rr
 import zenoh
 
 from common import messages as m
+from common.bus_topics import fetch_latched
 from common.codec import DecodeError, decode
 from deploy.monitor import loggers as L
 from deploy.monitor.events import STATUS_NAMES, TextEvents
@@ -105,15 +106,9 @@ class Monitor(TextEvents):
         if len(parts) < 5 or key in self._queried:
             return
         self._queried.add(key)
-        try:
-            self.session.get(self._prefix + parts[4], self._on_reply, target=zenoh.QueryTarget.ALL,
-                             consolidation=zenoh.ConsolidationMode.NONE)
-        except zenoh.ZError as e:  # session closing
-            log.debug("latched query failed: %s", e)
-
-    def _on_reply(self, reply) -> None:
-        if reply.ok is not None:
-            self._on_sample(reply.ok)
+        # asked again until that publisher answers (a query right after its token may find no route yet)
+        fetch_latched(self.session, self._prefix + parts[4], self._on_sample, retry=True,
+                      closed=self._stop.is_set, expect=parts[3])
 
     def _on_sample(self, sample) -> None:
         key = str(sample.key_expr)
