@@ -85,6 +85,7 @@ class MoveBaseNode:
         self.intake_lock = threading.Lock()  # one goal taken in at a time (a TF wait inside: not self.lock)
         self.cmd_lock = threading.Lock()  # orders cycle commands against cancel's immediate stop
         self._cancels = 0
+        self._cancelling = 0  # cancels under way (see cancel())
         self.planner = PlannerThread(self.planning.plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
         recoveries = recoveries_from_params(p, c.recovery_namespaces, source, self._clear_costmaps, self._blocked,
                                             c.circumscribed_radius, c.rotate)
@@ -205,16 +206,24 @@ class MoveBaseNode:
         # Stop first: the control cycle may hold self.lock for a while (a recovery's costmap-clear
         # service calls run inside it), and cancel must zero cmd_vel at once. The cycle checks the
         # cancel count under cmd_lock before it publishes, so it cannot send a stale command after this.
+        # Until the state machine has taken the cancel in (below, under self.lock), no cycle may publish:
+        # a cycle that read the new count but ticked the machine before the cancel reached it would send
+        # the active goal's command after this zero (seen: the rotate recovery's 1 rad/s).
         with self.cmd_lock:
             self._cancels += 1
+            self._cancelling += 1
             self.cmd.publish(Twist())
-        with self.lock:
-            goal = self.machine.goal
-            if goal is not None:
-                self.node.log.info("goal %s cancelled by %s", goal.goal_id, by or "an unnamed publisher")
-            self.machine.cancel(self.node.clock.now(), by)
-            self.cmd.publish(Twist())
-            self._report(None)
+        try:
+            with self.lock:
+                goal = self.machine.goal
+                if goal is not None:
+                    self.node.log.info("goal %s cancelled by %s", goal.goal_id, by or "an unnamed publisher")
+                self.machine.cancel(self.node.clock.now(), by)
+                self.cmd.publish(Twist())
+                self._report(None)
+        finally:
+            with self.cmd_lock:
+                self._cancelling -= 1
 
     # -- collaborators -------------------------------------------------------------------------------
     def _clear_costmaps(self, reset_distance: float, which: str = "both") -> None:
@@ -257,7 +266,7 @@ class MoveBaseNode:
             d = self.machine.tick(now, pose, vel, problem, blocked=blind and f"sensor data: {blind}")
             if self.machine.state is not State.IDLE or d.event:
                 with self.cmd_lock:
-                    if cancels == self._cancels:  # else a cancel came in during this cycle: stay stopped
+                    if cancels == self._cancels and not self._cancelling:  # else a cancel came in: stay stopped
                         self.cmd.publish(Twist.planar(d.cmd[0], d.cmd[2], d.cmd[1]))
                         self.trace_pub.publish(Scalar(Header(now, ""), -1.0 if cm is None else cm.header.stamp))
             if d.event:
