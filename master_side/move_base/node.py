@@ -84,8 +84,7 @@ class MoveBaseNode:
         self.lock = threading.RLock()
         self.intake_lock = threading.Lock()  # one goal taken in at a time (a TF wait inside: not self.lock)
         self.cmd_lock = threading.Lock()  # orders cycle commands against cancel's immediate stop
-        self._cancels = 0
-        self._cancelling = 0  # cancels under way (see cancel())
+        self._cancelling = 0  # cancels under way: no cycle publishes meanwhile (see cancel())
         self.planner = PlannerThread(self.planning.plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
         recoveries = recoveries_from_params(p, c.recovery_namespaces, source, self._clear_costmaps, self._blocked,
                                             c.circumscribed_radius, c.rotate)
@@ -204,13 +203,11 @@ class MoveBaseNode:
     def cancel(self, by: str = "") -> None:
         """Stop and end the goal (PREEMPTED); ``by``: the node that published the cancel, for the log."""
         # Stop first: the control cycle may hold self.lock for a while (a recovery's costmap-clear
-        # service calls run inside it), and cancel must zero cmd_vel at once. The cycle checks the
-        # cancel count under cmd_lock before it publishes, so it cannot send a stale command after this.
-        # Until the state machine has taken the cancel in (below, under self.lock), no cycle may publish:
-        # a cycle that read the new count but ticked the machine before the cancel reached it would send
-        # the active goal's command after this zero (seen: the rotate recovery's 1 rad/s).
+        # service calls run inside it), and cancel must zero cmd_vel at once. Until the state machine has
+        # taken the cancel in (below, under self.lock), no cycle publishes (it checks under cmd_lock): a
+        # cycle that ticked the machine before the cancel reached it would send the goal's command after
+        # this zero (seen: the rotate recovery's 1 rad/s).
         with self.cmd_lock:
-            self._cancels += 1
             self._cancelling += 1
             self.cmd.publish(Twist())
         try:
@@ -259,14 +256,13 @@ class MoveBaseNode:
         cm = self.local_costmap.latest()
         costmap = None if cm is None else (cm.data, cm.resolution, (cm.origin.x, cm.origin.y))
         self._blind = blind = self.health.problem(now, SENSORS_MAX_AGE)
-        cancels = self._cancels
         with self.lock:
             if local_pose is not None:
                 self.controller.update(local_pose, lfg, costmap)
             d = self.machine.tick(now, pose, vel, problem, blocked=blind and f"sensor data: {blind}")
             if self.machine.state is not State.IDLE or d.event:
                 with self.cmd_lock:
-                    if cancels == self._cancels and not self._cancelling:  # else a cancel came in: stay stopped
+                    if not self._cancelling:  # else a cancel is under way: stay stopped
                         self.cmd.publish(Twist.planar(d.cmd[0], d.cmd[2], d.cmd[1]))
                         self.trace_pub.publish(Scalar(Header(now, ""), -1.0 if cm is None else cm.header.stamp))
             if d.event:
