@@ -261,7 +261,8 @@ class TFListener:
             self.invalid += 1
             self._dropped("invalid", self.invalid, why)
             return
-        who = attachment.to_bytes().decode(errors="replace") if attachment is not None else ""
+        who_b = attachment.to_bytes() if attachment is not None else b""
+        who = who_b.decode(errors="replace")
         try:
             for ts in msg.transforms:
                 self.buffer.set_transform(ts, authority=who, static=static)
@@ -270,8 +271,8 @@ class TFListener:
             self._dropped("invalid", self.invalid, e)
             return
         self.received += 1
-        if not static and attachment is not None:
-            count_source(self.sources, attachment.to_bytes(), time.monotonic())
+        if not static and who_b:
+            count_source(self.sources, who_b, time.monotonic())
 
     def _dropped(self, kind: str, n: int, why) -> None:
         if n == 1 or n % 100 == 0:
