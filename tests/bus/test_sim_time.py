@@ -36,9 +36,12 @@ def test_timer_follows_sim_clock_published_5x_faster_than_real_time(node_pair):
     # The timer ran on simulated time: ~10 ticks per simulated second, in far less wall time.
     in_window = [t for t in ticks if 1.0 <= t < 3.0]
     assert 16 <= len(in_window) <= 21, (len(in_window), ticks)
-    # A callback starved for 0.1 s of wall time on a loaded machine reads a clock 0.5 s later (5x).
+    # The timer keeps its grid (as ROS timers do): a tick run late is followed by one on time, so one gap
+    # may be short, but two gaps in a row always span a period — no burst. A callback starved for 0.1 s of
+    # wall time on a loaded machine reads a clock 0.5 s later (5x).
     gaps = [round(b - a, 3) for a, b in zip(in_window, in_window[1:])]
-    assert all(0.05 < g < 0.6 for g in gaps), f"gaps {gaps}"
+    assert all(0 < g < 0.6 for g in gaps), f"gaps {gaps}"
+    assert all(a + b >= 0.099 for a, b in zip(gaps, gaps[1:])), f"a burst of ticks: gaps {gaps}"
     assert wall < sim_end * 0.8, f"clock publishing took {wall:.1f} s wall for {sim_end} s simulated"
     # Stopped clock: no more ticks though wall time passes.
     n = len(ticks)
