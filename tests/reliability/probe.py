@@ -2,9 +2,12 @@
 
 Prints one line per event, wall time first (the robot PC's clock)::
 
-    GT t x y yaw v          ground truth, 50 Hz        SAFE t v w     what the base is told
-    CMD t v w               cmd_vel from the master    COLL t count   a collision
+    GT t x y yaw v stamp    ground truth, 50 Hz        SAFE t v w     what the base is told
+    CMD t v w sim           cmd_vel from the master    COLL t count   a collision
     MON t action            collision monitor state    ST t status goal_id state reason   move_base/status
+
+``stamp`` is ground truth's header stamp and ``sim`` the last simulated clock seen when the command came:
+the robot's own time, which runs slower than the wall clock when the simulator falls behind on a busy machine.
 
 stdin: ``goal X Y YAW`` (map frame): sent as `zenav goal` sends it (acknowledged by move_base, retried
 inside up to 90 s), then ``ACK goal_id status`` or ``NOACK goal_id why``; ``box DX DY SX SY`` (a box
@@ -22,6 +25,7 @@ from common.bus import Node
 from common.delivery import DeliveryFailed, send_goal
 from common.geometry import Pose2D
 from common.messages import (
+    Clock,
     Collision,
     CollisionMonitorState,
     Header,
@@ -43,10 +47,16 @@ def say(*words) -> None:
 
 def main() -> None:
     node = Node("netem_probe", use_sim_time=False)
+    clock = node.subscribe("clock", Clock)  # latest only, read on the network thread's delivery
+
+    def sim_now() -> float:
+        c = clock.latest()
+        return c.clock if c is not None else float("nan")
     node.subscribe("ground_truth", Odometry, mode="queue", callback=lambda m: say(
-        "GT", f"{m.pose2d.x:.4f}", f"{m.pose2d.y:.4f}", f"{m.pose2d.theta:.4f}", f"{m.twist.linear.x:.4f}"))
+        "GT", f"{m.pose2d.x:.4f}", f"{m.pose2d.y:.4f}", f"{m.pose2d.theta:.4f}", f"{m.twist.linear.x:.4f}",
+        f"{m.header.stamp:.4f}"))
     node.subscribe("cmd_vel", Twist, mode="queue",
-                   callback=lambda m: say("CMD", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}"))
+                   callback=lambda m: say("CMD", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}", f"{sim_now():.4f}"))
     node.subscribe("safety/cmd_vel", Twist, mode="queue",
                    callback=lambda m: say("SAFE", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}"))
     node.subscribe("collision", Collision, mode="queue", callback=lambda m: say("COLL", m.count))
