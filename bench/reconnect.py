@@ -10,9 +10,12 @@ well beyond it), heals it, and at once:
   - a put stream on the goal topic, from the robot's existing publisher or from one declared right
     after the heal (alternating): how long until the first put arrives is the route's recovery time;
   - a goal through the acknowledged service (common/delivery.py, as `zenav goal` sends it), 20 s deadline;
-  - a new subscriber of the latched map (as `zenav record` started after the heal), 20 s deadline.
+  - a new subscriber of the latched map (as `zenav record` started after the heal), 20 s deadline;
+  - the master's 10 Hz status stream to the robot's subscriber declared at the start (as move_base/status
+    to `zenav goal`): how long until the first message after the heal arrives, 30 s deadline.
 ``--hog N`` runs N busy processes beside it (the 2-core machine loaded as by a second test worker).
-Ends with ``reconnect_cycles=… goals_lost=… latched_lost=… stream_lost=… recovery_p50_s=… recovery_p99_s=…``.
+Ends with ``reconnect_cycles=… goals_lost=… latched_lost=… stream_lost=… status_lost=… recovery_p50_s=…
+recovery_p99_s=…``.
 """
 
 from __future__ import annotations
@@ -149,13 +152,16 @@ def main() -> int:
             robot.send(f"{'fresh' if fresh else 'stream'} s{i}")
             robot.send(f"call c{i}")
             robot.send(f"latched l{i}")
+            robot.send(f"await a{i}")
             got = wait_for(lambda i=i: master.first("GOT", prefix=f"s{i}:"), 30)
             robot.send(f"stop s{i}")
             ack = wait_for(lambda i=i: robot.first("ACK", f"c{i}") or robot.first("NOACK", f"c{i}"), 30)
             lat = wait_for(lambda i=i: robot.first("LATCHED", f"l{i}"), 20)
+            back = wait_for(lambda i=i: robot.first("STATUS", f"a{i}"), max(0.0, t_heal + 30 - time.time()))
             row = {"cut": cut, "fresh": fresh, "recovery": float(got[0]) - t_heal if got else None,
                    "ack": (float(ack[0]) - t_heal) if ack and ack[1] == "ACK" else None,
-                   "latched": float(lat[0]) - t_heal if lat else None}
+                   "latched": float(lat[0]) - t_heal if lat else None,
+                   "status": float(back[0]) - t_heal if back else None}
             rows.append(row)
             if row["ack"] is None:  # say what was seen: a query path lost while puts get through?
                 why = " ".join(ack[2:]) if ack else "no answer line at all"
@@ -164,7 +170,8 @@ def main() -> int:
                 print(f"  goal c{i} not acknowledged: {srv}; {why}", flush=True)
             fmt = lambda v: f"{v:6.2f}" if v is not None else "  LOST"  # noqa: E731
             print(f"cycle {i:4d}/{args.cycles}  cut {cut:3.1f} s  {'fresh' if fresh else 'old  '} publisher  "
-                  f"route {fmt(row['recovery'])} s  ack {fmt(row['ack'])} s  latched {fmt(row['latched'])} s"
+                  f"route {fmt(row['recovery'])} s  ack {fmt(row['ack'])} s  latched {fmt(row['latched'])} s  "
+                  f"status {fmt(row['status'])} s"
                   f"  ({time.monotonic() - t_start:5.0f} s)", flush=True)
     finally:
         for h in hogs:
@@ -174,7 +181,7 @@ def main() -> int:
         for ns in (ns_m, ns_r):
             subprocess.run(["ip", "netns", "del", ns], capture_output=True)
     print(f"\n{'cut s':>5} {'publisher':9} {'n':>4} {'route p50':>9} {'p99':>6} {'max':>6} {'lost':>4} | "
-          f"{'ack p50':>7} {'max':>6} {'lost':>4} | {'latched max':>11} {'lost':>4}")
+          f"{'ack p50':>7} {'max':>6} {'lost':>4} | {'latched max':>11} {'lost':>4} | {'status max':>10} {'lost':>4}")
     for cut in CUTS_S:
         for fresh in (False, True):
             sel = [r for r in rows if r["cut"] == cut and r["fresh"] == fresh]
@@ -183,19 +190,23 @@ def main() -> int:
             rec = [r["recovery"] for r in sel if r["recovery"] is not None]
             ack = [r["ack"] for r in sel if r["ack"] is not None]
             lat = [r["latched"] for r in sel if r["latched"] is not None]
+            sta = [r["status"] for r in sel if r["status"] is not None]
             q = lambda xs, p: f"{np.percentile(xs, p):.2f}" if xs else "-"  # noqa: E731
             print(f"{cut:5.1f} {'fresh' if fresh else 'old':9} {len(sel):4d} {q(rec, 50):>9} {q(rec, 99):>6} "
                   f"{q(rec, 100):>6} {len(sel) - len(rec):4d} | {q(ack, 50):>7} {q(ack, 100):>6} "
-                  f"{len(sel) - len(ack):4d} | {q(lat, 100):>11} {len(sel) - len(lat):4d}")
+                  f"{len(sel) - len(ack):4d} | {q(lat, 100):>11} {len(sel) - len(lat):4d} | {q(sta, 100):>10} "
+                  f"{len(sel) - len(sta):4d}")
     rec = [r["recovery"] for r in rows if r["recovery"] is not None]
     ack = [r["ack"] for r in rows if r["ack"] is not None]
     print(f"reconnect_cycles={len(rows)} goals_lost={len(rows) - len(ack)} "
           f"latched_lost={sum(r['latched'] is None for r in rows)} stream_lost={len(rows) - len(rec)} "
+          f"status_lost={sum(r['status'] is None for r in rows)} "
           f"recovery_p50_s={np.percentile(rec, 50) if rec else float('nan'):.2f} "
           f"recovery_p99_s={np.percentile(rec, 99) if rec else float('nan'):.2f} "
           f"ack_p99_s={np.percentile(ack, 99) if ack else float('nan'):.2f} hog_procs={args.hog} "
           f"peers_per_side={args.peers + 1} autoconnect={args.autoconnect}")
-    return 0 if len(ack) == len(rows) and all(r["latched"] is not None for r in rows) else 1
+    return 0 if len(ack) == len(rows) and all(r["latched"] is not None and r["status"] is not None
+                                              for r in rows) else 1
 
 
 if __name__ == "__main__":

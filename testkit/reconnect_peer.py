@@ -11,6 +11,8 @@ robot:  reads commands on stdin and sends as the goal senders do:
         ``fresh ID``   the same from a publisher declared now (a new sender right after a heal)
         ``call ID``    send ID through the acknowledged service (retrying inside, as `zenav goal` does)
         ``latched ID`` a new subscriber of the latched map (as a recorder started after the heal)
+        ``await ID``   ``STATUS ID`` at the first master status that comes after this command (the
+                       master -> robot stream over the subscription declared at the start)
 Every event is one line: wall time, kind, values (both sides run on one machine: one clock).
 """
 
@@ -65,7 +67,13 @@ def robot() -> None:
 
     node = Node("rc_robot", use_sim_time=False)
     goal = node.publisher("goal")
-    status = node.subscribe("status", Text, mode="latest")
+    awaiting: list[str] = []
+
+    def on_status(_m: Text) -> None:
+        while awaiting:
+            say("STATUS", awaiting.pop())
+
+    status = node.subscribe("status", Text, mode="latest", callback=on_status)
     streams: dict[str, threading.Event] = {}
 
     def stream(ident: str, pub) -> None:
@@ -103,6 +111,8 @@ def robot() -> None:
             threading.Thread(target=call, args=(w[1],), daemon=True).start()
         elif w[0] == "latched":
             latched(w[1])
+        elif w[0] == "await":
+            awaiting.append(w[1])
     node.close()
 
 

@@ -41,6 +41,7 @@ ROBOT = REPO / "robot_side/config/pioneer_lx_sim.yaml"
 MASTER = REPO / "master_side/config/p3at_known_map.yaml"
 TIMEOUT, DECEL = 0.25, 1.0  # the robot config's cmd_vel_timeout and braking (m/s^2)
 SUCCEEDED, ACTIVE = 3, 1
+KINDS = {"GT", "CMD", "SAFE", "COLL", "MON", "ST", "SENDING", "SENT", "ACK", "NOACK", "READY"}  # probe.py's lines
 
 
 class Stream:
@@ -316,5 +317,13 @@ def test_d_a_goal_sent_during_a_partition_is_taken_in_after_the_heal(stack):
     print(f"goal sent {t_heal - t_cut:.1f} s before the heal, acknowledged {float(ans[0]) - t_heal:.2f} s after it")
     assert int(ans[3]) == ACTIVE, " ".join(ans)
     # move_base works on it: its status names the goal (reaching it is test (a)'s and (b)'s subject)
-    wait_until(lambda: [w for w in probe.events("ST", float(ans[0])) if w[3] == ans[2] and int(w[2]) == ACTIVE],
-               30, "move_base's status of the goal")
+    try:
+        wait_until(lambda: [w for w in probe.events("ST", float(ans[0])) if w[3] == ans[2] and int(w[2]) == ACTIVE],
+                   30, "move_base's status of the goal")
+    except AssertionError as e:  # what did come: other statuses? none at all (the stream's route)? the probe's log
+        st = probe.events("ST", t_cut)
+        seen = list(dict.fromkeys(f"{w[2]} {w[3]} {w[4]}" for w in st))
+        other = [" ".join(w) for w in list(probe.lines) if len(w) < 2 or w[1] not in KINDS][-15:]
+        raise AssertionError(f"{e}: {len(st)} statuses since the cut, the last at "
+                             f"{float(st[-1][0]) - t_heal:+.2f} s from the heal; distinct: {seen[-6:]}; "
+                             f"probe log: {other}\nmaster side:\n{_master_stats(stack)}") from None
