@@ -25,6 +25,8 @@ import zenoh
 from common.bus_topics import Publisher, Subscription, topic_key
 from common.clock import SimClock, Timer, WallClock
 from common.codec import DecodeError, decode, encode
+from common.live_keys import PREFIX as LIVE_PREFIX
+from common.live_keys import live_key
 from common.messages import Clock, Header, NodeStats, TopicStats
 from common.route_watch import RouteWatch
 from common.zenoh_config import BusConfig
@@ -68,12 +70,13 @@ class Node:
         if use_sim_time:
             self.subscribe("clock", Clock, callback=lambda m: self.clock.update(m.clock))
         self.service(f"node_stats/{name}", lambda _req: self.stats(), token=False)
-        self._node_token = self._declare_token(f"node/{name}")
+        self._node_token = self._declare_token("node")
         self.log = logging.getLogger(f"zenav.{name}")
 
     # -- helpers -------------------------------------------------------------------------------
-    def _declare_token(self, suffix: str):
-        tok = self.session.liveliness().declare_token(f"zenavlive/{self.robot}/{suffix.strip('/')}")
+    def _declare_token(self, kind: str, topic: str = ""):
+        """This node's liveliness token of ``kind`` (common.live_keys)."""
+        tok = self.session.liveliness().declare_token(live_key(self.robot, kind, self.name, topic))
         self._entities.append(tok)
         return tok
 
@@ -129,7 +132,7 @@ class Node:
         q = self.session.declare_queryable(key, lambda query: self._pool.submit(run, query), complete=True)
         self._entities.append(q)
         if token:  # node_stats/<node> has none: every node serves it
-            self._declare_token(f"srv/{self.name}/{name.strip('/')}")
+            self._declare_token("srv", name)
         return q
 
     def call(self, name: str, request: Any, response_type: type | None = None, timeout: float = 2.0) -> Any:
@@ -191,7 +194,7 @@ class Node:
 def list_live(session: zenoh.Session, robot: str = "*", kind: str = "node", timeout: float = 1.0) -> list[str]:
     """Liveliness keys currently declared (e.g. kind 'node' -> ['robot1/node/sim', ...])."""
     out = []
-    for reply in session.liveliness().get(f"zenavlive/{robot}/{kind}/**", timeout=timeout):
+    for reply in session.liveliness().get(live_key(robot, kind, "**"), timeout=timeout):
         if reply.ok is not None:
-            out.append(str(reply.ok.key_expr).removeprefix("zenavlive/"))
+            out.append(str(reply.ok.key_expr).removeprefix(f"{LIVE_PREFIX}/"))
     return sorted(set(out))

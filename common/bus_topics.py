@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Callable
 import zenoh
 
 from common.codec import DecodeError, decode, encode
+from common.live_keys import LiveKey, live_key
 from common.log_util import RateLimitedLog
 from common.msg_check import problem
 from common.route_watch import count_source
@@ -85,7 +86,7 @@ class Publisher:
         self.count = 0
         if latched:
             self._queryable = node.session.declare_queryable(self.key, self._on_query, complete=False)
-        self._token = node._declare_token(f"pub/{node.name}/{topic.strip('/')}")
+        self._token = node._declare_token("pub", topic)
 
     def _on_query(self, query: zenoh.Query) -> None:
         last = self._last
@@ -151,7 +152,7 @@ class Subscription:
         # publisher of this topic appears (its liveliness token), so neither start order matters.
         self._fetch_latched()
         self._pub_watch = node.session.liveliness().declare_subscriber(
-            f"zenavlive/{node.robot}/pub/*/{topic.strip('/')}", self._on_publisher)
+            live_key(node.robot, "pub", "*", topic), self._on_publisher)
 
     @property
     def closed(self) -> bool:
@@ -173,8 +174,8 @@ class Subscription:
                           expect=expect)
 
     def _on_publisher(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT:  # zenavlive/<robot>/pub/<node>/<topic>
-            self._fetch_latched(retry=True, expect=str(sample.key_expr).split("/")[3])
+        if sample.kind == zenoh.SampleKind.PUT and (k := LiveKey.parse(sample.key_expr)) is not None:
+            self._fetch_latched(retry=True, expect=k.node)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         self._ingest(sample.payload.to_bytes(), sample.attachment)

@@ -27,6 +27,8 @@ import time
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from common.live_keys import live_key
+
 log = logging.getLogger("zenav.bus")
 
 STREAM_MIN_MSGS = 5  # messages before a subscription's period is trusted
@@ -147,5 +149,5 @@ class RouteWatch:
 
     def _alive(self, publisher: str, topic: str) -> bool:
         """Whether the publisher's liveliness token for ``topic`` is known to this session now."""
-        key = f"zenavlive/{self.robot}/pub/{publisher}/{topic.strip('/')}"
+        key = live_key(self.robot, "pub", publisher, topic)
         return any(r.ok is not None for r in self.session.liveliness().get(key, timeout=1.0))

@@ -23,6 +23,7 @@ from typing import Any
 
 from common.config import strip_frame
 from common.geometry import Quaternion, Transform, Vector3
+from common.live_keys import LiveKey, live_key
 from common.messages import Header, TFMessage, TransformStamped
 from common.msg_check import problem
 from common.route_watch import count_source
@@ -207,7 +208,7 @@ class TFListener:
             self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False)),
             self._session.declare_subscriber(self._key_static, lambda s: self._on_sample(s, True)),
             self._session.liveliness().declare_subscriber(
-                f"zenavlive/{node.robot}/pub/*/tf_static", self._on_static_publisher, history=True),
+                live_key(node.robot, "pub", "*", "tf_static"), self._on_static_publisher, history=True),
         ]
         self._query_static()
         node.routes.add(self)
@@ -227,12 +228,13 @@ class TFListener:
     def _on_static_publisher(self, sample) -> None:
         """A static publisher's token: ask until *that* publisher answers (common.bus_topics.fetch_latched;
         another one answering at once does not count)."""
-        if sample.kind == self._zenoh.SampleKind.PUT:  # zenavlive/<robot>/pub/<node>/tf_static
+        k = LiveKey.parse(sample.key_expr)
+        if sample.kind == self._zenoh.SampleKind.PUT and k is not None:
             from common.bus_topics import fetch_latched
 
             fetch_latched(self._session, self._key_static,
                           lambda s: self._ingest(s.payload.to_bytes(), s.attachment, True), retry=True,
-                          closed=lambda: self._closed, expect=str(sample.key_expr).split("/")[3])
+                          closed=lambda: self._closed, expect=k.node)
 
     def _query_static(self) -> None:
         try:

@@ -19,6 +19,7 @@ import time
 from collections import defaultdict
 
 from common.argtypes import positive
+from common.live_keys import LiveKey, live_key
 from deploy import close_quietly, robot_pattern
 from deploy.hosts.doctor_checks import (
     OK_STATES,
@@ -65,16 +66,15 @@ class _Listener:
         self.tf_edges: dict[str, set[str]] = defaultdict(set)
         self.sensors: dict[tuple[str, str], object] = {}  # (robot, costmap) -> latest CostmapSensors
         self.kind_put = zenoh.SampleKind.PUT
-        self.ents = [session.liveliness().declare_subscriber(f"zenavlive/{robot}/**", self._on_token,
+        self.ents = [session.liveliness().declare_subscriber(live_key(robot, "**", ""), self._on_token,
                                                              history=True)]
         for t in [*topics, "clock"]:
             self.ents.append(session.declare_subscriber(f"zenav/{robot}/{t}", self._on_sample))
         self.ents.append(session.declare_subscriber(f"zenav/{robot}/**/sensors", self._on_sensors))
 
     def _on_token(self, s) -> None:
-        parts = str(s.key_expr).split("/")
-        if len(parts) >= 4:
-            item = (parts[1], parts[2], parts[3], "/".join(parts[4:]))
+        item = LiveKey.parse(s.key_expr)
+        if item is not None:
             with self.lock:
                 (self.tokens.add if s.kind == self.kind_put else self.tokens.discard)(item)
 

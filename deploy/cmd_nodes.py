@@ -8,6 +8,7 @@ import time
 from collections import defaultdict
 
 from common.argtypes import positive
+from common.live_keys import LiveKey, live_key
 from deploy import close_quietly, open_session, robot_pattern, wait
 
 
@@ -43,14 +44,6 @@ def add_parser(subparsers):
     return p
 
 
-def _parse(key: str) -> tuple[str, str, str, str] | None:
-    """zenavlive/<robot>/<kind>/<node>[/<name...>] -> (robot, kind, node, name)."""
-    parts = key.split("/")
-    if len(parts) < 4 or parts[0] != "zenavlive":
-        return None
-    return parts[1], parts[2], parts[3], "/".join(parts[4:])
-
-
 def run(args) -> int:
     import zenoh
 
@@ -60,7 +53,7 @@ def run(args) -> int:
     ready = threading.Event()  # --watch: history is printed as the initial list, then events
 
     def on_token(s: zenoh.Sample) -> None:
-        item = _parse(str(s.key_expr))
+        item = LiveKey.parse(s.key_expr)
         if item is None:
             return
         with lock:
@@ -76,7 +69,7 @@ def run(args) -> int:
     session = open_session()
     sub = None
     try:
-        key = f"zenavlive/{robot}/**" if args.long else f"zenavlive/{robot}/node/*"
+        key = live_key(robot, "**", "", "") if args.long else live_key(robot, "node", "*")
         sub = session.liveliness().declare_subscriber(key, on_token, history=True)
         wait(threading.Event(), args.wait)
         with lock:

@@ -10,6 +10,7 @@ import threading
 import time
 
 from common.argtypes import nonneg, positive
+from common.live_keys import LiveKey, live_key
 from deploy import close_quietly, one_robot, open_session
 
 log = logging.getLogger(__name__)
@@ -101,13 +102,13 @@ class Recorder:
         for k in keys:
             self._handles.append(self.session.declare_subscriber(k, lambda s: self._on_sample(s, False)))
         self._handles.append(self.session.liveliness().declare_subscriber(
-            f"zenavlive/{self.robot}/pub/**", self._on_publisher, history=True))
+            live_key(self.robot, "pub", "**"), self._on_publisher, history=True))
 
     def _on_publisher(self, sample) -> None:
         """A publisher appeared: fetch its latched message (a no-op for unlatched topics)."""
         zenoh = self._zenoh
-        parts = str(sample.key_expr).split("/", 4)  # zenavlive/<robot>/pub/<node>/<topic>
-        if sample.kind != zenoh.SampleKind.PUT or len(parts) < 5 or not self._wanted(parts[4]):
+        k = LiveKey.parse(sample.key_expr)
+        if sample.kind != zenoh.SampleKind.PUT or k is None or not k.topic or not self._wanted(k.topic):
             return
         with self._lock:
             if str(sample.key_expr) in self._queried:
@@ -115,8 +116,8 @@ class Recorder:
             self._queried.add(str(sample.key_expr))
         from common.bus_topics import fetch_latched
 
-        fetch_latched(self.session, self.prefix + parts[4], lambda s: self._on_sample(s, True), retry=True,
-                      closed=lambda: self._closing, expect=parts[3])
+        fetch_latched(self.session, self.prefix + k.topic, lambda s: self._on_sample(s, True), retry=True,
+                      closed=lambda: self._closing, expect=k.node)
 
     def _wanted(self, topic: str) -> bool:
         return not topic.startswith("srv/") and (self.topics is None or topic in self.topics)

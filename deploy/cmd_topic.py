@@ -12,6 +12,7 @@ from collections import defaultdict, deque
 import numpy as np
 
 from common.argtypes import nonneg_int, positive, positive_int
+from common.live_keys import LiveKey, live_key
 from deploy import close_quietly, one_robot, open_session, robot_pattern, wait
 
 
@@ -144,11 +145,11 @@ def run_list(args) -> int:
     lock = threading.Lock()
 
     def on_token(s: zenoh.Sample) -> None:
-        parts = str(s.key_expr).split("/")  # zenavlive/<robot>/pub/<node>/<topic...>
-        if len(parts) >= 5:
+        key = LiveKey.parse(s.key_expr)
+        if key is not None and key.topic:
             with lock:
-                k = (parts[1], "/".join(parts[4:]))
-                (pubs[k].add if s.kind == zenoh.SampleKind.PUT else pubs[k].discard)(parts[3])
+                k = (key.robot, key.topic)
+                (pubs[k].add if s.kind == zenoh.SampleKind.PUT else pubs[k].discard)(key.node)
 
     def on_data(s: zenoh.Sample) -> None:
         parts = str(s.key_expr).split("/", 2)  # zenav/<robot>/<topic>
@@ -162,7 +163,7 @@ def run_list(args) -> int:
     session = open_session()
     tok = data = None
     try:
-        tok = session.liveliness().declare_subscriber(f"zenavlive/{robot}/pub/**", on_token, history=True)
+        tok = session.liveliness().declare_subscriber(live_key(robot, "pub", "**"), on_token, history=True)
         data = session.declare_subscriber(f"zenav/{robot}/**", on_data)
         t0 = time.monotonic()
         wait(threading.Event(), args.wait)

@@ -19,6 +19,8 @@ import threading
 import time
 from collections import defaultdict
 
+from common.live_keys import LiveKey, live_key
+
 
 def probe(robot: str, topics: list[str], seconds: float) -> dict:
     import zenoh
@@ -39,17 +41,17 @@ def probe(robot: str, topics: list[str], seconds: float) -> dict:
         return out
 
     def on_token(s) -> None:
-        parts = str(s.key_expr).split("/")
-        if len(parts) >= 4 and parts[2] == "node":
+        k = LiveKey.parse(s.key_expr)
+        if k is not None and k.kind == "node":
             with lock:
-                (live.add if s.kind == zenoh.SampleKind.PUT else live.discard)((parts[1], parts[3]))
+                (live.add if s.kind == zenoh.SampleKind.PUT else live.discard)((k.robot, k.node))
 
     def on_sample(s) -> None:
         topic = str(s.key_expr).split("/", 2)[2]
         with lock:
             times[topic].append(time.monotonic())
 
-    ents = [session.liveliness().declare_subscriber("zenavlive/*/node/*", on_token, history=True)]
+    ents = [session.liveliness().declare_subscriber(live_key("*", "node", "*"), on_token, history=True)]
     ents += [session.declare_subscriber(f"zenav/{robot}/{t}", on_sample) for t in topics if robot]
     t0 = time.monotonic()
     time.sleep(seconds)

@@ -25,6 +25,7 @@ import zenoh
 from common import messages as m
 from common.bus_topics import fetch_latched
 from common.codec import DecodeError, decode
+from common.live_keys import LiveKey, live_key
 from deploy.monitor import loggers as L
 from deploy.monitor.events import STATUS_NAMES, TextEvents
 from deploy.monitor.keyframes import Keyframes
@@ -74,7 +75,7 @@ class Monitor(TextEvents):
         sel = robot if robot == "*" else robot.replace("*", "$*")  # 'pioneer*': a wildcard inside a chunk
         self._handles = [] if not subscribe else [
             session.declare_subscriber(f"zenav/{sel}/**", self._on_sample),
-            session.liveliness().declare_subscriber(f"zenavlive/{sel}/pub/**", self._on_publisher,
+            session.liveliness().declare_subscriber(live_key(sel, "pub", "**"), self._on_publisher,
                                                     history=True),
         ]
         self._flusher = threading.Thread(target=self._flush_loop, args=(flush_period,), daemon=True,
@@ -98,17 +99,19 @@ class Monitor(TextEvents):
         """A publisher appeared: fetch its topic's latched message (no-op for unlatched ones)."""
         if sample.kind != zenoh.SampleKind.PUT:
             return
-        parts = str(sample.key_expr).split("/", 4)  # zenavlive/<robot>/pub/<node>/<topic>
-        if "*" in self.robot and len(parts) == 5:
-            self._view(parts[1])._on_publisher(sample)
+        k = LiveKey.parse(sample.key_expr)
+        if k is None or not k.topic:
+            return
+        if "*" in self.robot:
+            self._view(k.robot)._on_publisher(sample)
             return
         key = str(sample.key_expr)  # one query per publisher: several nodes may latch one topic (tf_static)
-        if len(parts) < 5 or key in self._queried:
+        if key in self._queried:
             return
         self._queried.add(key)
         # asked again until that publisher answers (a query right after its token may find no route yet)
-        fetch_latched(self.session, self._prefix + parts[4], self._on_sample, retry=True,
-                      closed=self._stop.is_set, expect=parts[3])
+        fetch_latched(self.session, self._prefix + k.topic, self._on_sample, retry=True,
+                      closed=self._stop.is_set, expect=k.node)
 
     def _on_sample(self, sample) -> None:
         key = str(sample.key_expr)
