@@ -25,7 +25,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import ndimage
 
 from common.config import ConfigError, load_params, param, read_yaml
 from common.geometry import Pose2D
@@ -142,6 +141,8 @@ class World:
         occupied = self.occupied(min_height)
         data = np.where(occupied, 100, 0).astype(np.int8)
         if unknown_unreachable:
+            from scipy import ndimage  # here only: half a second of import every simulator start would pay
+
             labels, _ = ndimage.label(~occupied)  # 4-connected free regions
             ix, iy = self.cell_of(self.start.x, self.start.y)
             if 0 <= iy < labels.shape[0] and 0 <= ix < labels.shape[1] and labels[iy, ix] > 0:
