@@ -9,6 +9,9 @@ Prints one line per event, wall time first (the robot PC's clock)::
 ``stamp`` is ground truth's header stamp and ``sim`` the last simulated clock seen when the command came:
 the robot's own time, which runs slower than the wall clock when the simulator falls behind on a busy machine.
 
+``probe.py teleop`` runs on the master's side instead: stdin ``drive V W`` streams cmd_vel (V m/s, W rad/s)
+at 20 Hz, as a teleop node on the master PC would, until ``stop`` (answers ``DRIVING`` / ``STOPPED``).
+
 stdin: ``goal X Y YAW`` (map frame): sent as `zenav goal` sends it (acknowledged by move_base, retried
 inside up to 90 s), then ``ACK goal_id status`` or ``NOACK goal_id why``; ``box DX DY SX SY`` (a box
 appears relative to the robot): ``SENDING box`` before its put and ``SENT box`` after it.
@@ -89,5 +92,28 @@ def main() -> None:
     node.close()
 
 
+def teleop() -> None:
+    node = Node("netem_teleop", use_sim_time=False)
+    pub = node.publisher("cmd_vel")
+    stop = threading.Event()
+
+    def stream(v: float, w: float, until: threading.Event) -> None:
+        while not until.wait(0.05):
+            pub.publish(Twist.planar(v, w))
+    say("READY")
+    for line in sys.stdin:
+        w = line.split()
+        if w[:1] == ["drive"]:
+            stop.set()
+            stop = threading.Event()
+            threading.Thread(target=stream, args=(float(w[1]), float(w[2]), stop), daemon=True).start()
+            say("DRIVING")
+        elif w[:1] == ["stop"]:
+            stop.set()
+            say("STOPPED")
+    stop.set()
+    node.close()
+
+
 if __name__ == "__main__":
-    main()
+    teleop() if sys.argv[1:] == ["teleop"] else main()
