@@ -74,12 +74,14 @@ class Proc:
 
 
 def wait_for(cond, timeout: float):
+    """``cond()``'s first truthy value within ``timeout`` s (looked at least once, even with no time left)."""
     end = time.monotonic() + timeout
-    while time.monotonic() < end:
+    while True:
         if (v := cond()):
             return v
+        if time.monotonic() >= end:
+            return None
         time.sleep(0.01)
-    return None
 
 
 def _hog() -> None:

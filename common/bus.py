@@ -28,6 +28,7 @@ from common.codec import DecodeError, decode, encode
 from common.live_keys import PREFIX as LIVE_PREFIX
 from common.live_keys import live_key
 from common.messages import Clock, Header, NodeStats, TopicStats
+from common.query_routes import Queryables, ask_redeclare
 from common.route_watch import RouteWatch
 from common.zenoh_config import BusConfig
 
@@ -62,6 +63,8 @@ class Node:
         self.routes = RouteWatch(self.session, self.robot, name)  # silent streams declared again
         self._timers: list[Timer] = []
         self._pool = ThreadPoolExecutor(max_workers=2, thread_name_prefix=f"srv:{name}")
+        self.queryables = Queryables(self.session, self.robot, name)  # declared again when a querier asks
+        self._entities.append(self.queryables)
         self._closed = False
         if use_sim_time is None:
             use_sim_time = os.environ.get("ZENAV_USE_SIM_TIME", "0") in ("1", "true", "yes")
@@ -129,8 +132,7 @@ class Node:
             finally:
                 query.drop()
 
-        q = self.session.declare_queryable(key, lambda query: self._pool.submit(run, query), complete=True)
-        self._entities.append(q)
+        q = self.queryables.declare(key, lambda query: self._pool.submit(run, query), complete=True)
         if token:  # node_stats/<node> has none: every node serves it
             self._declare_token("srv", name)
         return q
@@ -150,7 +152,8 @@ class Node:
             if err.lower().startswith("timeout"):
                 raise ServiceTimeout(f"service '{name}' did not answer within {timeout:.1f} s")
             raise ServiceError(f"service '{name}' failed: {err}")
-        if time.monotonic() - t0 < timeout * 0.9:
+        if time.monotonic() - t0 < timeout * 0.9:  # no queryable reached: its owner, if any, declares it again
+            ask_redeclare(self.session, key, self.name)
             raise ServiceUnavailable(f"no node serves '{name}' on robot '{self.robot}'")
         raise ServiceTimeout(f"service '{name}' did not answer within {timeout:.1f} s")
 

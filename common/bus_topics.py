@@ -19,6 +19,7 @@ from common.codec import DecodeError, decode, encode
 from common.live_keys import LiveKey, live_key
 from common.log_util import RateLimitedLog
 from common.msg_check import problem
+from common.query_routes import ask_redeclare
 from common.route_watch import count_source
 
 if TYPE_CHECKING:
@@ -62,6 +63,8 @@ def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sampl
 
     def on_done() -> None:
         if retry and not answered[0] and attempt < len(LATCHED_RETRY_S) and not closed():
+            if attempt >= 1:  # the publisher's token is there, its queryable unreachable: ask it to declare again
+                ask_redeclare(session, key, "latched fetch")
             t = threading.Timer(LATCHED_RETRY_S[attempt], fetch_latched,
                                 (session, key, on_ok, True, closed, attempt + 1, expect))
             t.daemon = True
@@ -82,10 +85,11 @@ class Publisher:
         self._attachment = node.name.encode()
         self._attachment_z = zenoh.ZBytes(self._attachment)  # built once, not per message
         self._last: bytes | None = None
-        self._queryable = None
+        self._queryable = self._latched_token = None
         self.count = 0
-        if latched:
-            self._queryable = node.session.declare_queryable(self.key, self._on_query, complete=False)
+        if latched:  # answers queries for the last message; its own token tells subscribers to ask it
+            self._queryable = node.queryables.declare(self.key, self._on_query, complete=False)
+            self._latched_token = node._declare_token("latched", topic)
         self._token = node._declare_token("pub", topic)
 
     def _on_query(self, query: zenoh.Query) -> None:
@@ -110,7 +114,7 @@ class Publisher:
         self.count += 1
 
     def close(self) -> None:
-        for obj in (self._pub, self._queryable, self._token):
+        for obj in (self._pub, self._queryable, self._latched_token, self._token):
             if obj is not None:
                 with contextlib.suppress(zenoh.ZError):
                     obj.undeclare()
@@ -148,11 +152,12 @@ class Subscription:
             self._worker = threading.Thread(target=self._deliver, daemon=True, name=f"sub:{topic}")
             self._worker.start()
         self._sub = node.session.declare_subscriber(self.key, self._on_sample)
-        # Latched topics: ask every publisher for its last message now, and again whenever a new
-        # publisher of this topic appears (its liveliness token), so neither start order matters.
-        self._fetch_latched()
+        # Latched topics: ask each latched publisher for its last message when its token is seen (those
+        # already there come as the token subscriber's history), asking again until it answers — so
+        # neither start order nor a query that found no route loses the message; unlatched publishers
+        # are never asked.
         self._pub_watch = node.session.liveliness().declare_subscriber(
-            live_key(node.robot, "pub", "*", topic), self._on_publisher)
+            live_key(node.robot, "latched", "*", topic), self._on_publisher, history=True)
 
     @property
     def closed(self) -> bool:

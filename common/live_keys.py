@@ -1,7 +1,8 @@
 """Liveliness keys: who is on the bus, in one place.
 
-Every node declares ``zenavlive/<robot>/node/<name>`` and, per publication,
-``zenavlive/<robot>/pub/<name>/<topic...>`` (common.bus). Tools (``zenav nodes``, ``topic``, ``doctor``,
+Every node declares ``zenavlive/<robot>/node/<name>``, per publication
+``zenavlive/<robot>/pub/<name>/<topic...>``, per latched publication also ``.../latched/<name>/<topic...>``
+and per service ``.../srv/<name>/<service...>`` (common.bus). Tools (``zenav nodes``, ``topic``, ``doctor``,
 ``fleet``) and the bus itself (latched fetches, the route watch) read them back; they build and parse them
 here, so the layout is written once.
 """
@@ -15,7 +16,7 @@ PREFIX = "zenavlive"
 
 class LiveKey(NamedTuple):
     robot: str
-    kind: str  # "node" or "pub"
+    kind: str  # "node", "pub", "latched" or "srv"
     node: str
     topic: str = ""  # the published topic ("pub" keys), may hold "/"
 

@@ -102,7 +102,7 @@ class Recorder:
         for k in keys:
             self._handles.append(self.session.declare_subscriber(k, lambda s: self._on_sample(s, False)))
         self._handles.append(self.session.liveliness().declare_subscriber(
-            live_key(self.robot, "pub", "**"), self._on_publisher, history=True))
+            live_key(self.robot, "latched", "**"), self._on_publisher, history=True))
 
     def _on_publisher(self, sample) -> None:
         """A publisher appeared: fetch its latched message (a no-op for unlatched topics)."""

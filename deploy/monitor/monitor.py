@@ -75,7 +75,7 @@ class Monitor(TextEvents):
         sel = robot if robot == "*" else robot.replace("*", "$*")  # 'pioneer*': a wildcard inside a chunk
         self._handles = [] if not subscribe else [
             session.declare_subscriber(f"zenav/{sel}/**", self._on_sample),
-            session.liveliness().declare_subscriber(live_key(sel, "pub", "**"), self._on_publisher,
+            session.liveliness().declare_subscriber(live_key(sel, "latched", "**"), self._on_publisher,
                                                     history=True),
         ]
         self._flusher = threading.Thread(target=self._flush_loop, args=(flush_period,), daemon=True,

@@ -20,6 +20,7 @@ GRID = OccupancyGrid(Header(7.0, "map"), 0.05, data=np.zeros((2, 3), np.int8))
 def _token_then_queryable(node, key: str, topic: str, ready: threading.Event):
     """The token of a latched publisher of ``topic`` now; its queryable only once ``ready`` is set."""
     node._declare_token("pub", topic)
+    node._declare_token("latched", topic)
     held = []
 
     def late() -> None:
