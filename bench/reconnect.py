@@ -97,8 +97,9 @@ def main() -> int:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--peers", type=int, default=3,
                     help="bystander processes per side (each one more Zenoh session, as a real stack's nodes)")
-    ap.add_argument("--autoconnect", choices=("always", "greater-zid"), default="always",
-                    help="which scouted peer dials (ZENAV_AUTOCONNECT; default always: both, as Zenoh does)")
+    ap.add_argument("--autoconnect", choices=("greater-zid", "always"), default="greater-zid",
+                    help="which scouted peer dials (ZENAV_AUTOCONNECT; default greater-zid, zenav's default; "
+                         "always: both, as Zenoh does)")
     ap.add_argument("--logs", type=Path, default=Path("/tmp/zenav_reconnect"), help="peer logs go here")
     args = ap.parse_args()
     if os.geteuid() != 0:

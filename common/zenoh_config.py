@@ -7,7 +7,7 @@ environment so that agents pass the same settings to the processes they start:
 
     ZENAV_ROBOT=pioneer1  ZENAV_MODE=peer|client|router  ZENAV_CONNECT=tcp/10.0.0.2:7447,...
     ZENAV_LISTEN=tcp/0.0.0.0:7447  ZENAV_MULTICAST=1|0  ZENAV_LEASE_MS=1000  ZENAV_SHM=1|0
-    ZENAV_AUTOCONNECT=always|greater-zid
+    ZENAV_AUTOCONNECT=greater-zid|always
     ZENAV_ZENOH_CONFIG=/path/to/zenoh.json5   (a full Zenoh config file, e.g. with auth / TLS;
                                                the settings above are applied on top of it)
 """
@@ -37,12 +37,13 @@ class BusConfig:
     # machine visible (liveliness DELETE) in about a second.
     lease_ms: int = 1000
     shared_memory: bool | None = None  # None = Zenoh's default
-    # Which of two scouted peers dials the other: "always" (Zenoh's default: both) or "greater-zid" (only
-    # the peer with the greater Zenoh id; routers always), as rmw_zenoh's default session config does.
-    # Two peers that dial each other can end up with one merged session whose declarations are not sent
-    # again after a link loss (Zenoh issue #2806). greater-zid is not the default until measured
-    # (bench/reconnect.py --autoconnect compares).
-    autoconnect: str = "always"
+    # Which of two scouted peers dials the other: "greater-zid" (only the peer with the greater Zenoh id;
+    # routers always), as rmw_zenoh's default session config does, or "always" (Zenoh's default: both).
+    # Two peers that dial each other can end up with a session that works one way only after a link loss
+    # (Zenoh issue #2806 has this shape): bench/reconnect.py, 200 cut/heal cycles under load, lost 8 goals
+    # and 9 latched maps with "always" (robot -> master puts and queries gone for minutes while master ->
+    # robot data flowed) and none with "greater-zid".
+    autoconnect: str = "greater-zid"
     zenoh_config_file: str = ""
     # Settings given explicitly (environment / options): with a Zenoh config file, only these and the
     # ones that differ from the defaults are applied on top of the file, so the file's own mode,
@@ -80,7 +81,7 @@ class BusConfig:
             lease_ms=int(e.get("ZENAV_LEASE_MS", "1000")),
             shared_memory=None if shm is None else shm not in ("0", "false", "no"),
             zenoh_config_file=e.get("ZENAV_ZENOH_CONFIG", ""),
-            autoconnect=e.get("ZENAV_AUTOCONNECT", "") or "always",
+            autoconnect=e.get("ZENAV_AUTOCONNECT", "") or "greater-zid",
             explicit=explicit,
         )
         return replace(cfg, **overrides) if overrides else cfg

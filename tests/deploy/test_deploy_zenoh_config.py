@@ -85,8 +85,8 @@ def test_generated_config_has_short_lease_and_parses(tmp_path):
 
 
 def test_which_scouted_peer_dials_is_a_setting():
-    """ZENAV_AUTOCONNECT: both peers dial (Zenoh's default) or only the one with the greater Zenoh id
-    (Zenoh issue #2806: two peers dialling each other could leave a one-way session after a link loss)."""
+    """ZENAV_AUTOCONNECT: only the peer with the greater Zenoh id dials (zenav's default), or both (Zenoh's
+    default; two peers dialling each other could leave a one-way session after a link loss, Zenoh #2806)."""
     import pytest
 
     from common.zenoh_config import BusConfig
@@ -94,9 +94,10 @@ def test_which_scouted_peer_dials_is_a_setting():
     def to_peer(cfg: BusConfig) -> str:
         return json.loads(cfg.to_zenoh().get_json("scouting/multicast/autoconnect_strategy"))["peer"]["to_peer"]
 
-    assert to_peer(BusConfig()) == "always"
-    assert to_peer(BusConfig.from_env({"ZENAV_AUTOCONNECT": "greater-zid"})) == "greater-zid"
-    assert BusConfig.from_env({"ZENAV_AUTOCONNECT": "greater-zid"}).to_env()["ZENAV_AUTOCONNECT"] == "greater-zid"
+    assert to_peer(BusConfig()) == "greater-zid"
+    assert to_peer(BusConfig.from_env({})) == "greater-zid"
+    assert to_peer(BusConfig.from_env({"ZENAV_AUTOCONNECT": "always"})) == "always"
+    assert BusConfig.from_env({"ZENAV_AUTOCONNECT": "always"}).to_env()["ZENAV_AUTOCONNECT"] == "always"
     with pytest.raises(ValueError, match="greater-zid or always"):
         BusConfig(autoconnect="sometimes")
 
