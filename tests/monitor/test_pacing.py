@@ -65,15 +65,28 @@ def test_100hz_costmaps_are_logged_at_the_configured_rate_per_entity(rig):
         local.publish(_costmap(stamp))
         glob.publish(_costmap(stamp))
         time.sleep(max(0.0, t0 + n / 100 - time.monotonic()))
-    last = stamp
     span = time.monotonic() - t0
     wait_for(lambda: mon.stats.received >= 2 * n * 0.9, what="the monitor to receive the costmaps")
+    # the final state, once the stream is all in (a loaded machine delivers its tail late): latest wins
+    seen = [-1, time.monotonic()]
+
+    def quiet() -> bool:
+        if mon.stats.received != seen[0]:
+            seen[:] = [mon.stats.received, time.monotonic()]
+        return time.monotonic() - seen[1] > 0.5
+    wait_for(quiet, what="the stream's tail in")
+    before, last = mon.stats.received, time.time()
+    local.publish(_costmap(last))
+    glob.publish(_costmap(last))
+    wait_for(lambda: mon.stats.received >= before + 2, what="the final state received")
     close(mon)
     rec = read_rrd(path)
     for entity, hz in (("/world/local_costmap/costmap", 2.0), ("/world/global_costmap/costmap", 5.0)):
         stamps = np.array([r["stamp"] for r in rec[entity] if r.get("GridMap:data")]) / 1e9
         assert hz * span - 2 <= len(stamps) <= hz * span + 3, (entity, len(stamps), span)
-        assert np.diff(stamps[:-1]).min() > 0.8 / hz  # never faster than the rate (but the flush at close)
+        # never faster than the rate, but for the stream's last item (logged when its period is up, it carries
+        # its own older stamp) and the final state flushed at close
+        assert np.diff(stamps[:-2]).min() > 0.8 / hz
         assert stamps[-1] == pytest.approx(last, abs=1e-6)  # latest wins: the final state is logged
     assert mon.stats.throttled > n
 
