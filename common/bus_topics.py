@@ -173,14 +173,12 @@ class Subscription:
                 self._sub.undeclare()
             self._sub = self._node.session.declare_subscriber(self.key, self._on_sample)
 
-    def _fetch_latched(self, retry: bool = False, expect: str = "") -> None:
-        if not self._closed:
-            fetch_latched(self._node.session, self.key, self._on_sample, retry, lambda: self._closed,
-                          expect=expect)
-
     def _on_publisher(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT and (k := LiveKey.parse(sample.key_expr)) is not None:
-            self._fetch_latched(retry=True, expect=k.node)
+        """A latched publisher's token: ask until that publisher answers."""
+        if sample.kind == zenoh.SampleKind.PUT and (k := LiveKey.parse(sample.key_expr)) is not None \
+                and not self._closed:
+            fetch_latched(self._node.session, self.key, self._on_sample, retry=True, closed=lambda: self._closed,
+                          expect=k.node)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         self._ingest(sample.payload.to_bytes(), sample.attachment)

@@ -208,9 +208,8 @@ class TFListener:
             self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False)),
             self._session.declare_subscriber(self._key_static, lambda s: self._on_sample(s, True)),
             self._session.liveliness().declare_subscriber(
-                live_key(node.robot, "pub", "*", "tf_static"), self._on_static_publisher, history=True),
+                live_key(node.robot, "latched", "*", "tf_static"), self._on_static_publisher, history=True),
         ]
-        self._query_static()
         node.routes.add(self)
 
     @property
@@ -235,18 +234,6 @@ class TFListener:
             fetch_latched(self._session, self._key_static,
                           lambda s: self._ingest(s.payload.to_bytes(), s.attachment, True), retry=True,
                           closed=lambda: self._closed, expect=k.node)
-
-    def _query_static(self) -> None:
-        try:
-            # Every static publisher replies on the same key: no consolidation, or all but one are dropped.
-            self._session.get(self._key_static, self._on_reply, target=self._zenoh.QueryTarget.ALL,
-                              consolidation=self._zenoh.ConsolidationMode.NONE)
-        except self._zenoh.ZError as e:  # session closing
-            log.debug("tf_static query failed: %s", e)
-
-    def _on_reply(self, reply) -> None:
-        if reply.ok is not None:
-            self._ingest(reply.ok.payload.to_bytes(), reply.ok.attachment, True)
 
     def _on_sample(self, sample, static: bool) -> None:
         self._ingest(sample.payload.to_bytes(), sample.attachment, static)

@@ -69,7 +69,7 @@ def run(args) -> int:
     session = open_session()
     sub = None
     try:
-        key = live_key(robot, "**", "", "") if args.long else live_key(robot, "node", "*")
+        key = live_key(robot, "**", "") if args.long else live_key(robot, "node", "*")
         sub = session.liveliness().declare_subscriber(key, on_token, history=True)
         wait(threading.Event(), args.wait)
         with lock:

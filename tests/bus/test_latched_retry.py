@@ -79,6 +79,7 @@ def test_a_second_static_tf_publisher_is_asked_until_it_answers_itself(node_pair
     key = second.key("tf_static")
     camera = encode(TFMessage((TransformStamped(Header(0.0, "base_link"), "camera", Transform()),)))
     second._declare_token("pub", "tf_static")
+    second._declare_token("latched", "tf_static")  # as a latched publisher declares it
     wait_until(lambda: any("base_to_camera" in k for k in _live_pubs(listener_node)), 30, "the second's token")
     # its token is seen (and asked for, answered by the first publisher only) before its queryable exists
     second.session.declare_queryable(key, lambda q: q.reply(key, camera, attachment=second.name.encode()),
