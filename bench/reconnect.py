@@ -21,13 +21,11 @@ recovery_p99_s=…``.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import multiprocessing
 import os
 import random
 import subprocess
 import sys
-import threading
 import time
 import uuid
 from pathlib import Path
@@ -35,42 +33,11 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from testkit.line_proc import LineProc  # noqa: E402
+
 CUTS_S = (0.3, 1.5, 4.0)
-
-
-class Proc:
-    """A child whose stdout lines (wall time, kind, values) are kept; stdin takes commands."""
-
-    def __init__(self, argv: list[str], env: dict, log: Path) -> None:
-        self.lines: list[list[str]] = []
-        self.log = open(log, "w")  # noqa: SIM115 - closed in stop()
-        self.p = subprocess.Popen(argv, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                  stderr=self.log, text=True, start_new_session=True)
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self) -> None:
-        for line in self.p.stdout:
-            self.lines.append(line.split())
-
-    def send(self, text: str) -> None:
-        self.p.stdin.write(text + "\n")
-        self.p.stdin.flush()
-
-    def first(self, kind: str, value: str | None = None, prefix: str | None = None) -> list[str] | None:
-        for w in list(self.lines):
-            if len(w) > 1 and w[1] == kind and (value is None or w[2] == value) \
-                    and (prefix is None or w[2].startswith(prefix)):
-                return w
-        return None
-
-    def stop(self) -> None:
-        with contextlib.suppress(OSError):
-            self.p.stdin.close()
-        try:
-            self.p.wait(15)
-        except subprocess.TimeoutExpired:
-            os.killpg(self.p.pid, 9)
-        self.log.close()
 
 
 def wait_for(cond, timeout: float):
@@ -112,30 +79,25 @@ def main() -> int:
     env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
     env.update(PYTHONPATH=str(REPO), PYTHONUNBUFFERED="1", ZENAV_ROBOT=f"rc{sfx}", ZENAV_SHM="0",
                ZENAV_AUTOCONNECT=args.autoconnect)
-    procs: list[Proc] = []
+    procs: list[LineProc] = []
     hogs: list[multiprocessing.Process] = []
     rows: list[dict] = []
     try:
         for ns in (ns_m, ns_r):
             subprocess.run(["ip", "netns", "add", ns], check=True)
-        link = Proc([sys.executable, str(REPO / "testkit/linkem.py"), ns_m, "10.79.0.1/24", ns_r, "10.79.0.2/24"],
+        link = LineProc([sys.executable, str(REPO / "testkit/linkem.py"), ns_m, "10.79.0.1/24", ns_r, "10.79.0.2/24"],
                     env, args.logs / "link.log")
         procs.append(link)
         assert wait_for(lambda: link.first("READY") or (link.lines and link.lines[0][0] == "READY"), 30), "link"
 
-        def peer(ns: str, role: str) -> Proc:
-            p = Proc(["ip", "netns", "exec", ns, sys.executable, "-m", "testkit.reconnect_peer", role], env,
+        def peer(ns: str, role: str) -> LineProc:
+            p = LineProc(["ip", "netns", "exec", ns, sys.executable, "-m", "testkit.reconnect_peer", role], env,
                      args.logs / f"{role}{len(procs)}.log")
             procs.append(p)
             return p
         master, robot = peer(ns_m, "master"), peer(ns_r, "robot")
         extras = [peer(ns, "extra") for ns in (ns_m, ns_r) for _ in range(args.peers)]
         assert wait_for(lambda: all(p.first("READY") for p in (master, robot, *extras)), 120), "peers did not start"
-
-        def command(cmd: str) -> None:
-            n = len(link.lines)
-            link.send(cmd)
-            assert wait_for(lambda: len(link.lines) > n, 10), f"link: {cmd}"
 
         robot.send("stream s0")
         assert wait_for(lambda: master.first("GOT", prefix="s0:"), 60), "no route before the first cut"
@@ -148,9 +110,9 @@ def main() -> int:
         for i in range(1, args.cycles + 1):
             cut = rng.choice(CUTS_S)
             fresh = i % 2 == 0
-            command("partition")
+            assert link.command("partition", 10), "link: partition"
             time.sleep(cut)  # the partition's length is the experiment's input, not a wait for a condition
-            command("heal")
+            assert link.command("heal", 10), "link: heal"
             t_heal = time.time()
             robot.send(f"{'fresh' if fresh else 'stream'} s{i}")
             robot.send(f"call c{i}")

@@ -19,12 +19,10 @@ camera_link as the sensor frame. The tests share one stack and run in order.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import subprocess
 import sys
-import threading
 import time
 import uuid
 from pathlib import Path
@@ -32,6 +30,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from testkit.line_proc import LineProc
 from tests.support import wait_until
 
 pytestmark = [pytest.mark.netns]
@@ -43,55 +42,6 @@ MASTER = REPO / "master_side/config/p3at_known_map.yaml"
 TIMEOUT, DECEL = 0.25, 1.0  # the robot config's cmd_vel_timeout and braking (m/s^2)
 SUCCEEDED, ACTIVE = 3, 1
 KINDS = {"GT", "CMD", "SAFE", "COLL", "MON", "ST", "SENDING", "SENT", "ACK", "NOACK", "READY"}  # probe.py's lines
-
-
-class Stream:
-    """A child process whose stdout lines are kept (``probe.py`` events: wall time, kind, values)."""
-
-    def __init__(self, argv: list[str], env: dict, log: Path | None = None) -> None:
-        self.lines: list[list[str]] = []
-        self.interrupted = False
-        self.log = open(log, "w") if log else None  # noqa: SIM115 - closed in stop()
-        self.p = subprocess.Popen(argv, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                  stderr=self.log or subprocess.STDOUT, text=True, start_new_session=True)
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self) -> None:
-        for line in self.p.stdout:
-            self.lines.append(line.split())
-
-    def send(self, text: str) -> None:
-        self.p.stdin.write(text + "\n")
-        self.p.stdin.flush()
-
-    def events(self, kind: str, since: float = 0.0) -> list[list[str]]:
-        return [w for w in list(self.lines) if len(w) > 1 and w[1] == kind and float(w[0]) >= since]
-
-    def interrupt(self) -> None:
-        """End of input stops the probe and the link (they read commands); the agents get SIGINT."""
-        if self.interrupted:
-            return
-        self.interrupted = True
-        with contextlib.suppress(OSError):
-            self.p.stdin.close()
-        if self.p.poll() is None and "deploy.cli" in self.p.args:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(self.p.pid, 2)
-
-    def stop(self) -> None:
-        if self.p.poll() is None:
-            self.interrupt()
-            try:
-                self.p.wait(5)
-            except subprocess.TimeoutExpired:
-                with contextlib.suppress(ProcessLookupError):
-                    os.killpg(self.p.pid, 2)
-            try:
-                self.p.wait(20)
-            except subprocess.TimeoutExpired:
-                os.killpg(self.p.pid, 9)
-        if self.log:
-            self.log.close()
 
 
 def _ip(*args: str) -> None:
@@ -110,15 +60,15 @@ def stack(tmp_path_factory):
     env.update(PYTHONPATH=str(REPO), PYTHONUNBUFFERED="1", ZENAV_ROBOT=robot, ZENAV_SHM="0")
     _ip("netns", "add", ns_m)
     _ip("netns", "add", ns_r)
-    procs: list[Stream] = []
+    procs: list[LineProc] = []
 
-    def start(ns: str, argv: list[str], log: str | None = None) -> Stream:
-        s = Stream(["ip", "netns", "exec", ns, *argv], env, tmp / log if log else None)
+    def start(ns: str, argv: list[str], log: str | None = None) -> LineProc:
+        s = LineProc(["ip", "netns", "exec", ns, *argv], env, tmp / log if log else None)
         procs.append(s)
         return s
 
     try:
-        link = Stream([sys.executable, str(REPO / "testkit/linkem.py"), ns_m, "10.78.0.1/24", ns_r, "10.78.0.2/24"],
+        link = LineProc([sys.executable, str(REPO / "testkit/linkem.py"), ns_m, "10.78.0.1/24", ns_r, "10.78.0.2/24"],
                       env)
         procs.append(link)
         wait_until(lambda: link.lines, 30, "the link")
@@ -152,18 +102,14 @@ def stack(tmp_path_factory):
 
 
 def _link(stack, cmd: str) -> None:
-    n = len(stack["link"].lines)
-    stack["link"].send(cmd)
-    wait_until(lambda: len(stack["link"].lines) > n, 10, f"link: {cmd}")
+    assert stack["link"].command(cmd, 10) is not None, f"no answer from the link to {cmd!r} within 10 s"
 
 
 def _teleop(stack, cmd: str) -> None:
-    n = len(stack["teleop"].lines)
-    stack["teleop"].send(cmd)
-    wait_until(lambda: len(stack["teleop"].lines) > n, 30, f"teleop: {cmd}")
+    assert stack["teleop"].command(cmd, 30) is not None, f"no answer from the teleop to {cmd!r} within 30 s"
 
 
-def _goal(probe: Stream, x: float, y: float, yaw: float) -> tuple[float, str]:
+def _goal(probe: LineProc, x: float, y: float, yaw: float) -> tuple[float, str]:
     """Send a goal once, as `zenav goal` does (acknowledged by move_base); returns (send time, goal id)
     once move_base has taken it in. The probe's own deadline (90 s) ends in NOACK: a failure here."""
     t0 = time.time()
@@ -185,7 +131,7 @@ def _master_stats(stack) -> str:
         return "(zenav nodes --stats did not finish within 60 s)"
 
 
-def _reached(probe: Stream, goal: tuple[float, str], timeout: float = 300.0, what: str = "goal",
+def _reached(probe: LineProc, goal: tuple[float, str], timeout: float = 300.0, what: str = "goal",
              stack=None) -> None:
     since, gid = goal
 
@@ -202,7 +148,7 @@ def _reached(probe: Stream, goal: tuple[float, str], timeout: float = 300.0, wha
         raise AssertionError(f"{e}; last status of {gid}: {' '.join(st[-1][2:]) if st else 'none'}{stats}") from None
 
 
-def _speed_at_least(probe: Stream, v: float, since: float) -> None:
+def _speed_at_least(probe: LineProc, v: float, since: float) -> None:
     wait_until(lambda: [w for w in probe.events("GT", since) if abs(float(w[5])) >= v], 120, f"speed {v} m/s")
 
 
