@@ -11,6 +11,8 @@ import os
 import threading
 import time
 
+import common  # noqa: F401  (first: one BLAS thread per process, see common/__init__.py)
+
 
 def robot_pattern(args, all_by_default: bool) -> str:
     """The robot (or ``*`` pattern) a command looks at: --robot, else $ZENAV_ROBOT, else all/'robot'."""
