@@ -17,7 +17,11 @@ from testkit.nav_stack import NavStack, pose_error, world_goals
 from tests.support import wait_until
 
 XY_TOL, YAW_TOL = 0.3, 0.1  # the acceptance's bounds, against the simulator's ground truth
-CANCEL_LATENCY_S = 0.1
+# cancel -> the first zero cmd_vel here, in wall time: two bus hops and every scheduling delay of a loaded
+# machine between (141 ms once with both workers busy, 15-40 ms otherwise). The 100 ms target is measured
+# where load is controlled, `python bench/cancel.py` (README); this bound still fails a stop that waits on
+# a service timeout (1 s), the goal's end or a stuck lock, and the check below fails any command after it.
+CANCEL_LATENCY_S = 0.5
 RESULTS: list[str] = []  # one line per goal, printed at the end of the session (see conftest)
 
 
