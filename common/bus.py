@@ -24,11 +24,10 @@ import zenoh
 
 from common.bus_topics import Publisher, Subscription, topic_key
 from common.clock import SimClock, Timer, WallClock
-from common.clock_topic import ClockTopic
 from common.codec import DecodeError, decode, encode
 from common.live_keys import PREFIX as LIVE_PREFIX
 from common.live_keys import live_key
-from common.messages import Header, NodeStats, TopicStats
+from common.messages import Clock, Header, NodeStats, TopicStats
 from common.query_routes import Queryables, ask_redeclare
 from common.route_watch import RouteWatch
 from common.zenoh_config import BusConfig
@@ -71,12 +70,8 @@ class Node:
             use_sim_time = os.environ.get("ZENAV_USE_SIM_TIME", "0") in ("1", "true", "yes")
         self.clock: WallClock | SimClock = SimClock() if use_sim_time else WallClock()
         self.stats_sources: list[Any] = []  # objects with stats() -> TopicStats rows (subscriptions, TF)
-        if use_sim_time:  # taken when the time is read, not pushed per message (common.clock_topic)
-            clock_topic = ClockTopic(self.session, self.robot, self.clock)
-            self.clock.set_pull(clock_topic.pull)
-            self._entities.append(clock_topic)
-            self.routes.add(clock_topic)
-            self.stats_sources.append(clock_topic)
+        if use_sim_time:
+            self.subscribe("clock", Clock, callback=lambda m: self.clock.update(m.clock))
         self.service(f"node_stats/{name}", lambda _req: self.stats(), token=False)
         self._node_token = self._declare_token("node")
         self.log = logging.getLogger(f"zenav.{name}")

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import Callable
 
 
 class WallClock:
@@ -33,37 +32,20 @@ class WallClock:
 class SimClock:
     """Simulated time: advances only when ``update`` is called (from the ``clock`` topic).
 
-    ``now()`` is 0.0 until the first clock message, as in ROS. With ``pull`` (common.clock_topic), the
-    newest clock message is taken when the time is read, and a sleeper looks in steps sized by the time
-    still to wait at the observed speed of simulated time (at most 50 ms, at least 3 ms of wall time or 3 ms
-    of simulated time when faster than real time), instead of being woken by every message.
+    ``now()`` is 0.0 until the first clock message, as in ROS.
     """
 
     simulated = True
-    MIN_STEP_S, MAX_STEP_S = 0.003, 0.05
 
-    def __init__(self, pull: Callable[[], None] | None = None) -> None:
+    def __init__(self) -> None:
         self._t = 0.0
-        self._cv = threading.Condition()  # an RLock: pull() calls update() from inside sleep_until
+        self._cv = threading.Condition()
         self._closed = False
-        self._pull = pull
-        self._rate: float | None = None  # simulated seconds per wall second (from the updates), once known
-        self._anchor: tuple[float, float] | None = None  # (monotonic, sim time) the rate is measured from
-
-    def set_pull(self, pull: Callable[[], None]) -> None:
-        self._pull = pull
 
     def update(self, t: float) -> None:
         with self._cv:
             if t > self._t:
                 self._t = t
-                wall = time.monotonic()
-                if self._anchor is None:
-                    self._anchor = (wall, t)
-                elif wall - self._anchor[0] >= 0.05:  # known within 50 ms, followed as it changes
-                    rate = min(max((t - self._anchor[1]) / (wall - self._anchor[0]), 0.05), 50.0)
-                    self._rate = rate if self._rate is None else 0.5 * (self._rate + rate)
-                    self._anchor = (wall, t)
                 self._cv.notify_all()
 
     def close(self) -> None:
@@ -72,8 +54,6 @@ class SimClock:
             self._cv.notify_all()
 
     def now(self) -> float:
-        if self._pull is not None:
-            self._pull()
         return self._t
 
     def wake(self) -> None:
@@ -82,24 +62,15 @@ class SimClock:
             self._cv.notify_all()
 
     def sleep(self, seconds: float) -> None:
-        self.sleep_until(self.now() + seconds)
+        self.sleep_until(self._t + seconds)
 
     def sleep_until(self, t: float, cancel: threading.Event | None = None) -> bool:
         with self._cv:
-            while not self._closed:
-                if self._pull is not None:
-                    self._pull()
-                if self._t >= t:
-                    break
+            while self._t < t and not self._closed:
                 if cancel is not None and cancel.is_set():
                     return False
-                # Wake periodically so a cancel or a stalled clock is noticed; pulled, also to look at the time.
-                step = self.MAX_STEP_S
-                if self._pull is not None:  # speed unknown yet: short steps; known: 90 % of the way, then polls
-                    rate = self._rate
-                    step = (self.MIN_STEP_S if rate is None else
-                            min(step, max(self.MIN_STEP_S / max(rate, 1.0), 0.9 * (t - self._t) / rate)))
-                self._cv.wait(step)
+                # Wake periodically so a cancel or a stalled clock is noticed.
+                self._cv.wait(0.05)
             return not (cancel is not None and cancel.is_set()) and not self._closed
 
 

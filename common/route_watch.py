@@ -105,8 +105,6 @@ class RouteWatch:
             for sub in list(self.subs):
                 try:
                     if not sub.closed:
-                        if (pull := getattr(sub, "pull", None)) is not None:
-                            pull()  # a pulled topic (common.clock_topic): take what came since the last look
                         for who, (n, last, period, resumed) in list(sub.sources.items()):
                             self.look(sub, who.decode(errors="replace"), n, last, period, resumed,
                                       time.monotonic())

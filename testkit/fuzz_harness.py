@@ -6,9 +6,7 @@ known-map master and AMCL; (B) the simulated Pioneer with the virtual-scan pipel
 subscriptions and their counters. For every subscribed topic, ``hostile.payloads`` are published
 raw (no encoder in the way); then every subscriber must have counted each payload where it belongs —
 malformed, invalid or received — no callback may have raised, no process may have died or been
-restarted, and the topics that carried traffic before still carry it. The simulator's ``clock`` is taken
-newest-only (common.clock_topic): a burst's payloads overwrite each other before the node looks, so there
-only what is counted must be counted rightly (no kind over its count sent) and the clock must keep going.
+restarted, and the topics that carried traffic before still carry it.
 
 Used by ``tests/bus/test_fuzz_nodes.py`` and ``bench/fuzz.py``.
 """
@@ -37,7 +35,6 @@ REPO = Path(__file__).resolve().parents[1]
 ROBOT_CFG, MASTER_CFG = REPO / "robot_side" / "config", REPO / "master_side" / "config"
 PY = sys.executable
 ZENAV = [PY, "-m", "deploy.cli"]
-NEWEST_ONLY = {"clock"}  # topics a node takes newest-only: not every payload can be counted
 
 
 @dataclass
@@ -101,7 +98,7 @@ class Row:
         at most LOST_FRACTION of the payloads missing."""
         e, g = self.expected, self.got
         return (g["malformed"] <= e["malformed"] and g["invalid"] <= e["invalid"] and g["errors"] == 0
-                and (self.topic in NEWEST_ONLY or self.lost <= LOST_FRACTION * self.sent))
+                and self.lost <= LOST_FRACTION * self.sent)
 
 
 def _key(t) -> tuple[str, str]:
@@ -223,9 +220,8 @@ def _fuzz_group(g: Group, per_topic: int, log, problems: list[str], env: dict, t
 
         def counted(keys) -> bool:
             d = deltas(sorted({k[0] for k in keys}))
-            return all(k[2] in NEWEST_ONLY or k in d and d[k]["malformed"] + d[k]["invalid"]
-                       >= expected(k[2])["malformed"] + expected(k[2])["invalid"]
-                       and d[k]["received"] >= expected(k[2])["valid"] for k in keys)
+            return all(k in d and d[k]["malformed"] + d[k]["invalid"] >= expected(k[2])["malformed"]
+                       + expected(k[2])["invalid"] and d[k]["received"] >= expected(k[2])["valid"] for k in keys)
 
         def all_counted():
             return counted(list(c1))
