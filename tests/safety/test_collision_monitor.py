@@ -169,3 +169,39 @@ def test_memory_forgets_points_outside_the_field_of_view_after_max_age():
     assert len(mem.points()) == 1
     mem.update(np.zeros((0, 2)), _scan_view(Pose2D(), [math.inf] * 11), now=1.6)
     assert len(mem.points()) == 0
+
+
+def _collision_time_every_point(poly, pts: np.ndarray, v: float, w: float) -> tuple[float, int]:
+    """The approach prediction written out plainly: every point, every step (no reach filter)."""
+    p, now = poly.p, points_in_polygon(pts[:, 0], pts[:, 1], poly.shape)
+    blocking_now = int(np.count_nonzero(now & (v * pts[:, 0] > 0.0)))
+    if blocking_now >= p.min_points:
+        return 0.0, blocking_now
+    fresh = pts[~now]
+    for k in range(1, poly.n_steps + 1):
+        t = k * p.simulation_time_step
+        th = w * t
+        x, y = (v * t, 0.0) if abs(w) < 1e-9 else (v / w * math.sin(th), v / w * (1.0 - math.cos(th)))
+        dx, dy = fresh[:, 0] - x, fresh[:, 1] - y
+        lx, ly = math.cos(th) * dx + math.sin(th) * dy, -math.sin(th) * dx + math.cos(th) * dy
+        n = int(points_in_polygon(lx, ly, poly.shape).sum())
+        if n >= p.min_points:
+            return t - p.simulation_time_step, n
+    return math.inf, 0
+
+
+@pytest.mark.parametrize("shape", ["footprint", "circle"])
+def test_points_beyond_reach_left_out_change_no_prediction(shape):
+    """The approach check leaves out points no motion within the horizon can reach; random scenes and
+    commands give the same collision time and count as testing every point at every step."""
+    rng = np.random.default_rng(7)
+    kw = {"type": "circle", "radius": 0.45} if shape == "circle" else {}
+    m = CollisionMonitor([("approach", PolygonParams(time_before_collision=1.5, simulation_time_step=0.05,
+                                                     min_points=3, **kw))], SQUARE)
+    poly = m.polygons[0]
+    for _ in range(200):
+        pts = rng.uniform(-4.0, 4.0, (rng.integers(1, 300), 2))
+        v, w = rng.uniform(-1.2, 1.2), rng.choice([0.0, rng.uniform(-2.0, 2.0)])
+        got = poly.collision_time(pts, v, w)
+        want = _collision_time_every_point(poly, pts, v, w)
+        assert got[1] == want[1] and (got[0] == want[0] or abs(got[0] - want[0]) < 1e-9), (v, w, got, want)
