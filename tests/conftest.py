@@ -45,36 +45,18 @@ def pytest_terminal_summary(terminalreporter):
             terminalreporter.write_line(line)
 
 
-# Longest modules first (longest processing time first, for two workers taking whole modules): a long
-# module started late runs alone at the end while the other worker idles. The modules over ~10 s by name,
-# in the order of their mean time in three full runs of 2026-11-27 (`--durations`, junit); then the
-# folders of the other end-to-end tests; then everything else in collection order.
-_LONGEST = ("fleet/test_fleet_netns", "monitor/test_monitor_web_tools", "logs/test_record_play_monitor",
-            "reliability/test_link_faults", "nav_e2e/test_nav_e2e_corridor_trajectory",
-            "nav_e2e/test_nav_e2e_recovery", "logs/test_play_slam_online", "nav_e2e/test_nav_e2e_room_dwa",
-            "slam_e2e/test_slam_e2e_room", "nav_e2e/test_nav_e2e_room_trajectory",
-            "nav_e2e/test_nav_e2e_corridor_dwa", "slam_e2e/test_slam_e2e_hector", "sim_e2e/test_sim_e2e_agent",
-            "amcl/test_amcl_e2e", "barn/test_barn_bus", "bus/test_fuzz_nodes", "demo/test_demo_headless",
-            "sim_mujoco/test_mujoco_barn_bus", "barn/test_barn_blind_robot", "monitor/test_monitor_fleet_robots",
-            "sim_e2e/test_sim_e2e_node", "monitor/test_monitor_not_mirrored", "deploy/test_deploy_doctor",
-            "bus/test_cli", "planning/test_fast_paths", "monitor/test_recording", "test_codec",
-            "planning/test_spin_in_gap", "kinect/test_kinect_node", "agent/test_robot_agent")
-_LONG_FOLDERS = ("nav_e2e", "fleet", "sim_e2e", "logs", "monitor", "reliability", "slam_e2e", "barn", "bus",
-                 "amcl", "deploy", "demo", "costmap_e2e", "agent")
+# The long end-to-end folders first (longest first, roughly, from `--durations=0`): with two workers
+# taking whole modules, a long module left for the end would run alone while the other worker idles.
+_LONG_FIRST = ("nav_e2e", "fleet", "sim_e2e", "logs", "monitor", "reliability", "slam_e2e", "barn", "bus",
+               "amcl", "deploy", "demo", "costmap_e2e", "agent")
 
 
 def pytest_collection_modifyitems(items):
     def rank(item) -> int:
-        module = item.nodeid.split("::")[0].removeprefix("tests/").removesuffix(".py")
-        if module in _LONGEST:
-            return _LONGEST.index(module)
-        parts = module.split("/")
-        folder = len(_LONG_FOLDERS)
-        if len(parts) > 1 and parts[0] in _LONG_FOLDERS:
-            folder = _LONG_FOLDERS.index(parts[0])
-        return len(_LONGEST) + folder
+        parts = item.nodeid.split("/")
+        return _LONG_FIRST.index(parts[1]) if len(parts) > 2 and parts[1] in _LONG_FIRST else len(_LONG_FIRST)
 
-    items.sort(key=rank)  # stable: the order inside each module is kept
+    items.sort(key=rank)  # stable: the order inside each folder is kept
 
 
 # move_base's start() shortens the interpreter's thread switch interval for its whole process (it hands
