@@ -17,10 +17,17 @@ from tests.support import free_port, wait_until
 
 WAYPOINTS = [(-1.0, 0.0), (-1.0, 1.3), (1.5, 1.3), (1.5, -1.2)]  # room: start (-2.2, 0, 0), crate at 0, 0
 SETTLE_WAYPOINTS = 1  # the first leg lets the filter converge from the initial spread
-MAX_XY, MAX_YAW = 0.1, 0.05
+# Bounds from the filter's measured spread, not from a handful of runs. `python bench/amcl.py --seeds 60`
+# (this route in one process, every frame) on 2026-11-27: per-run max xy 0.026-0.071 m, yaw 0.016-0.055 rad;
+# per-run mean xy 0.010-0.029 m. Over the bus the filter sees the scans a loaded machine lets through, and
+# one CI run (in ~25) had a stretch at 8-10 cm after the first leg before converging to 2 cm. So the max
+# bounds (divergence) sit ~2x over the one-process tail, and the means (a filter that tracks worse all the
+# way) over the one-process mean's worst seed with a little room.
+MAX_XY, MAX_YAW = 0.15, 0.1
+MEAN_XY, MEAN_YAW = 0.04, 0.025
 # the simulator at 1.5x real time (amcl follows its clock, use_sim_time); the drive loop runs as much more
 # often, so it still acts every 0.1 s of simulated time. Largest errors measured (2 runs each): 1x 0.029 m /
-# 0.035 rad, 1.5x 0.044 m / 0.031 rad, 2x 0.037 m / 0.043 rad (too near MAX_YAW)
+# 0.035 rad, 1.5x 0.044 m / 0.031 rad, 2x 0.037 m / 0.043 rad
 SPEED = 1.5
 PERIOD = 0.1 / SPEED
 
@@ -113,6 +120,8 @@ def test_amcl_e2e_tracks_ground_truth_while_driving_the_room(tmp_path):
               f"mean {yaw.mean():.4f} p95 {np.percentile(yaw, 95):.4f} max {yaw.max():.4f} rad")
         assert xy.max() < MAX_XY, (xy.max(), procs[1].log())
         assert yaw.max() < MAX_YAW, (yaw.max(), procs[1].log())
+        assert xy.mean() < MEAN_XY, (xy.mean(), procs[1].log())
+        assert yaw.mean() < MEAN_YAW, (yaw.mean(), procs[1].log())
     finally:
         for p in reversed(procs):
             p.stop()
