@@ -171,7 +171,7 @@ class SimNode:
             except ValueError as e:
                 self.node.log.warning("sim/spawn_box: %s", e)
                 return
-        self.node.log.info("simulator: box %.2f x %.2f m spawned at x=%.2f y=%.2f (world)", msg.size_x,
+        self.node.log.info("simulator: box %.2f x %.2f m spawned at x=%.3f y=%.3f (world)", msg.size_x,
                            msg.size_y, at.x, at.y)
 
     def _on_motor_state(self, msg: MotorState) -> None:
