@@ -90,7 +90,8 @@ def stack(tmp_path_factory):
             st = probe.events("ST")
             raise AssertionError(f"not ready; last status: {' '.join(st[-1][2:]) if st else 'none'}") from None
         wait_until(lambda: teleop.lines, 120, "the teleop probe on the master's side")
-        yield {"probe": probe, "teleop": teleop, "link": link, "robot_proc": robot_proc, "tmp": tmp, "ns_m": ns_m, "robot": robot, "env": env}
+        yield {"probe": probe, "teleop": teleop, "link": link, "robot_proc": robot_proc, "tmp": tmp, "ns_m": ns_m,
+               "robot": robot, "env": env}
     finally:
         # agents and probe first, all at once (each takes its nodes' grace time), the link last: over a
         # cut link every Zenoh session would wait for its peers before closing
@@ -245,7 +246,8 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
             trace = [" ".join(w) for w in probe.lines if len(w) > 1 and float(w[0]) >= t_cut - 0.2][:60]
             raise AssertionError("never stopped:\n" + "\n".join(trace)) from None
         stop = [w for w in probe.events("GT", t_box + 0.1) if abs(float(w[5])) < 1e-3][0]
-        travelled = (float(stop[2]) - start[0]) * math.cos(heading) + (float(stop[3]) - start[1]) * math.sin(heading)
+        travelled = ((float(stop[2]) - start[0]) * math.cos(heading)
+                     + (float(stop[3]) - start[1]) * math.sin(heading))
         acted = [w[2] for w in probe.events("MON", t_cut) if w[2] in ("stop", "slowdown", "approach", "limit")]
         print(f"at {v:.2f} m/s: box {gap:.3f} m ahead, travelled {travelled:.3f} m to the stop (command expiry "
               f"alone: {expiry_only:.3f} m); monitor: {acted[:4]}")
