@@ -180,10 +180,10 @@ def rgb(png: bytes) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
 
 
-def map_fraction(img: np.ndarray, box: tuple[int, int, int, int]) -> float:
-    """Share of the pixels of ``box`` (x0, y0, x1, y1) in the map's colours: free (white / light grey),
-    unknown (our panel's grey, Rerun's grey-green), the costmap's yellow band. Walls are thin and left out
-    (black is also close to the dark background)."""
+def map_mask(img: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """The pixels of ``box`` (x0, y0, x1, y1) in the map's colours: free (white / light grey), unknown (our
+    panel's grey, Rerun's grey-green), the costmap's yellow band. Walls are thin and left out (black is
+    also close to the dark background)."""
     x0, y0, x1, y1 = box
     c = img[y0:y1, x0:x1]
     r, g, b = c[..., 0], c[..., 1], c[..., 2]
@@ -191,4 +191,16 @@ def map_fraction(img: np.ndarray, box: tuple[int, int, int, int]) -> float:
     grey = (np.abs(r - 128) < 12) & (np.abs(g - 128) < 12) & (np.abs(b - 128) < 12)
     unknown = (np.abs(r - 110) < 15) & (np.abs(g - 126) < 15) & (np.abs(b - 124) < 15)
     yellow = (r > 200) & (g > 180) & (b < 120)
-    return float((free | grey | unknown | yellow).mean())
+    return free | grey | unknown | yellow
+
+
+def map_fraction(img: np.ndarray, box: tuple[int, int, int, int]) -> float:
+    """Share of the pixels of ``box`` in the map's colours (``map_mask``)."""
+    return float(map_mask(img, box).mean())
+
+
+def map_extent(img: np.ndarray, box: tuple[int, int, int, int]) -> tuple[float, float]:
+    """How much of ``box``'s width and height the map spans: the share of its columns and of its rows in
+    which at least a fifth of the pixels are in the map's colours."""
+    mask = map_mask(img, box)
+    return float((mask.mean(axis=0) > 0.2).mean()), float((mask.mean(axis=1) > 0.2).mean())

@@ -4,8 +4,9 @@ One browser session against one simulated stack (P3-AT in the room, map server +
 monitor), real mouse events over the DevTools protocol:
   1. AMCL starts 0.8 m off the truth; "2D Pose Estimate" at the true pose: the estimate jumps there;
   2. "2D Nav Goal" at a free point: the simulated robot reaches it (ground truth);
-  3. a screenshot: the map fills most of our map panel and of Rerun's map view.
-``ZENAV_DOCS_SHOTS=1`` also writes the screenshot to docs/monitor-web.png (the README's picture).
+  3. a screenshot: the map fills most of our map panel.
+``ZENAV_DOCS_SHOTS=1`` reloads the page with the Rerun viewer, checks that the map fills most of Rerun's map
+view too, and writes that screenshot to docs/monitor-web.png (the README's picture).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import urllib.request
 import pytest
 
 from deploy.check_web_viewer import find_chromium
-from testkit.webrig import REPO, WebRig, map_fraction, rgb
+from testkit.webrig import REPO, WebRig, map_extent, map_fraction, rgb
 
 START = (-2.2, 0.0, 0.0)  # robot_side/worlds/room.yaml
 AMCL_WRONG = (-1.5, 0.5, 0.4)
@@ -90,39 +91,62 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
         state = json.loads(rig.js("JSON.stringify(zenav.state.move_base)"))
         assert state["status"] in ("SUCCEEDED", "ACTIVE", "PENDING"), state
 
-        # 3. the screenshot (same browser, the page reloaded with the viewer): our map panel and Rerun's
-        # map view are mostly map
-        rig.open_page(viewer=True)  # the whole page: our panel and the Rerun viewer
-        rig.wait(lambda: rig.js("!!(window.zenav && zenav.map && zenav.state "
-                                "&& zenav.rerun !== 'starting')"), 150.0, "the page with the Rerun viewer")
-        assert rig.js("zenav.rerun") == "started", rig.js("zenav.rerun")
-        def fractions() -> tuple[bytes, float, float]:
-            png = rig.screenshot()
-            img = rgb(png)
-            # the page's geometry (style.css: 41 px bar, map panel 44 % wide); no script evaluation here: the
-            # running viewer can keep the page's main thread busy for long on a loaded machine
-            h, w = img.shape[:2]
-            split = int(0.44 * w)
-            o = (4, 45, split - 4, h - 30)
-            # Rerun's map view: the left 3/5 of its canvas, below its top bar and view title, above the time panel
-            r = (split + 10, 41 + 80, split + int(0.6 * (w - split)) - 10, h - 60)
-            return png, map_fraction(img, o), map_fraction(img, r)
-
-        # the recording streams in and the views settle: on a loaded machine the viewer ran 28 s behind
-        # (a CI rehearsal), so look until both panels show the map or 120 s have passed
-        deadline = time.monotonic() + 120.0
-        png, f_ours, f_rerun = fractions()
-        while (f_ours <= 0.6 or f_rerun <= 0.6) and time.monotonic() < deadline:
-            time.sleep(2.0)
-            png, f_ours, f_rerun = fractions()
-        (tmp_path / "monitor-web.png").write_bytes(png)
+        # 3. the screenshot: our map panel is mostly map. The Rerun viewer in the page is checked on screen by
+        # tests/monitor/test_monitor_not_mirrored.py (a known grid and marker); loading it here, beside a whole
+        # stack, took 30-180 s of a loaded CI machine for a check that tolerated a view a minute behind (issue
+        # 31: the view must be live, and its test will bound that). ZENAV_DOCS_SHOTS=1 still shoots the whole
+        # page with the viewer for the README.
+        png = rig.screenshot()
+        img = rgb(png)
+        extent = map_extent(img, _our_panel(img))  # the panel alone spans the page: the map fits one way
+        f_ours = map_fraction(img, _our_panel(img))
+        f_rerun = None
         if os.environ.get("ZENAV_DOCS_SHOTS"):
+            png, f_ours, f_rerun = _with_viewer(rig)
             (REPO / "docs" / "monitor-web.png").write_bytes(png)
+        (tmp_path / "monitor-web.png").write_bytes(png)
+        rerun = "" if f_rerun is None else f", {100 * f_rerun:.0f} % of Rerun's map view"
         print(f"\nweb tools: setup {t_setup:.0f} s, initial pose applied at {t_pose:.0f} s (amcl "
               f"({est.x:.2f}, {est.y:.2f}, {est.theta:.2f})), goal reached at {t_goal:.0f} s ({reach:.2f} m "
-              f"off), map fills {100 * f_ours:.0f} % of our panel and {100 * f_rerun:.0f} % of Rerun's map view; "
-              f"screenshot {tmp_path / 'monitor-web.png'}")
-        assert f_ours > 0.6, f_ours
-        assert f_rerun > 0.6, f_rerun
+              f"off), map spans {100 * extent[0]:.0f} % x {100 * extent[1]:.0f} % of our panel (fills "
+              f"{100 * f_ours:.0f} %){rerun}; screenshot {tmp_path / 'monitor-web.png'}")
+        # fitted: edge to edge one way, not both (zoomed in) and not a sliver
+        assert max(extent) > 0.9 and 0.3 < min(extent) < 0.98, extent
+        assert f_rerun is None or (f_ours > 0.6 and f_rerun > 0.6), (f_ours, f_rerun)
     finally:
         rig.close()
+
+
+def _our_panel(img) -> tuple[int, int, int, int]:
+    """Our map panel's box in a screenshot (style.css: a 41 px bar; 44 % of the width beside the viewer,
+    the whole width without it)."""
+    h, w = img.shape[:2]
+    return 4, 45, w - 4, h - 30
+
+
+def _with_viewer(rig: WebRig) -> tuple[bytes, float, float]:
+    """The page reloaded with the Rerun viewer; once both panels show the map (or 120 s): the screenshot
+    and the map's share of our panel and of Rerun's map view."""
+    rig.open_page(viewer=True)
+    rig.wait(lambda: rig.js("!!(window.zenav && zenav.map && zenav.state && zenav.rerun !== 'starting')"), 150.0,
+             "the page with the Rerun viewer")
+    assert rig.js("zenav.rerun") == "started", rig.js("zenav.rerun")
+
+    def fractions() -> tuple[bytes, float, float]:
+        png = rig.screenshot()
+        img = rgb(png)
+        # the page's geometry (style.css: 41 px bar, map panel 44 % wide); no script evaluation here: the
+        # running viewer can keep the page's main thread busy for long on a loaded machine
+        h, w = img.shape[:2]
+        split = int(0.44 * w)
+        o = (4, 45, split - 4, h - 30)
+        # Rerun's map view: the left 3/5 of its canvas, below its top bar and view title, above the time panel
+        r = (split + 10, 41 + 80, split + int(0.6 * (w - split)) - 10, h - 60)
+        return png, map_fraction(img, o), map_fraction(img, r)
+
+    deadline = time.monotonic() + 120.0
+    png, f_ours, f_rerun = fractions()
+    while (f_ours <= 0.6 or f_rerun <= 0.6) and time.monotonic() < deadline:
+        time.sleep(2.0)
+        png, f_ours, f_rerun = fractions()
+    return png, f_ours, f_rerun
