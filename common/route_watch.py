@@ -12,8 +12,13 @@ A *stream* is a subscription that has received messages at a regular period. Whe
 its liveliness token — so that publisher is alive and its announcements reach us — the subscription is
 declared again (undeclared, then declared: every peer recomputes its routes toward it). While the silence
 lasts, the wait doubles after each attempt, up to ``MAX_WAIT_S``: a publisher that merely stopped
-publishing costs one declaration a minute. A publisher whose token is gone is not a route to repair: the
-watch waits for it (its new token or its data). When data flows again within ``REPAIR_WINDOW_S`` of a
+publishing costs one declaration a minute. A publisher whose token is not seen may be gone: the watch
+waits for it (its new token or its data) — but only ``UNSEEN_WAIT_S``. The token is looked up with a
+liveliness query, and queries travel the routes that a reconnect may have left broken. In a loaded CI run
+fake_localization, stopped (SIGSTOP) beyond the lease and continued, published nothing more for 270 s (its
+last map→odom kept the stamp of the stop) while the simulator ran on: its inputs' routes were lost and not
+repaired, and the one look that declares nothing is "publisher gone". So a stream unseen for longer is
+declared again too, on the same doubling wait. When data flows again within ``REPAIR_WINDOW_S`` of a
 declaration, the node logs the repair as a warning (a route was lost; which topic, from whom, for how
 long) and counts it (``Node.routes.repairs``); data that comes back later was a pause of the publisher
 (move_base's cmd_vel between goals), not a repair.
@@ -35,6 +40,7 @@ STREAM_MIN_MSGS = 5  # messages before a subscription's period is trusted
 SILENT_PERIODS = 20.0  # silence, in periods of the stream, before its route is doubted
 SILENT_MIN_S = 2.0
 MAX_WAIT_S = 60.0
+UNSEEN_WAIT_S = 10.0  # silence after which a publisher whose token is not seen is declared for anyway
 CHECK_EVERY_S = 0.5
 REPAIR_WINDOW_S = 1.0  # data back this soon after a declaration: the declaration repaired the route (else
 # the publisher had only paused, e.g. move_base's cmd_vel between goals)
@@ -136,7 +142,7 @@ class RouteWatch:
             doubt = self.doubts[key] = _Doubt(silent_from=last)
         if now < doubt.next_at:
             return
-        if not self._alive(publisher, sub.topic):
+        if silence < UNSEEN_WAIT_S and not self._alive(publisher, sub.topic):
             doubt.decision, doubt.next_at = "publisher gone", now + limit
             return
         sub.redeclare()

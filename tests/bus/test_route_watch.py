@@ -5,7 +5,8 @@ session: data stops while the publisher is alive and announced. It is made here 
 subscription's Zenoh subscriber behind the Node's back — from the publisher's side exactly what a
 declaration lost in a reconnect looks like. The watch must notice the silence, see the publisher's token,
 declare the subscription again, and say so once data flows. A publisher that is gone is not a route to
-repair: nothing is declared for it."""
+repair: nothing is declared for it — for ``UNSEEN_WAIT_S``, since the token's lookup can be lost with the
+route."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import threading
 
 from bushelp import wait_for
 
+from common import route_watch
 from common.geometry import Transform
 from common.messages import Header, Text, TransformStamped
 from common.tf import TFBroadcaster, TFListener
@@ -74,3 +76,26 @@ def test_a_publisher_that_is_gone_is_waited_for_not_repaired(node_pair):
              30, "the watch to find the publisher gone")
     assert listener.routes.doubts[("chatter", "talker")].attempts == 0
     assert listener.routes.repairs == 0
+
+
+def test_a_lost_stream_whose_token_lookup_is_lost_too_is_declared_again_after_the_unseen_wait(node_pair,
+                                                                                              monkeypatch):
+    """The route and the liveliness lookup both lost (the lookup answering "no token", as a query with no
+    route does): after UNSEEN_WAIT_S the subscription is declared again anyway, and data flows."""
+    monkeypatch.setattr(route_watch, "UNSEEN_WAIT_S", 3.0)
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text, callback=lambda m: None)
+    pub = talker.publisher("chatter")
+    stop = threading.Event()
+    _stream(stop, lambda: pub.publish(Text(data="hello")))
+    try:
+        wait_for(lambda: sub.received >= 20, 30, "the stream")
+        monkeypatch.setattr(listener.routes, "_alive", lambda publisher, topic: False)
+        sub._sub.undeclare()
+        lost_at = sub.received
+        wait_for(lambda: (d := listener.routes.doubts.get(("chatter", "talker"))) and d.decision == "publisher gone",
+                 30, "the watch to find no token first")
+        wait_for(lambda: sub.received > lost_at + 20, 30, "the stream after the unseen wait")
+        wait_for(lambda: listener.routes.repairs == 1, 10, "the repair counted")
+    finally:
+        stop.set()
