@@ -21,29 +21,48 @@ def map_to_odom(truth: Odometry, odom: Odometry) -> TransformStamped:
                             odom.header.frame_id or "odom", t.to_transform())
 
 
+# Unmatched steps kept per input. Each input has its own subscription queue (100 messages) and delivery
+# thread, so on a starved CPU one input can run up to a whole queue behind the other; with 20 kept, a skew
+# over 20 steps paired nothing ever again (a CI run under a CPU hog: map->odom stopped at the start and
+# every goal failed with 'no robot pose'). Twice the queue covers any skew the queues allow.
+KEEP = 200
+
+
+class StepPairer:
+    """Pairs ground truth and odometry of the same simulator step (same stamp), whichever comes first."""
+
+    def __init__(self, keep: int = KEEP) -> None:
+        self.keep = keep
+        self.pending: dict[str, dict[int, Odometry]] = {"truth": {}, "odom": {}}
+
+    def add(self, kind: str, msg: Odometry) -> tuple[Odometry, Odometry] | None:
+        """``kind`` "truth" or "odom": (truth, odom) once both of ``msg``'s step are in, else None."""
+        key = round(msg.header.stamp * 1e4)
+        match = self.pending["odom" if kind == "truth" else "truth"].pop(key, None)
+        if match is None:
+            d = self.pending[kind]  # keep the last ``keep`` unmatched steps of this input
+            d[key] = msg
+            if len(d) > self.keep:
+                for k in sorted(d)[:-self.keep]:
+                    del d[k]
+            return None
+        return (msg, match) if kind == "truth" else (match, msg)
+
+
 class FakeLocalization:
     def __init__(self, node: Node) -> None:
         self.node = node
         self.lock = threading.Lock()
-        self.pending: dict[str, dict[int, Odometry]] = {"truth": {}, "odom": {}}
+        self.pairs = StepPairer()
         self.pub = node.publisher("tf")
         node.subscribe("ground_truth", Odometry, callback=lambda m: self._on("truth", m), mode="queue")
         node.subscribe("odom", Odometry, callback=lambda m: self._on("odom", m), mode="queue")
 
     def _on(self, kind: str, msg: Odometry) -> None:
-        """Pair ground truth and odometry of the same simulator step (same stamp), then publish."""
-        key = round(msg.header.stamp * 1e4)
-        other = "odom" if kind == "truth" else "truth"
         with self.lock:
-            match = self.pending[other].pop(key, None)
-            if match is None:
-                self.pending[kind][key] = msg
-                for d in self.pending.values():  # keep only the last few unmatched steps
-                    for k in sorted(d)[:-20]:
-                        del d[k]
-                return
-        truth, odom = (msg, match) if kind == "truth" else (match, msg)
-        self.pub.publish(TFMessage((map_to_odom(truth, odom),)))
+            pair = self.pairs.add(kind, msg)
+        if pair is not None:
+            self.pub.publish(TFMessage((map_to_odom(*pair),)))
 
     def close(self) -> None:
         pass
