@@ -29,7 +29,9 @@ def _stream(stop: threading.Event, send, period: float = 0.02) -> threading.Thre
     return t
 
 
-def test_a_stream_whose_subscriber_declaration_is_lost_is_declared_again_and_flows(node_pair):
+def _chatter(node_pair) -> tuple:
+    """listener <- talker on ``chatter`` at 50 Hz, flowing (20 messages in): (listener, its subscription,
+    the event that stops the talker)."""
     listener, talker = node_pair("listener"), node_pair("talker")
     sub = listener.subscribe("chatter", Text, callback=lambda m: None)
     pub = talker.publisher("chatter")
@@ -37,6 +39,15 @@ def test_a_stream_whose_subscriber_declaration_is_lost_is_declared_again_and_flo
     _stream(stop, lambda: pub.publish(Text(data="hello")))
     try:
         wait_for(lambda: sub.received >= 20, 30, "the stream")
+    except AssertionError:
+        stop.set()
+        raise
+    return listener, sub, stop
+
+
+def test_a_stream_whose_subscriber_declaration_is_lost_is_declared_again_and_flows(node_pair):
+    listener, sub, stop = _chatter(node_pair)
+    try:
         sub._sub.undeclare()  # the fault: the publisher's session no longer routes to this subscriber
         lost_at = sub.received
         wait_for(lambda: sub.received > lost_at + 20, 30, "the stream after its route was lost")
@@ -83,13 +94,8 @@ def test_a_lost_stream_whose_token_lookup_is_lost_too_is_declared_again_after_th
     """The route and the liveliness lookup both lost (the lookup answering "no token", as a query with no
     route does): after UNSEEN_WAIT_S the subscription is declared again anyway, and data flows."""
     monkeypatch.setattr(route_watch, "UNSEEN_WAIT_S", 3.0)
-    listener, talker = node_pair("listener"), node_pair("talker")
-    sub = listener.subscribe("chatter", Text, callback=lambda m: None)
-    pub = talker.publisher("chatter")
-    stop = threading.Event()
-    _stream(stop, lambda: pub.publish(Text(data="hello")))
+    listener, sub, stop = _chatter(node_pair)
     try:
-        wait_for(lambda: sub.received >= 20, 30, "the stream")
         monkeypatch.setattr(listener.routes, "_alive", lambda publisher, topic: False)
         sub._sub.undeclare()
         lost_at = sub.received
