@@ -98,8 +98,8 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
         # page with the viewer for the README.
         png = rig.screenshot()
         img = rgb(png)
-        extent = map_extent(img, _our_panel(img))  # the panel alone spans the page: the map fits one way
-        f_ours = map_fraction(img, _our_panel(img))
+        panel = _our_panel(img, 1.0)  # the panel alone spans the page: the map fits one way
+        extent, f_ours = map_extent(img, panel), map_fraction(img, panel)
         f_rerun = None
         if os.environ.get("ZENAV_DOCS_SHOTS"):
             png, f_ours, f_rerun = _with_viewer(rig)
@@ -117,11 +117,11 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
         rig.close()
 
 
-def _our_panel(img) -> tuple[int, int, int, int]:
-    """Our map panel's box in a screenshot (style.css: a 41 px bar; 44 % of the width beside the viewer,
-    the whole width without it)."""
+def _our_panel(img, share: float) -> tuple[int, int, int, int]:
+    """Our map panel's box in a screenshot (style.css: a 41 px bar; ``share`` of the width: 0.44 beside the
+    viewer, 1.0 without it)."""
     h, w = img.shape[:2]
-    return 4, 45, w - 4, h - 30
+    return 4, 45, int(share * w) - 4, h - 30
 
 
 def _with_viewer(rig: WebRig) -> tuple[bytes, float, float]:
@@ -139,7 +139,7 @@ def _with_viewer(rig: WebRig) -> tuple[bytes, float, float]:
         # running viewer can keep the page's main thread busy for long on a loaded machine
         h, w = img.shape[:2]
         split = int(0.44 * w)
-        o = (4, 45, split - 4, h - 30)
+        o = _our_panel(img, 0.44)
         # Rerun's map view: the left 3/5 of its canvas, below its top bar and view title, above the time panel
         r = (split + 10, 41 + 80, split + int(0.6 * (w - split)) - 10, h - 60)
         return png, map_fraction(img, o), map_fraction(img, r)
