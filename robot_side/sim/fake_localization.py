@@ -40,11 +40,10 @@ class StepPairer:
         key = round(msg.header.stamp * 1e4)
         match = self.pending["odom" if kind == "truth" else "truth"].pop(key, None)
         if match is None:
-            d = self.pending[kind]  # keep the last ``keep`` unmatched steps of this input
-            d[key] = msg
+            d = self.pending[kind]  # the last ``keep`` unmatched steps of this input (one publisher, one
+            d[key] = msg  # queue: they come in stamp order, so the first inserted is the oldest)
             if len(d) > self.keep:
-                for k in sorted(d)[:-self.keep]:
-                    del d[k]
+                del d[next(iter(d))]
             return None
         return (msg, match) if kind == "truth" else (match, msg)
 
