@@ -181,15 +181,17 @@ class Subscription:
                           expect=k.node)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        self._ingest(sample.payload.to_bytes(), sample.attachment)
+        self._ingest(sample.payload.to_bytes(), sample.attachment, str(sample.key_expr))
 
-    def _ingest(self, data: bytes, attachment) -> None:
+    def _ingest(self, data: bytes, attachment, key: str = "") -> None:
         try:
             msg = decode(data, self.msg_type)
         except DecodeError as e:
             self.malformed += 1
-            self._warn(log, f"[{self._node.name}] dropped malformed payload on '{self.topic}' "
-                            f"(#{self.malformed}): {e}")
+            sender = attachment.to_bytes().decode(errors="replace") if attachment is not None else "?"
+            where = f" (sample key '{key}')" if key and key != self.key else ""
+            self._warn(log, f"[{self._node.name}] dropped malformed payload on '{self.topic}' from "
+                            f"'{sender}'{where} (#{self.malformed}): {e}")
             return
         why = problem(msg, self._node.clock.now())
         if why:

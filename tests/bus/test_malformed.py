@@ -128,3 +128,17 @@ def test_subscriber_survives_1000_hostile_payloads_and_decodes_the_next_valid_on
     assert np.array_equal(got.ranges, good.ranges)
     wait_for(lambda: len(cb_got) == 1, timeout=30, what="callback subscriber got the valid scan")
     assert sub.malformed == cb_sub.malformed == 1000
+
+
+def test_the_warning_names_the_node_that_sent_the_malformed_payload(node_pair, robot_name, caplog):
+    """A message of another type on a topic: the warning says which node published it, so a user can find
+    the publisher that uses the wrong topic name."""
+    a, b = node_pair("wrong_topic_node"), node_pair("victim")
+    sub = b.subscribe("scan", LaserScan, mode="queue", queue_size=10)
+    pub = a.publisher("scan")
+    wait_for(lambda: pub.matching, timeout=30, what="subscriber matched")
+    with caplog.at_level("WARNING", logger="zenav.bus"):
+        pub.publish(Text(data="I am not a scan"))
+        wait_for(lambda: sub.malformed == 1, timeout=30, what="the malformed payload counted")
+    assert "from 'wrong_topic_node'" in caplog.text, caplog.text
+    assert "'scan'" in caplog.text and "sample key" not in caplog.text, caplog.text
