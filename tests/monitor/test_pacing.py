@@ -84,9 +84,13 @@ def test_100hz_costmaps_are_logged_at_the_configured_rate_per_entity(rig):
     for entity, hz in (("/world/local_costmap/costmap", 2.0), ("/world/global_costmap/costmap", 5.0)):
         stamps = np.array([r["stamp"] for r in rec[entity] if r.get("GridMap:data")]) / 1e9
         assert hz * span - 2 <= len(stamps) <= hz * span + 3, (entity, len(stamps), span)
-        # never faster than the rate, but for the stream's last item (logged when its period is up, it carries
-        # its own older stamp) and the final state flushed at close
-        assert np.diff(stamps[:-2]).min() > 0.8 / hz
+        # never faster than the rate: at most hz + 1 in any second (the stream's last item, logged when its
+        # period is up, and the final state flushed at close left out). The throttle paces arrivals; the
+        # stamps are publish times, so one late delivery on a loaded machine brings two stamps closer than
+        # a period (0.15 s then 0.26 s at 5 Hz) without the rate going up.
+        body = stamps[:-2]
+        per_second = np.searchsorted(body, body + 1.0, side="left") - np.arange(len(body))
+        assert per_second.max() <= hz + 1, (entity, per_second.max())
         assert stamps[-1] == pytest.approx(last, abs=1e-6)  # latest wins: the final state is logged
     assert mon.stats.throttled > n
 
