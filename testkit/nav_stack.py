@@ -174,6 +174,7 @@ class NavStack:
         self.robot = f"nav{uuid.uuid4().hex[:10]}"
         tmp.mkdir(parents=True, exist_ok=True)
         test_port, robot_port, master_port = free_port(), free_port(), free_port()
+        self.test_endpoint = f"tcp/127.0.0.1:{test_port}"
         cfg = BusConfig(robot=self.robot, listen=(f"tcp/127.0.0.1:{test_port}",), multicast=False)
         self.node = Node("nav_e2e_test", config=cfg, use_sim_time=False)
         base = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
@@ -224,6 +225,23 @@ class NavStack:
 
     def logs(self) -> str:
         return "\n".join(f"--- {p.log_path.name}\n{p.log(4000)}" for p in self.procs)
+
+    def node_stats(self, snapshots: int = 2, every: float = 2.0) -> str:
+        """`zenav nodes --stats` on this stack's bus, ``snapshots`` times ``every`` s apart: for a failure
+        message, so a subscription that stopped receiving shows as a count that no longer grows."""
+        env = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
+               "ZENAV_CONNECT": self.test_endpoint, "PYTHONPATH": str(REPO)}
+        out = []
+        for i in range(snapshots):
+            if i:
+                time.sleep(every)
+            try:
+                r = subprocess.run([*_zenav(), "nodes", "--stats"], env=env, capture_output=True, text=True,
+                                   timeout=60, cwd=REPO)
+                out.append(r.stdout + r.stderr)
+            except subprocess.TimeoutExpired:
+                out.append("(zenav nodes --stats did not finish within 60 s)")
+        return f"\n--- zenav nodes --stats, {every:.0f} s apart\n".join([""] + out)
 
     # -- measurements ---------------------------------------------------------------------------------
     def truth(self):
