@@ -2,7 +2,7 @@
 
 Prints one line per event, wall time first (the robot PC's clock)::
 
-    GT t x y yaw v stamp    ground truth, 50 Hz        SAFE t v w     what the base is told
+    GT t x y yaw v stamp w  ground truth, 50 Hz        SAFE t v w     what the base is told
     CMD t v w sim           cmd_vel from the master    COLL t count   a collision
     MON t action            collision monitor state    ST t status goal_id state reason   move_base/status
 
@@ -57,7 +57,7 @@ def main() -> None:
         return c.clock if c is not None else float("nan")
     node.subscribe("ground_truth", Odometry, mode="queue", callback=lambda m: say(
         "GT", f"{m.pose2d.x:.4f}", f"{m.pose2d.y:.4f}", f"{m.pose2d.theta:.4f}", f"{m.twist.linear.x:.4f}",
-        f"{m.header.stamp:.4f}"))
+        f"{m.header.stamp:.4f}", f"{m.twist.angular.z:.4f}"))
     node.subscribe("cmd_vel", Twist, mode="queue",
                    callback=lambda m: say("CMD", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}", f"{sim_now():.4f}"))
     node.subscribe("safety/cmd_vel", Twist, mode="queue",
