@@ -243,6 +243,36 @@ class NavStack:
                 out.append("(zenav nodes --stats did not finish within 60 s)")
         return f"\n--- zenav nodes --stats, {every:.0f} s apart\n".join([""] + out)
 
+    def mesh(self) -> str:
+        """Which processes of this stack hold no TCP link to each other (``ss``): Zenoh peers route no data
+        for one another, so two nodes without a direct link cannot hear each other."""
+        names = {os.getpid(): "test"}
+        for p in self.procs:
+            names[p.proc.pid] = f"{p.log_path.stem} agent"
+            for k in p.children():
+                with contextlib.suppress(OSError, ValueError, IndexError):
+                    argv = Path(f"/proc/{k}/cmdline").read_bytes().split(b"\0")
+                    names[k] = argv[argv.index(b"--name") + 1].decode()
+        try:
+            rows = subprocess.run(["ss", "-tnpH", "state", "established"], capture_output=True, text=True,
+                                  timeout=30).stdout.splitlines()
+        except (OSError, subprocess.TimeoutExpired) as e:
+            return f"(ss failed: {e})"
+        owner, socks = {}, []
+        for row in rows:
+            f = row.split()
+            pid = next((int(x.split("=")[1].rstrip(",)")) for x in f[-1].split(",") if x.startswith("pid=")), None)
+            if pid in names and len(f) >= 4:
+                owner[f[2]] = pid
+                socks.append((pid, f[3]))
+        linked = {(a, owner[b]) for a, b in socks if b in owner} | {(owner[b], a) for a, b in socks if b in owner}
+        lines = []
+        for a in sorted(names, key=lambda x: names[x]):
+            missing = sorted(names[b] for b in names if b != a and (a, b) not in linked)
+            if missing:
+                lines.append(f"{names[a]}: no link to {', '.join(missing)}")
+        return "\n".join(lines) or f"all {len(names)} processes linked to each other"
+
     # -- measurements ---------------------------------------------------------------------------------
     def truth(self):
         return self.gt.latest().pose2d
