@@ -41,19 +41,6 @@ def cpu_s(pid: int) -> float:
     return (int(f[11]) + int(f[12])) / TICK
 
 
-def processes(stack: NavStack) -> dict[int, tuple[str, str]]:
-    """pid -> (side, name): the two agents and their nodes (the node's --name)."""
-    out = {}
-    for agent in stack.procs:
-        side = agent.log_path.stem
-        out[agent.proc.pid] = (side, f"zenav {side} (agent)")
-        for pid in agent.children():
-            argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-            name = argv[argv.index(b"--name") + 1].decode() if b"--name" in argv else argv[-1].decode()
-            out[pid] = (side, name)
-    return out
-
-
 def measure(pids: dict[int, tuple[str, str]], seconds: float, work=None) -> dict[int, float]:
     """Share of one core per pid over ``seconds`` (``work`` runs meanwhile, on a thread)."""
     before = {p: cpu_s(p) for p in pids}
@@ -79,7 +66,7 @@ def main() -> int:
         print(f"starting the {args.world} stack ({args.planner}) ...", file=sys.stderr, flush=True)
         stack = NavStack(Path(tmp), args.world, args.planner)
         try:
-            pids = processes(stack)
+            pids = stack.processes()
             start = sum(cpu_s(p) for p in pids)
             print(f"standing still {args.seconds:g} s ...", file=sys.stderr, flush=True)
             idle = measure(pids, args.seconds)

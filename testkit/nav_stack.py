@@ -180,6 +180,7 @@ class NavStack:
         base = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
                 "PYTHONPATH": str(REPO)}
         base.pop("ZENAV_USE_SIM_TIME", None)
+        self.bus_env = base  # this stack's bus, for tools run on it (node_stats)
         self.procs: list[NavProc] = []
         try:
             self.gt = self.node.subscribe("ground_truth", Odometry)
@@ -229,8 +230,7 @@ class NavStack:
     def node_stats(self, snapshots: int = 2, every: float = 2.0) -> str:
         """`zenav nodes --stats` on this stack's bus, ``snapshots`` times ``every`` s apart: for a failure
         message, so a subscription that stopped receiving shows as a count that no longer grows."""
-        env = {**os.environ, "ZENAV_ROBOT": self.robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
-               "ZENAV_CONNECT": self.test_endpoint, "PYTHONPATH": str(REPO)}
+        env = {**self.bus_env, "ZENAV_CONNECT": self.test_endpoint}
         out = []
         for i in range(snapshots):
             if i:
@@ -243,16 +243,23 @@ class NavStack:
                 out.append("(zenav nodes --stats did not finish within 60 s)")
         return f"\n--- zenav nodes --stats, {every:.0f} s apart\n".join([""] + out)
 
-    def mesh(self) -> str:
-        """Which processes of this stack hold no TCP link to each other (``ss``): Zenoh peers route no data
-        for one another, so two nodes without a direct link cannot hear each other."""
-        names = {os.getpid(): "test"}
+    def processes(self) -> dict[int, tuple[str, str]]:
+        """pid -> (side, name): the two agents ("robot agent", "master agent") and their nodes (each
+        node's --name)."""
+        out = {}
         for p in self.procs:
-            names[p.proc.pid] = f"{p.log_path.stem} agent"
+            side = p.log_path.stem
+            out[p.proc.pid] = (side, f"{side} agent")
             for k in p.children():
                 with contextlib.suppress(OSError, ValueError, IndexError):
                     argv = Path(f"/proc/{k}/cmdline").read_bytes().split(b"\0")
-                    names[k] = argv[argv.index(b"--name") + 1].decode()
+                    out[k] = (side, argv[argv.index(b"--name") + 1].decode())
+        return out
+
+    def mesh(self) -> str:
+        """Which processes of this stack hold no TCP link to each other (``ss``): Zenoh peers route no data
+        for one another, so two nodes without a direct link cannot hear each other."""
+        names = {os.getpid(): "test", **{pid: name for pid, (_, name) in self.processes().items()}}
         try:
             rows = subprocess.run(["ss", "-tnpH", "state", "established"], capture_output=True, text=True,
                                   timeout=30).stdout.splitlines()
