@@ -71,7 +71,7 @@ class Node:
         self.clock: WallClock | SimClock = SimClock() if use_sim_time else WallClock()
         self.stats_sources: list[Any] = []  # objects with stats() -> TopicStats rows (subscriptions, TF)
         if use_sim_time:
-            self.subscribe("clock", Clock, callback=lambda m: self.clock.update(m.clock))
+            self.subscribe("clock", Clock, callback=lambda m: self.clock.update(m.clock), inline=True)
         self.service(f"node_stats/{name}", lambda _req: self.stats(), token=False)
         self._node_token = self._declare_token("node")
         self.log = logging.getLogger(f"zenav.{name}")
@@ -99,8 +99,8 @@ class Node:
         return pub
 
     def subscribe(self, topic: str, msg_type: type | None = None, callback: Callable | None = None,
-                  mode: str = "latest", queue_size: int = 100) -> Subscription:
-        sub = Subscription(self, topic, msg_type, callback, mode, queue_size)
+                  mode: str = "latest", queue_size: int = 100, inline: bool = False) -> Subscription:
+        sub = Subscription(self, topic, msg_type, callback, mode, queue_size, inline)
         self._entities.append(sub)
         self.routes.add(sub)
         self.stats_sources.append(sub)

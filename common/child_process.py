@@ -7,13 +7,31 @@ import ctypes
 import os
 import signal
 import sys
+import tempfile
+from dataclasses import replace
 
 from common.zenoh_config import BusConfig
 
 
-def child_bus_env(cfg: BusConfig) -> dict[str, str]:
-    """Bus env for children: same network, but listening on ephemeral ports (the agent's own listen
-    ports would clash) and connecting to the agent's listen endpoints as well."""
+def agent_socket(agent: str) -> str:
+    """A Unix-socket endpoint for an agent's nodes to reach it (``BusConfig.children == "agent"``): in a
+    directory only this user can enter, named by agent and process id so that agents never share one."""
+    base = os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir()
+    folder = os.path.join(base, f"zenav-{os.getuid()}")
+    os.makedirs(folder, mode=0o700, exist_ok=True)
+    os.chmod(folder, 0o700)
+    name = "".join(c if c.isalnum() or c in "-_" else "_" for c in agent)[:32]
+    return f"unixsock-stream/{os.path.join(folder, f'{name}-{os.getpid()}.sock')}"
+
+
+def child_bus_env(cfg: BusConfig, agent_endpoint: str = "") -> dict[str, str]:
+    """Bus env for an agent's children. With ``agent_endpoint`` (the agent listens there, see
+    ``agent_socket``) each child is a client of its agent alone. Without it (``children: mesh``, or an
+    agent that is itself a client of a router) the children join as the agent does, listening on
+    ephemeral ports (the agent's own listen ports would clash) and connecting to the agent's listen
+    endpoints as well."""
+    if agent_endpoint and cfg.mode != "client":
+        return replace(cfg, via_agent=agent_endpoint, local_listen=()).to_env()
     def host_port(ep: str) -> tuple[str, str]:
         proto_addr = ep.split("#", 1)[0]
         head, _, port = proto_addr.rpartition(":")
@@ -25,8 +43,8 @@ def child_bus_env(cfg: BusConfig) -> dict[str, str]:
         listen.append(f"{head}:0")
         if port not in ("", "0"):
             connect.append(ep.split("#", 1)[0].replace("0.0.0.0", "127.0.0.1").replace("[::]", "[::1]"))
-    return BusConfig(**{**cfg.__dict__, "connect": tuple(dict.fromkeys(connect)),
-                        "listen": tuple(dict.fromkeys(listen))}).to_env()
+    return replace(cfg, connect=tuple(dict.fromkeys(connect)), listen=tuple(dict.fromkeys(listen)),
+                   local_listen=()).to_env()
 
 
 try:

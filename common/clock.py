@@ -6,6 +6,8 @@ real time. ``ZENAV_USE_SIM_TIME=1`` makes ``Node`` use a ``SimClock`` fed from `
 
 from __future__ import annotations
 
+import heapq
+import itertools
 import threading
 import time
 
@@ -32,46 +34,61 @@ class WallClock:
 class SimClock:
     """Simulated time: advances only when ``update`` is called (from the ``clock`` topic).
 
-    ``now()`` is 0.0 until the first clock message, as in ROS.
+    ``now()`` is 0.0 until the first clock message, as in ROS. A sleeper is woken when its own deadline
+    is reached (or by ``wake`` / ``close``), not on every clock message: at 100 Hz, waking each timer
+    thread of each node per message cost more CPU than the timers' work.
     """
 
     simulated = True
+    POLL_S = 0.25  # a sleeper also looks at its cancel event this often (wake() makes it look at once)
 
     def __init__(self) -> None:
         self._t = 0.0
-        self._cv = threading.Condition()
+        self._lock = threading.Lock()
+        self._sleepers: list[tuple[float, int, threading.Event]] = []  # heap by deadline
+        self._seq = itertools.count()
         self._closed = False
 
     def update(self, t: float) -> None:
-        with self._cv:
-            if t > self._t:
-                self._t = t
-                self._cv.notify_all()
+        with self._lock:
+            if t <= self._t:
+                return
+            self._t = t
+            due = []
+            while self._sleepers and self._sleepers[0][0] <= t:
+                due.append(heapq.heappop(self._sleepers)[2])
+        for ev in due:
+            ev.set()
 
     def close(self) -> None:
-        with self._cv:
+        with self._lock:
             self._closed = True
-            self._cv.notify_all()
+        self.wake()
 
     def now(self) -> float:
         return self._t
 
     def wake(self) -> None:
-        """Let sleepers check their cancel event now (a kicked timer) instead of at the next tick."""
-        with self._cv:
-            self._cv.notify_all()
+        """Let sleepers check their cancel event now (a kicked timer) instead of at their deadline."""
+        with self._lock:
+            sleepers, self._sleepers = self._sleepers, []
+        for _, _, ev in sleepers:
+            ev.set()
 
     def sleep(self, seconds: float) -> None:
         self.sleep_until(self._t + seconds)
 
     def sleep_until(self, t: float, cancel: threading.Event | None = None) -> bool:
-        with self._cv:
-            while self._t < t and not self._closed:
-                if cancel is not None and cancel.is_set():
-                    return False
-                # Wake periodically so a cancel or a stalled clock is noticed.
-                self._cv.wait(0.05)
-            return not (cancel is not None and cancel.is_set()) and not self._closed
+        while True:
+            ev = threading.Event()
+            with self._lock:
+                if self._closed or self._t >= t:
+                    break
+                heapq.heappush(self._sleepers, (t, next(self._seq), ev))
+            if cancel is not None and cancel.is_set():
+                break
+            ev.wait(self.POLL_S)
+        return not (cancel is not None and cancel.is_set()) and not self._closed
 
 
 class Timer:
@@ -147,6 +164,9 @@ class Timer:
     def cancel(self) -> None:
         self._cancel.set()
         self._wake.set()
+        wake = getattr(self._clock, "wake", None)
+        if wake is not None:
+            wake()
 
     def join(self, timeout: float = 2.0) -> None:
         if threading.current_thread() is not self._thread:

@@ -235,8 +235,10 @@ def run_agent(agent: str, launch: Launch, robot: str | None = None) -> int:
     stderr and exit status 2 with nothing started; parameters without effect -> one warning block."""
     import shutil
     import sys
+    from dataclasses import replace
 
     from common.bus import Node
+    from common.child_process import agent_socket
     from common.node_check import check_nodes, format_config_error, format_notes
     from common.runner import EXIT_CONFIG
     from common.supervisor import Supervisor
@@ -257,12 +259,15 @@ def run_agent(agent: str, launch: Launch, robot: str | None = None) -> int:
         env = dict(launch.env)
         if launch.use_sim_time:
             env.setdefault("ZENAV_USE_SIM_TIME", "1")
-        node = Node(f"{agent}_agent", config=cfg, use_sim_time=False)
+        # children: agent (the default) - the nodes are clients of this agent's session (a Unix socket)
+        endpoint = agent_socket(agent) if cfg.children == "agent" and cfg.mode != "client" else ""
+        node = Node(f"{agent}_agent", config=replace(cfg, local_listen=(endpoint,)) if endpoint else cfg,
+                    use_sim_time=False)
         s = launch.supervisor
         sup = Supervisor(specs, cfg, node, agent=agent, grace=s.grace,
                          crash_loop=(s.crash_loop_deaths, s.crash_loop_window),
                          max_respawn_delay=s.max_respawn_delay, status=sys.stderr if s.status else None,
-                         extra_env=env)
+                         extra_env=env, agent_endpoint=endpoint)
         print(f"zenav {agent}: robot '{robot}', {len(specs)} nodes from {launch.source} "
               f"(states on zenav/{robot}/agent/{agent}/state)", file=sys.stderr, flush=True)
         code = sup.run()

@@ -54,7 +54,7 @@ class Supervisor:
     def __init__(self, specs: list[NodeSpec], bus_config: BusConfig | None = None, node: Any = None,
                  agent: str = "agent", grace: float = 3.0, crash_loop: tuple[int, float] = (5, 10.0),
                  out: TextIO | None = None, status: TextIO | None = None, extra_env: dict | None = None,
-                 max_respawn_delay: float = 5.0) -> None:
+                 max_respawn_delay: float = 5.0, agent_endpoint: str = "") -> None:
         validate_launch(specs)
         self.specs, self.agent, self.grace, self.crash_loop = list(specs), agent, grace, crash_loop
         self.bus_config = bus_config or BusConfig.from_env()
@@ -64,7 +64,7 @@ class Supervisor:
         self.start_order: list[str] = []
         self.reason = ""            # why the launch stopped ('' = asked to)
         self.failed = False         # stopped because of a failure
-        self._env = {**os.environ, **child_bus_env(self.bus_config), **(extra_env or {}),
+        self._env = {**os.environ, **child_bus_env(self.bus_config, agent_endpoint), **(extra_env or {}),
                      "ZENAV_PARENT_PID": str(os.getpid()), "PYTHONUNBUFFERED": "1"}
         self._wake = threading.Event()
         self._stop_req = threading.Event()

@@ -7,7 +7,7 @@ environment so that agents pass the same settings to the processes they start:
 
     ZENAV_ROBOT=pioneer1  ZENAV_MODE=peer|client|router  ZENAV_CONNECT=tcp/10.0.0.2:7447,...
     ZENAV_LISTEN=tcp/0.0.0.0:7447  ZENAV_MULTICAST=1|0  ZENAV_LEASE_MS=1000  ZENAV_SHM=1|0
-    ZENAV_AUTOCONNECT=greater-zid|always
+    ZENAV_AUTOCONNECT=greater-zid|always  ZENAV_CHILDREN=agent|mesh
     ZENAV_ZENOH_CONFIG=/path/to/zenoh.json5   (a full Zenoh config file, e.g. with auth / TLS;
                                                the settings above are applied on top of it)
 """
@@ -45,6 +45,20 @@ class BusConfig:
     # robot data flowed) and none with "greater-zid".
     autoconnect: str = "greater-zid"
     zenoh_config_file: str = ""
+    # How an agent's nodes join: "agent" (each node is a Zenoh client of its own agent over a Unix socket;
+    # the agent is the one peer of its machine that other agents see) or "mesh" (each node is a peer with
+    # links to every other one). Zenoh peers route nothing for one another, so in a mesh a node whose
+    # link to one other node does not re-form (after it was stopped past the lease, or under load) hears
+    # nothing from that node while everything else flows: localization got no clock, odometry or ground
+    # truth from the simulator for ~2 min after a SIGSTOP/SIGCONT, in 1 of ~20 cycles. A client has one
+    # link, re-dialled within ~0.05 s in 20 of 20 such cycles (see common.child_process).
+    children: str = "agent"
+    # Set in an agent's nodes (children="agent"): the agent's Unix socket, this process's one link. It
+    # makes the process a client of that endpoint alone, with no scouting and no listener; access control
+    # (a file's access_control) is left to the agent, which filters all that reaches the node.
+    via_agent: str = ""
+    # Extra listen endpoints added to whatever the file / mode gives (an agent's Unix socket).
+    local_listen: tuple[str, ...] = ()
     # Settings given explicitly (environment / options): with a Zenoh config file, only these and the
     # ones that differ from the defaults are applied on top of the file, so the file's own mode,
     # scouting and lease win otherwise.
@@ -59,6 +73,8 @@ class BusConfig:
             raise ValueError("lease_ms must be >= 100")
         if self.autoconnect not in ("greater-zid", "always"):
             raise ValueError(f"autoconnect must be greater-zid or always, not {self.autoconnect!r}")
+        if self.children not in ("agent", "mesh"):
+            raise ValueError(f"children must be agent or mesh, not {self.children!r}")
 
     @staticmethod
     def from_env(env: dict | None = None, **overrides) -> BusConfig:
@@ -70,7 +86,7 @@ class BusConfig:
         shm = e.get("ZENAV_SHM")
         names = {"ZENAV_MODE": "mode", "ZENAV_CONNECT": "connect", "ZENAV_LISTEN": "listen",
                  "ZENAV_MULTICAST": "multicast", "ZENAV_LEASE_MS": "lease_ms", "ZENAV_SHM": "shared_memory",
-                 "ZENAV_AUTOCONNECT": "autoconnect"}
+                 "ZENAV_AUTOCONNECT": "autoconnect", "ZENAV_CHILDREN": "children"}
         explicit = tuple(f for k, f in names.items() if e.get(k, "") != "")
         cfg = BusConfig(
             robot=e.get("ZENAV_ROBOT", DEFAULT_ROBOT),
@@ -82,6 +98,8 @@ class BusConfig:
             shared_memory=None if shm is None else shm not in ("0", "false", "no"),
             zenoh_config_file=e.get("ZENAV_ZENOH_CONFIG", ""),
             autoconnect=e.get("ZENAV_AUTOCONNECT", "") or "greater-zid",
+            children=e.get("ZENAV_CHILDREN", "") or "agent",
+            via_agent=e.get("ZENAV_VIA_AGENT", ""),
             explicit=explicit,
         )
         return replace(cfg, **overrides) if overrides else cfg
@@ -98,6 +116,9 @@ class BusConfig:
                 env[var] = text
         if self.shared_memory is not None:
             env["ZENAV_SHM"] = "1" if self.shared_memory else "0"
+        if self.children != "agent":
+            env["ZENAV_CHILDREN"] = self.children
+        env["ZENAV_VIA_AGENT"] = self.via_agent
         return env
 
     def _applies(self, name: str) -> bool:
@@ -109,6 +130,8 @@ class BusConfig:
         import zenoh
 
         conf = zenoh.Config.from_file(self.zenoh_config_file) if self.zenoh_config_file else zenoh.Config()
+        if self.via_agent:
+            return self._agent_node(conf)
         apply = self._applies
         if apply("mode"):
             conf.insert_json5("mode", json.dumps(self.mode))
@@ -116,6 +139,10 @@ class BusConfig:
             conf.insert_json5("connect/endpoints", json.dumps(list(self.connect)))
         if self.listen:
             conf.insert_json5("listen/endpoints", json.dumps(list(self.listen)))
+        if self.local_listen:
+            eps = json.loads(conf.get_json("listen/endpoints"))
+            eps = eps.get(self.mode, []) if isinstance(eps, dict) else eps
+            conf.insert_json5("listen/endpoints", json.dumps([*eps, *self.local_listen]))
         if apply("multicast"):
             conf.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
         if apply("lease_ms"):
@@ -127,6 +154,21 @@ class BusConfig:
             strategy = json.dumps({"peer": {"to_router": "always", "to_peer": self.autoconnect}})
             conf.insert_json5("scouting/multicast/autoconnect_strategy", strategy)
             conf.insert_json5("scouting/gossip/autoconnect_strategy", strategy)
+        return self._queue(conf)
+
+    def _agent_node(self, conf):
+        for key, value in (("mode", "client"), ("connect/endpoints", [self.via_agent]), ("listen/endpoints", []),
+                           ("scouting/multicast/enabled", False), ("access_control/enabled", False)):
+            conf.insert_json5(key, json.dumps(value))
+        if self._applies("lease_ms"):
+            conf.insert_json5("transport/link/tx/lease", str(self.lease_ms))
+            conf.insert_json5("transport/link/tx/keep_alive", "4")
+        if self.shared_memory is not None:
+            conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
+        return self._queue(conf)
+
+    @staticmethod
+    def _queue(conf):
         if json.loads(conf.get_json("transport/link/tx/queue/size/data")) == 2:  # a file's other value wins
             conf.insert_json5("transport/link/tx/queue/size/data", str(TX_QUEUE_BATCHES))
         return conf

@@ -16,6 +16,7 @@ import time
 import uuid
 from pathlib import Path
 
+import psutil
 import yaml
 
 from testkit.wait import free_port, wait_until
@@ -256,29 +257,20 @@ class NavStack:
                     out[k] = (side, argv[argv.index(b"--name") + 1].decode())
         return out
 
-    def mesh(self) -> str:
-        """Which processes of this stack hold no TCP link to each other (``ss``): Zenoh peers route no data
-        for one another, so two nodes without a direct link cannot hear each other."""
-        names = {os.getpid(): "test", **{pid: name for pid, (_, name) in self.processes().items()}}
-        try:
-            rows = subprocess.run(["ss", "-tnpH", "state", "established"], capture_output=True, text=True,
-                                  timeout=30).stdout.splitlines()
-        except (OSError, subprocess.TimeoutExpired) as e:
-            return f"(ss failed: {e})"
-        owner, socks = {}, []
-        for row in rows:
-            f = row.split()
-            pid = next((int(x.split("=")[1].rstrip(",)")) for x in f[-1].split(",") if x.startswith("pid=")), None)
-            if pid in names and len(f) >= 4:
-                owner[f[2]] = pid
-                socks.append((pid, f[3]))
-        linked = {(a, owner[b]) for a, b in socks if b in owner} | {(owner[b], a) for a, b in socks if b in owner}
+    def links(self) -> str:
+        """Each process's open links (psutil): an agent's nodes should hold one Unix-socket link to their
+        agent and no TCP link (children: agent); in a mesh (children: mesh), TCP links to every peer."""
         lines = []
-        for a in sorted(names, key=lambda x: names[x]):
-            missing = sorted(names[b] for b in names if b != a and (a, b) not in linked)
-            if missing:
-                lines.append(f"{names[a]}: no link to {', '.join(missing)}")
-        return "\n".join(lines) or f"all {len(names)} processes linked to each other"
+        for pid, (_, name) in sorted(self.processes().items(), key=lambda kv: kv[1][1]):
+            try:
+                proc = psutil.Process(pid)
+                tcp = [c for c in proc.net_connections(kind="tcp") if c.status == psutil.CONN_ESTABLISHED]
+                unix = proc.net_connections(kind="unix")
+            except psutil.Error as e:
+                lines.append(f"{name}: {e}")
+                continue
+            lines.append(f"{name}: {len(tcp)} TCP, {len(unix)} Unix-socket links")
+        return "\n".join(lines)
 
     # -- measurements ---------------------------------------------------------------------------------
     def truth(self):

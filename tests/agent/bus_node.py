@@ -1,5 +1,6 @@
 """A test node on the bus: publishes Text on ``topic`` every ``period`` s after ``delay`` s and logs
-its life (start, first publish, SIGTERM, close) to the file ``log``."""
+its life (start, first publish, SIGTERM, close) to the file ``log``; with ``listen``, it logs ``heard``
+for each message on that topic."""
 
 from __future__ import annotations
 
@@ -24,6 +25,9 @@ class BusTestNode:
 
         signal.signal(signal.SIGTERM, on_term)
         log_event(self.log, "start", self.name)
+        if cfg.get("listen"):
+            node.subscribe(cfg["listen"], Text, callback=lambda _m: log_event(self.log, "heard", self.name),
+                           mode="queue")
         if self.topic:
             self.pub = node.publisher(self.topic)
             timing = (float(cfg.get("delay", 0.0)), float(cfg.get("period", 0.1)))

@@ -151,3 +151,33 @@ def test_bad_config_exits_2_naming_file_and_key(tmp_path):
         assert r.returncode == 2, r.stderr
         assert str(cfg) in r.stderr
         assert "sensors.laser.respwan" in r.stderr
+
+
+def test_nodes_hear_each_other_again_at_once_after_one_was_stopped_past_the_lease(bus, agents, robot_name,
+                                                                                  tmp_path):
+    """An agent's nodes are Zenoh clients of the agent (children: agent): each has one link, over the
+    agent's Unix socket, and none over TCP. A node stopped for longer than the link lease (the kernel
+    froze it, a debugger, swap) loses that link; when it runs again it re-dials it and hears its sibling
+    at once. As peers in a mesh, a sibling's direct link could stay down for minutes (1 in ~20 cycles)."""
+    node, env = bus
+    log = tmp_path / "events.log"
+    cfg = {"sensors": {
+        "talker": {"module": BUS, "params": {"log": str(log), "topic": "chatter", "period": 0.05}},
+        "listener": {"module": BUS, "params": {"log": str(log), "listen": "chatter"}}}}
+    agent = agents(cfg, robot_name, env)
+
+    def heard_after(t: float) -> bool:
+        return any(e == "heard" and ts > t for e, _, _, ts in read_events(log))
+
+    wait_until(lambda: heard_after(0.0), 60, "the listener hears the talker")
+    (pid,) = node_pids(agent, "listener")
+    proc = psutil.Process(pid)
+    assert proc.net_connections(kind="inet") == [], "a node of an agent should have no TCP link"
+    assert len(proc.net_connections(kind="unix")) >= 1
+    lease = float(env.get("ZENAV_LEASE_MS", 1000)) / 1000
+    for _ in range(3):
+        os.kill(pid, signal.SIGSTOP)
+        time.sleep(2.5 * lease)  # a fault injected for a set time, not a wait for a condition
+        os.kill(pid, signal.SIGCONT)
+        resumed = time.time()
+        wait_until(lambda t=resumed: heard_after(t), 15, "the listener hears the talker again")

@@ -15,6 +15,7 @@ import pytest
 import zenoh
 from test_deploy_helpers import env_for, free_port, start, stop, wait_line
 
+from common.zenoh_config import BusConfig
 from deploy.cli import build_parser
 
 
@@ -224,3 +225,37 @@ def test_mtls_identifies_master_whichever_side_connects(tmp_path, sessions):
     put_when_matched(other, "zenav/p3at/scan", "other")  # after its cmd_vel on the same link: a barrier
     wait_until(lambda: {("scan", "other"), ("cmd_vel", "master")} <= set(got), what="master's cmd_vel")
     assert ("cmd_vel", "other") not in got
+
+
+def test_an_agents_nodes_get_cmd_vel_only_from_master_through_their_agent(tmp_path, creds, sessions):
+    """Nodes of an agent (children: agent) are clients of its Unix socket and leave access control to it:
+    the agent's ingress filter must hold for what it forwards to them, and their own link must work
+    with the robot's credentials."""
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    robot_file = gen(tmp_path, "robot", "peer", "--listen", ep, "--user", "robot", "--password-file",
+                     str(creds / "robot.pw"), "--users-file", str(creds / "users.txt"),
+                     "--acl-cmd-vel-only", "master")
+    sock = f"unixsock-stream/{tmp_path / 'agent.sock'}"
+    opened = []
+    for cfg in (BusConfig(zenoh_config_file=robot_file, local_listen=(sock,)),
+                BusConfig(zenoh_config_file=robot_file, via_agent=sock)):
+        opened.append(zenoh.open(cfg.to_zenoh()))
+    try:
+        agent, node = opened
+        got = collect(node, "zenav/p3at/*")
+        master = sessions(gen(tmp_path, "master", "peer", "--connect", ep, "--user", "master",
+                              "--password-file", str(creds / "master.pw")))
+        other = sessions(gen(tmp_path, "other", "peer", "--connect", ep, "--user", "robot",
+                             "--password-file", str(creds / "robot.pw")))
+        wait_until(lambda: len(agent.info.peers_zid()) == 2, what="both peers connected to the agent")
+        for s, who in ((other, "other"), (master, "master")):
+            put_when_matched(s, "zenav/p3at/cmd_vel", who)
+            put_when_matched(s, "zenav/p3at/scan", who)
+        wait_until(lambda: {("scan", "other"), ("scan", "master"), ("cmd_vel", "master")} <= set(got),
+                   what="master's cmd_vel and both scans at the node")
+        other.put("zenav/p3at/scan", "other-2")  # after its cmd_vel on the same links: a barrier
+        wait_until(lambda: ("scan", "other-2") in got, what="the second scan")
+        assert ("cmd_vel", "other") not in got
+    finally:
+        for s in reversed(opened):
+            s.close()

@@ -185,7 +185,7 @@ def check_stale_tf_reason(stack: NavStack, goal: tuple[float, float, float]) -> 
     try:
         res = status_of(stack, gid, lambda m: m.state == "IDLE", 120.0, "the goal to end")
     except AssertionError as e:  # which stream stopped after the pause (fake_localization's inputs, or tf)
-        raise AssertionError(f"{e}; last status: {stack.status.last()}\n--- TCP links (ss)\n{stack.mesh()}\n"
+        raise AssertionError(f"{e}; last status: {stack.status.last()}\n--- links\n{stack.links()}\n"
                              f"{stack.node_stats()}\n{stack.logs()}") from None
     truth = wait_still(stack)
     xy, yaw = pose_error(truth, goal)
