@@ -5,8 +5,10 @@
 Two network namespaces joined by a user-space link (testkit/linkem.py: real IP packets, dropped while
 partitioned), a master-side peer (goal topic, acknowledged goal service, latched map, status stream) and
 a robot-side peer, each its own process with zenav's default Zenoh configuration (peer, multicast
-scouting, 1 s lease). Each cycle cuts the link for 0.3, 1.5 or 4 s (shorter than the lease, about it,
-well beyond it), heals it, and at once:
+scouting, 1 s lease). With ``--children agent`` (zenav's default) each side is laid out as an agent lays
+out its nodes: one peer process (the agent) and the others its clients over a Unix socket; with
+``--children mesh`` every process is a peer. Each cycle cuts the link for 0.3, 1.5 or 4 s (shorter
+than the lease, about it, well beyond it), heals it, and at once:
   - a put stream on the goal topic, from the robot's existing publisher or from one declared right
     after the heal (alternating): how long until the first put arrives is the route's recovery time;
   - a goal through the acknowledged service (common/delivery.py, as `zenav goal` sends it), 20 s deadline;
@@ -67,6 +69,9 @@ def main() -> int:
     ap.add_argument("--autoconnect", choices=("greater-zid", "always"), default="greater-zid",
                     help="which scouted peer dials (ZENAV_AUTOCONNECT; default greater-zid, zenav's default; "
                          "always: both, as Zenoh does)")
+    ap.add_argument("--children", choices=("agent", "mesh"), default="agent",
+                    help="each side as one agent peer with client nodes (default, as zenav's agents run "
+                         "them) or as a mesh of peers (ZENAV_CHILDREN=mesh)")
     ap.add_argument("--logs", type=Path, default=Path("/tmp/zenav_reconnect"), help="peer logs go here")
     args = ap.parse_args()
     if os.geteuid() != 0:
@@ -90,11 +95,22 @@ def main() -> int:
         procs.append(link)
         assert wait_for(lambda: link.first("READY") or (link.lines and link.lines[0][0] == "READY"), 30), "link"
 
-        def peer(ns: str, role: str) -> LineProc:
-            p = LineProc(["ip", "netns", "exec", ns, sys.executable, "-m", "testkit.reconnect_peer", role], env,
-                     args.logs / f"{role}{len(procs)}.log")
+        def peer_proc(ns: str, role: str, arg: str = "", via: str = "") -> LineProc:
+            cmd = ["ip", "netns", "exec", ns, sys.executable, "-m", "testkit.reconnect_peer", role,
+                   *([arg] if arg else [])]
+            p = LineProc(cmd, {**env, "ZENAV_VIA_AGENT": via}, args.logs / f"{role}{len(procs)}.log")
             procs.append(p)
             return p
+        hubs = {}
+        if args.children == "agent":  # the agents first: their nodes connect to them
+            for ns in (ns_m, ns_r):
+                sock = f"unixsock-stream/{args.logs / f'{ns}.sock'}"
+                hubs[ns] = (sock, peer_proc(ns, "agent", sock))
+            assert wait_for(lambda: all(h.first("READY") for _, h in hubs.values()), 60), "agents did not start"
+
+        def peer(ns: str, role: str) -> LineProc:
+            return peer_proc(ns, role, via=hubs[ns][0] if ns in hubs else "")
+
         master, robot = peer(ns_m, "master"), peer(ns_r, "robot")
         extras = [peer(ns, "extra") for ns in (ns_m, ns_r) for _ in range(args.peers)]
         assert wait_for(lambda: all(p.first("READY") for p in (master, robot, *extras)), 120), "peers did not start"
@@ -169,7 +185,7 @@ def main() -> int:
           f"recovery_p50_s={np.percentile(rec, 50) if rec else float('nan'):.2f} "
           f"recovery_p99_s={np.percentile(rec, 99) if rec else float('nan'):.2f} "
           f"ack_p99_s={np.percentile(ack, 99) if ack else float('nan'):.2f} hog_procs={args.hog} "
-          f"peers_per_side={args.peers + 1} autoconnect={args.autoconnect}")
+          f"peers_per_side={args.peers + 1} autoconnect={args.autoconnect} children={args.children}")
     return 0 if len(ack) == len(rows) and all(r["latched"] is not None and r["status"] is not None
                                               for r in rows) else 1
 

@@ -31,6 +31,7 @@ import time
 from typing import Any, TextIO
 
 from common.child_process import child_bus_env, killpg, make_preexec
+from common.fork_server import ForkedProc, ForkServer
 from common.node_spec import (
     EXITED,
     FAILED,
@@ -54,7 +55,7 @@ class Supervisor:
     def __init__(self, specs: list[NodeSpec], bus_config: BusConfig | None = None, node: Any = None,
                  agent: str = "agent", grace: float = 3.0, crash_loop: tuple[int, float] = (5, 10.0),
                  out: TextIO | None = None, status: TextIO | None = None, extra_env: dict | None = None,
-                 max_respawn_delay: float = 5.0, agent_endpoint: str = "") -> None:
+                 max_respawn_delay: float = 5.0, agent_endpoint: str = "", fork_server: bool | None = None) -> None:
         validate_launch(specs)
         self.specs, self.agent, self.grace, self.crash_loop = list(specs), agent, grace, crash_loop
         self.bus_config = bus_config or BusConfig.from_env()
@@ -67,6 +68,10 @@ class Supervisor:
         self._env = {**os.environ, **child_bus_env(self.bus_config, agent_endpoint), **(extra_env or {}),
                      "ZENAV_PARENT_PID": str(os.getpid()), "PYTHONUNBUFFERED": "1"}
         self._wake = threading.Event()
+        if fork_server is None:
+            fork_server = os.environ.get("ZENAV_FORK_SERVER", "1") not in ("0", "false", "no")
+        self._fork_modules = sorted({s.module for s in specs if s.module}) if fork_server else []
+        self._forker: ForkServer | None = None
         self._stop_req = threading.Event()
         self._done = threading.Event()
         self._lock = threading.RLock()
@@ -132,9 +137,9 @@ class Supervisor:
         spec = st.spec
         env = {**self._env, **{k: str(v) for k, v in spec.env.items()}}
         try:
-            proc = subprocess.Popen(spec.argv(), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                    stderr=subprocess.STDOUT, env=env, start_new_session=True,
-                                    preexec_fn=make_preexec(os.getpid()))
+            proc = self._fork(spec, env) or subprocess.Popen(
+                spec.argv(), stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                env=env, start_new_session=True, preexec_fn=make_preexec(os.getpid()))
         except OSError as e:
             self._died(st, None, f"cannot start: {e}")
             return
@@ -146,6 +151,18 @@ class Supervisor:
         st.pump = threading.Thread(target=self._pump, args=(st, proc), daemon=True, name=f"out:{spec.name}")
         st.pump.start()
         threading.Thread(target=self._reap, args=(proc,), daemon=True, name=f"wait:{spec.name}").start()
+
+    def _fork(self, spec: NodeSpec, env: dict) -> ForkedProc | None:
+        """The node forked from the fork server (``common.fork_server``), or None: start it with python -m."""
+        if not spec.module or spec.module not in self._fork_modules:
+            return None
+        if self._forker is None:
+            self._forker = ForkServer(self._fork_modules, self._env, on_exit=self._wake.set)
+            if not self._forker.usable:
+                with self._out_lock, contextlib.suppress(ValueError, OSError):
+                    print(f"zenav {self.agent}: nodes start with python -m ({self._forker.why})",
+                          file=self.status_out or sys.stderr, flush=True)
+        return self._forker.spawn(spec.module, spec.argv()[3:], env)
 
     def _pump(self, st: NodeStatus, proc: subprocess.Popen) -> None:
         prefix = f"[{st.spec.name}] "
@@ -259,6 +276,8 @@ class Supervisor:
                 self._wake.wait(0.1)
             self._shutdown()
         finally:
+            if self._forker is not None:
+                self._forker.close()
             self._report(force=True)
             self._done.set()
 

@@ -88,21 +88,26 @@ class NavProc:
         return self.proc.poll() is None
 
     def children(self) -> list[int]:
-        """Pids of the agent's node processes (each runs in its own session, a child of the agent)."""
-        out = []
+        """Pids of the agent's processes: its fork server (common.fork_server) and the node processes
+        (each in its own session; forks of the server, or children of the agent when started with
+        python -m)."""
+        parent: dict[int, int] = {}
         for d in Path("/proc").iterdir():
             if d.name.isdigit():
-                with contextlib.suppress(OSError):
-                    stat = (d / "stat").read_text()
-                    if int(stat.rsplit(")", 1)[1].split()[1]) == self.proc.pid:
-                        out.append(int(d.name))
+                with contextlib.suppress(OSError, ValueError, IndexError):
+                    parent[int(d.name)] = int((d / "stat").read_text().rsplit(")", 1)[1].split()[1])
+        out, level = [], {self.proc.pid}
+        while level:
+            level = {pid for pid, pp in parent.items() if pp in level}
+            out += sorted(level)
         return out
 
     def child_running(self, module: str) -> int | None:
         """Pid of the agent's node process whose command line runs ``module``."""
         for pid in self.children():
             with contextlib.suppress(OSError):
-                if module.encode() in Path(f"/proc/{pid}/cmdline").read_bytes():
+                argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+                if module.encode() in argv and b"common.fork_server" not in argv:
                     return pid
         return None
 
@@ -245,8 +250,8 @@ class NavStack:
         return f"\n--- zenav nodes --stats, {every:.0f} s apart\n".join([""] + out)
 
     def processes(self) -> dict[int, tuple[str, str]]:
-        """pid -> (side, name): the two agents ("robot agent", "master agent") and their nodes (each
-        node's --name)."""
+        """pid -> (side, name): the two agents ("robot agent", "master agent"), their fork servers
+        (common.fork_server) and their nodes (each node's --name)."""
         out = {}
         for p in self.procs:
             side = p.log_path.stem
@@ -254,7 +259,10 @@ class NavStack:
             for k in p.children():
                 with contextlib.suppress(OSError, ValueError, IndexError):
                     argv = Path(f"/proc/{k}/cmdline").read_bytes().split(b"\0")
-                    out[k] = (side, argv[argv.index(b"--name") + 1].decode())
+                    if b"common.fork_server" in argv:
+                        out[k] = (side, f"{side} fork server")
+                    else:
+                        out[k] = (side, argv[argv.index(b"--name") + 1].decode())
         return out
 
     def links(self) -> str:

@@ -1,11 +1,13 @@
 """One side of the reconnect benchmark (bench/reconnect.py), run inside a network namespace.
 
-    python -m testkit.reconnect_peer master|robot
+    python -m testkit.reconnect_peer master|robot|extra|agent
 
 master: serves what move_base and map_server serve: a ``goal`` topic, an acknowledged ``rc_goal``
         service, a latched ``map`` and a 10 Hz ``status`` stream back to the robot.
 extra:  a bystander (``--peers``): publishes a 20 Hz stream and subscribes to the other side's, as the
         many node processes of a real robot and master do (every pair of them holds a Zenoh session)
+agent:  an agent's session (children: agent): the side's one peer, listening on the Unix socket given as
+        the second argument; the other roles of that side then run as its clients (ZENAV_VIA_AGENT)
 robot:  reads commands on stdin and sends as the goal senders do:
         ``stream ID``  put ID:0, ID:1, ... on the goal topic every 50 ms until ``stop``
         ``fresh ID``   the same from a publisher declared now (a new sender right after a heal)
@@ -47,6 +49,15 @@ def master() -> None:
     node.timer(0.1, lambda: status.publish(Text(Header(time.time(), ""), "status")))
     say("READY")
     sys.stdin.read()  # until the benchmark closes our stdin
+    node.close()
+
+
+def agent() -> None:
+    from common.zenoh_config import BusConfig
+
+    node = Node("rc_agent", config=BusConfig.from_env(local_listen=(sys.argv[2],)), use_sim_time=False)
+    say("READY")
+    sys.stdin.read()
     node.close()
 
 
@@ -117,4 +128,4 @@ def robot() -> None:
 
 
 if __name__ == "__main__":
-    {"master": master, "robot": robot, "extra": extra}[sys.argv[1]]()
+    {"master": master, "robot": robot, "extra": extra, "agent": agent}[sys.argv[1]]()
