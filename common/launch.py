@@ -259,7 +259,7 @@ def run_agent(agent: str, launch: Launch, robot: str | None = None) -> int:
         env = dict(launch.env)
         if launch.use_sim_time:
             env.setdefault("ZENAV_USE_SIM_TIME", "1")
-        # children: agent (the default) - the nodes are clients of this agent's session (a Unix socket)
+        # children: agent - the nodes are clients of this agent's session (a Unix socket)
         endpoint = agent_socket(agent) if cfg.children == "agent" and cfg.mode != "client" else ""
         node = Node(f"{agent}_agent", config=replace(cfg, local_listen=(endpoint,)) if endpoint else cfg,
                     use_sim_time=False)

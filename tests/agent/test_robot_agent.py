@@ -155,11 +155,12 @@ def test_bad_config_exits_2_naming_file_and_key(tmp_path):
 
 def test_nodes_hear_each_other_again_at_once_after_one_was_stopped_past_the_lease(bus, agents, robot_name,
                                                                                   tmp_path):
-    """An agent's nodes are Zenoh clients of the agent (children: agent): each has one link, over the
+    """With children: agent, an agent's nodes are Zenoh clients of the agent: each has one link, over the
     agent's Unix socket, and none over TCP. A node stopped for longer than the link lease (the kernel
     froze it, a debugger, swap) loses that link; when it runs again it re-dials it and hears its sibling
     at once. As peers in a mesh, a sibling's direct link could stay down for minutes (1 in ~20 cycles)."""
     node, env = bus
+    env = {**env, "ZENAV_CHILDREN": "agent"}
     log = tmp_path / "events.log"
     cfg = {"sensors": {
         "talker": {"module": BUS, "params": {"log": str(log), "topic": "chatter", "period": 0.05}},
