@@ -7,8 +7,8 @@ once; each node is then a fork of it that runs its module as ``python -m`` would
 own environment, working directory, process group and output pipe. Forking is safe only from a process
 with one thread, so the server checks that after its imports and never starts a thread; if a module
 started one, the server says so and the agent starts its nodes with ``python -m`` as before.
-Opt-in (``ZENAV_FORK_SERVER=1``): a full test run took more CPU with it than without (each fork carries
-every module of the launch, and its garbage collector walks them all); not yet a default.
+Opt-in (``ZENAV_FORK_SERVER=1``): no CPU gain measured yet over the test suite (each fork carries every
+module of the launch, and its garbage collector walks them all; gc.freeze() is untried); not yet a default.
 
     python -u -m common.fork_server FD MODULE... PAD   (started by ForkServer, FD a SOCK_SEQPACKET socket)
 

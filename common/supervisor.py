@@ -69,7 +69,7 @@ class Supervisor:
                      "ZENAV_PARENT_PID": str(os.getpid()), "PYTHONUNBUFFERED": "1"}
         self._wake = threading.Event()
         if fork_server is None:
-            # opt-in: measured, the suite took more CPU with it (13.1 vs 11.4-11.9 min user), see the README
+            # opt-in: no CPU gain measured yet over the suite, see the README
             fork_server = os.environ.get("ZENAV_FORK_SERVER", "0") in ("1", "true", "yes")
         self._fork_modules = sorted({s.module for s in specs if s.module}) if fork_server else []
         self._forker: ForkServer | None = None
