@@ -55,8 +55,8 @@ def collect(session, key: str) -> list[tuple[str, str]]:
 def sessions():
     opened: list[zenoh.Session] = []
 
-    def open_(path: str) -> zenoh.Session:
-        s = zenoh.open(zenoh.Config.from_file(path))
+    def open_(conf) -> zenoh.Session:  # a config file's path, or a zenoh.Config
+        s = zenoh.open(zenoh.Config.from_file(conf) if isinstance(conf, str) else conf)
         opened.append(s)
         return s
 
@@ -173,12 +173,10 @@ def test_peer_with_wrong_password_has_no_peers(tmp_path, creds, sessions):
     assert [str(z) for z in robot.info.peers_zid()] == [str(good.zid())]
 
 
-def test_robot_drops_cmd_vel_from_anyone_but_master_while_other_topics_pass(tmp_path, creds, sessions):
-    ep = f"tcp/127.0.0.1:{free_port()}"
-    robot = sessions(gen(tmp_path, "robot", "peer", "--listen", ep, "--user", "robot", "--password-file",
-                         str(creds / "robot.pw"), "--users-file", str(creds / "users.txt"),
-                         "--acl-cmd-vel-only", "master"))
-    got = collect(robot, "zenav/p3at/*")
+def assert_cmd_vel_only_from_master(tmp_path, creds, sessions, ep: str, robot, receiver) -> None:
+    """Peers 'master' and 'other' connect to ``robot`` at ``ep`` and each put cmd_vel and scan: ``receiver``
+    (the robot's session, or a node behind it) gets both scans and master's cmd_vel, never other's."""
+    got = collect(receiver, "zenav/p3at/*")
     master = sessions(gen(tmp_path, "master", "peer", "--connect", ep, "--user", "master",
                           "--password-file", str(creds / "master.pw")))
     other = sessions(gen(tmp_path, "other", "peer", "--connect", ep, "--user", "robot",
@@ -189,9 +187,17 @@ def test_robot_drops_cmd_vel_from_anyone_but_master_while_other_topics_pass(tmp_
         put_when_matched(s, "zenav/p3at/scan", who)
     wait_until(lambda: {("scan", "other"), ("scan", "master"), ("cmd_vel", "master")} <= set(got),
                what="master's cmd_vel and both scans")
-    other.put("zenav/p3at/scan", "other-2")  # sent after its cmd_vel on the same link: a barrier
+    other.put("zenav/p3at/scan", "other-2")  # sent after its cmd_vel on the same link(s): a barrier
     wait_until(lambda: ("scan", "other-2") in got, what="the second scan")
     assert ("cmd_vel", "other") not in got
+
+
+def test_robot_drops_cmd_vel_from_anyone_but_master_while_other_topics_pass(tmp_path, creds, sessions):
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    robot = sessions(gen(tmp_path, "robot", "peer", "--listen", ep, "--user", "robot", "--password-file",
+                         str(creds / "robot.pw"), "--users-file", str(creds / "users.txt"),
+                         "--acl-cmd-vel-only", "master"))
+    assert_cmd_vel_only_from_master(tmp_path, creds, sessions, ep, robot, robot)
 
 
 @pytest.mark.skipif(shutil.which("openssl") is None, reason="needs openssl to make test certificates")
@@ -236,26 +242,6 @@ def test_an_agents_nodes_get_cmd_vel_only_from_master_through_their_agent(tmp_pa
                      str(creds / "robot.pw"), "--users-file", str(creds / "users.txt"),
                      "--acl-cmd-vel-only", "master")
     sock = f"unixsock-stream/{tmp_path / 'agent.sock'}"
-    opened = []
-    for cfg in (BusConfig(zenoh_config_file=robot_file, local_listen=(sock,)),
-                BusConfig(zenoh_config_file=robot_file, via_agent=sock)):
-        opened.append(zenoh.open(cfg.to_zenoh()))
-    try:
-        agent, node = opened
-        got = collect(node, "zenav/p3at/*")
-        master = sessions(gen(tmp_path, "master", "peer", "--connect", ep, "--user", "master",
-                              "--password-file", str(creds / "master.pw")))
-        other = sessions(gen(tmp_path, "other", "peer", "--connect", ep, "--user", "robot",
-                             "--password-file", str(creds / "robot.pw")))
-        wait_until(lambda: len(agent.info.peers_zid()) == 2, what="both peers connected to the agent")
-        for s, who in ((other, "other"), (master, "master")):
-            put_when_matched(s, "zenav/p3at/cmd_vel", who)
-            put_when_matched(s, "zenav/p3at/scan", who)
-        wait_until(lambda: {("scan", "other"), ("scan", "master"), ("cmd_vel", "master")} <= set(got),
-                   what="master's cmd_vel and both scans at the node")
-        other.put("zenav/p3at/scan", "other-2")  # after its cmd_vel on the same links: a barrier
-        wait_until(lambda: ("scan", "other-2") in got, what="the second scan")
-        assert ("cmd_vel", "other") not in got
-    finally:
-        for s in reversed(opened):
-            s.close()
+    agent = sessions(BusConfig(zenoh_config_file=robot_file, local_listen=(sock,)).to_zenoh())
+    node = sessions(BusConfig(zenoh_config_file=robot_file, via_agent=sock).to_zenoh())
+    assert_cmd_vel_only_from_master(tmp_path, creds, sessions, ep, agent, node)
