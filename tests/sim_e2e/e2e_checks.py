@@ -83,7 +83,14 @@ def path_length(gt: list[Odometry]) -> tuple[float, float]:
 def check_odom_tf_ground_truth_agree(rig: Rig, tf, base: BaseParams, start: Pose2D = START) -> dict:
     """Drive straight then along an arc; odom, TF odom->base_link and ground truth agree within 4 sigma of
     the gmapping error model (srr, srt, str, stt) for the distance and rotation travelled."""
-    rig.drive([(3.0, 0.5, 0.0), (3.0, 0.3, 0.5)])
+    # each leg ends on what ground truth shows, not on a duration: a safety stop (the collision monitor
+    # holding a command while the depth scan is late on a loaded machine) makes a leg longer, not shorter
+    t0 = rig.now()
+
+    def moved() -> tuple[float, float]:
+        return path_length([m for m in rig.gt.msgs() if m.header.stamp >= t0])
+    rig.drive([(30.0, 0.5, 0.0)], until=lambda: moved()[0] >= 1.5)
+    rig.drive([(30.0, 0.3, 0.5)], until=lambda: moved()[1] >= 1.5)
     rig.wait_stopped()
     odom = {round(m.header.stamp, 6): m for m in rig.odom.msgs()}
     gt_msgs = rig.gt.msgs()
