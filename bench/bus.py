@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import socket
 import subprocess
 import sys
 import threading
@@ -35,15 +34,10 @@ from bench import bus_stages  # noqa: E402
 from common.bus import Node  # noqa: E402
 from common.codec import encode  # noqa: E402
 from common.messages import DepthImage, Header, LaserScan, Text  # noqa: E402
+from common.ports import free_port  # noqa: E402
 from common.zenoh_config import BusConfig  # noqa: E402
 
 RAW_KEY = "benchraw/{robot}/scan"  # the Zenoh-only baseline's key (not a zenav topic)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 # -- subscriber process ----------------------------------------------------------------------------

@@ -20,7 +20,6 @@ import argparse
 import heapq
 import json
 import os
-import socket
 import subprocess
 import sys
 import tempfile
@@ -35,15 +34,10 @@ import numpy as np  # noqa: E402
 
 from common.geometry import Transform  # noqa: E402
 from common.messages import Costmap, Header, LaserScan, Odometry, TFMessage, TransformStamped  # noqa: E402
+from common.ports import free_port  # noqa: E402
 
 # topic -> rate (Hz) per robot
 STREAMS = {"scan": 20.0, "odom": 50.0, "tf": 50.0, "local_costmap/costmap": 5.0, "global_costmap/costmap": 1.0}
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _client(port: int, robot: str):

@@ -6,7 +6,7 @@ Two network namespaces joined by a user-space link (testkit/linkem.py: real IP p
 partitioned), a master-side peer (goal topic, acknowledged goal service, latched map, status stream) and
 a robot-side peer, each its own process with zenav's default Zenoh configuration (peer, multicast
 scouting, 1 s lease). With ``--children agent`` (ZENAV_CHILDREN=agent) each side is laid out as an agent lays
-out its nodes: one peer process (the agent) and the others its clients over a Unix socket; with
+out its nodes (zenav's default): one peer process (the agent) and the others its clients over loopback; with
 ``--children mesh`` every process is a peer. Each cycle cuts the link for 0.3, 1.5 or 4 s (shorter
 than the lease, about it, well beyond it), heals it, and at once:
   - a put stream on the goal topic, from the robot's existing publisher or from one declared right
@@ -69,9 +69,9 @@ def main() -> int:
     ap.add_argument("--autoconnect", choices=("greater-zid", "always"), default="greater-zid",
                     help="which scouted peer dials (ZENAV_AUTOCONNECT; default greater-zid, zenav's default; "
                          "always: both, as Zenoh does)")
-    ap.add_argument("--children", choices=("agent", "mesh"), default="mesh",
-                    help="each side as a mesh of peers (default, as zenav's agents run their nodes) or as "
-                         "one agent peer with client nodes (ZENAV_CHILDREN=agent)")
+    ap.add_argument("--children", choices=("agent", "mesh"), default="agent",
+                    help="each side as one agent peer with client nodes (default, as zenav's agents run "
+                         "their nodes) or as a mesh of peers (ZENAV_CHILDREN=mesh)")
     ap.add_argument("--logs", type=Path, default=Path("/tmp/zenav_reconnect"), help="peer logs go here")
     args = ap.parse_args()
     if os.geteuid() != 0:
@@ -104,8 +104,8 @@ def main() -> int:
         hubs = {}
         if args.children == "agent":  # the agents first: their nodes connect to them
             for ns in (ns_m, ns_r):
-                sock = f"unixsock-stream/{args.logs / f'{ns}.sock'}"
-                hubs[ns] = (sock, peer_proc(ns, "agent", sock))
+                local = "tcp/127.0.0.1:7450"  # the namespace's own loopback, as an agent's (pick_agent_endpoint)
+                hubs[ns] = (local, peer_proc(ns, "agent", local))
             assert wait_for(lambda: all(h.first("READY") for _, h in hubs.values()), 60), "agents did not start"
 
         def peer(ns: str, role: str) -> LineProc:

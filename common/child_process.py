@@ -7,26 +7,25 @@ import ctypes
 import os
 import signal
 import sys
-import tempfile
 from dataclasses import replace
 
+from common.ports import free_port
 from common.zenoh_config import BusConfig
 
 
-def agent_socket(agent: str) -> str:
-    """A Unix-socket endpoint for an agent's nodes to reach it (``BusConfig.children == "agent"``): in a
-    directory only this user can enter, named by agent and process id so that agents never share one."""
-    base = os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir()
-    folder = os.path.join(base, f"zenav-{os.getuid()}")
-    os.makedirs(folder, mode=0o700, exist_ok=True)
-    os.chmod(folder, 0o700)
-    name = "".join(c if c.isalnum() or c in "-_" else "_" for c in agent)[:32]
-    return f"unixsock-stream/{os.path.join(folder, f'{name}-{os.getpid()}.sock')}"
+def pick_agent_endpoint() -> str:
+    """Where an agent's nodes reach it (``BusConfig.children == "agent"``): a TCP port on 127.0.0.1. The
+    agent advertises it to other peers with its other locators; loopback is private to each machine and
+    each network namespace, so a peer elsewhere cannot reach the agent through it (a Unix socket's path,
+    the first choice, was dialled from other network namespaces of one machine through the shared file
+    system, past a cut link). A port taken between the pick and the agent's bind: the agent picks
+    another (``common.launch``)."""
+    return f"tcp/127.0.0.1:{free_port()}"
 
 
 def child_bus_env(cfg: BusConfig, agent_endpoint: str = "") -> dict[str, str]:
     """Bus env for an agent's children. With ``agent_endpoint`` (the agent listens there, see
-    ``agent_socket``) each child is a client of its agent alone. Without it (``children: mesh``, or an
+    ``pick_agent_endpoint``) each child is a client of its agent alone. Without it (``children: mesh``, or an
     agent that is itself a client of a router) the children join as the agent does, listening on
     ephemeral ports (the agent's own listen ports would clash) and connecting to the agent's listen
     endpoints as well."""

@@ -228,6 +228,28 @@ def _dry_specs(launch: Launch) -> list[NodeSpec]:
             for e in launch.entries]
 
 
+def _open_agent_node(agent: str, cfg):
+    """The agent's own session, and the endpoint its nodes dial ("" when they join as peers: children
+    "mesh", or an agent that is a client of a router). With children "agent" the agent also listens on a
+    loopback port (``pick_agent_endpoint``); a port another process took since the pick is picked again."""
+    from dataclasses import replace
+
+    from common.bus import Node
+    from common.child_process import pick_agent_endpoint
+    from common.ports import is_address_in_use
+
+    if cfg.children != "agent" or cfg.mode == "client":
+        return Node(f"{agent}_agent", config=cfg, use_sim_time=False), ""
+    for attempt in range(5):
+        endpoint = pick_agent_endpoint()
+        try:
+            return Node(f"{agent}_agent", config=replace(cfg, local_listen=(endpoint,)), use_sim_time=False), endpoint
+        except Exception as e:  # zenoh.ZError: the listener could not bind
+            if attempt == 4 or not is_address_in_use(e) or endpoint.split("/", 1)[1] not in str(e):
+                raise
+    raise AssertionError("unreachable")
+
+
 def run_agent(agent: str, launch: Launch, robot: str | None = None) -> int:
     """Run a launch under a Supervisor until Ctrl-C / SIGTERM or a required node ends.
     Robot name: ``robot`` argument, else $ZENAV_ROBOT, else the file's ``robot:``, else 'robot'.
@@ -235,10 +257,7 @@ def run_agent(agent: str, launch: Launch, robot: str | None = None) -> int:
     stderr and exit status 2 with nothing started; parameters without effect -> one warning block."""
     import shutil
     import sys
-    from dataclasses import replace
 
-    from common.bus import Node
-    from common.child_process import agent_socket
     from common.node_check import check_nodes, format_config_error, format_notes
     from common.runner import EXIT_CONFIG
     from common.supervisor import Supervisor
@@ -259,10 +278,7 @@ def run_agent(agent: str, launch: Launch, robot: str | None = None) -> int:
         env = dict(launch.env)
         if launch.use_sim_time:
             env.setdefault("ZENAV_USE_SIM_TIME", "1")
-        # children: agent - the nodes are clients of this agent's session (a Unix socket)
-        endpoint = agent_socket(agent) if cfg.children == "agent" and cfg.mode != "client" else ""
-        node = Node(f"{agent}_agent", config=replace(cfg, local_listen=(endpoint,)) if endpoint else cfg,
-                    use_sim_time=False)
+        node, endpoint = _open_agent_node(agent, cfg)
         s = launch.supervisor
         sup = Supervisor(specs, cfg, node, agent=agent, grace=s.grace,
                          crash_loop=(s.crash_loop_deaths, s.crash_loop_window),

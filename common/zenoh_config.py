@@ -45,21 +45,19 @@ class BusConfig:
     # robot data flowed) and none with "greater-zid".
     autoconnect: str = "greater-zid"
     zenoh_config_file: str = ""
-    # How an agent's nodes join: "mesh" (each node is a peer with links to every other one) or "agent"
-    # (each node is a Zenoh client of its own agent over a Unix socket; the agent is the one peer of its
-    # machine). Zenoh peers route nothing for one another, so in a mesh a node whose link to one other
+    # How an agent's nodes join: "agent" (each node is a Zenoh client of its own agent over a loopback TCP
+    # port; the agent is the one peer of its machine) or "mesh" (each node is a peer with links to every
+    # other one). Zenoh peers route nothing for one another, so in a mesh a node whose link to one other
     # node does not re-form (after it was stopped past the lease, or under load) hears nothing from that
     # node while everything else flows: localization got no clock, odometry or ground truth from the
     # simulator for ~2 min after a SIGSTOP/SIGCONT, in 1 of ~20 cycles; a client re-dialled its one link
-    # within ~0.05 s in 20 of 20. Not yet the default: the agent advertises its socket's path to other
-    # peers, and agents in other network namespaces of one machine (tests/reliability, tests/fleet)
-    # reach it through the shared file system, past a cut link (see the README).
-    children: str = "mesh"
-    # Set in an agent's nodes (children="agent"): the agent's Unix socket, this process's one link. It
+    # within ~0.05 s in 20 of 20.
+    children: str = "agent"
+    # Set in an agent's nodes (children="agent"): the agent's loopback endpoint, this process's one link. It
     # makes the process a client of that endpoint alone, with no scouting and no listener; access control
     # (a file's access_control) is left to the agent, which filters all that reaches the node.
     via_agent: str = ""
-    # Extra listen endpoints added to whatever the file / mode gives (an agent's Unix socket).
+    # Extra listen endpoints added to whatever the file / mode gives (an agent's loopback endpoint).
     local_listen: tuple[str, ...] = ()
     # Settings given explicitly (environment / options): with a Zenoh config file, only these and the
     # ones that differ from the defaults are applied on top of the file, so the file's own mode,
@@ -100,7 +98,7 @@ class BusConfig:
             shared_memory=None if shm is None else shm not in ("0", "false", "no"),
             zenoh_config_file=e.get("ZENAV_ZENOH_CONFIG", ""),
             autoconnect=e.get("ZENAV_AUTOCONNECT", "") or "greater-zid",
-            children=e.get("ZENAV_CHILDREN", "") or "mesh",
+            children=e.get("ZENAV_CHILDREN", "") or "agent",
             via_agent=e.get("ZENAV_VIA_AGENT", ""),
             explicit=explicit,
         )
@@ -118,8 +116,7 @@ class BusConfig:
                 env[var] = text
         if self.shared_memory is not None:
             env["ZENAV_SHM"] = "1" if self.shared_memory else "0"
-        if self.children != "mesh":
-            env["ZENAV_CHILDREN"] = self.children
+        env["ZENAV_CHILDREN"] = self.children
         env["ZENAV_VIA_AGENT"] = self.via_agent
         return env
 

@@ -12,6 +12,7 @@ import threading
 import time
 
 import common  # noqa: F401  (first: one BLAS thread per process, see common/__init__.py)
+from common.ports import free_port  # noqa: F401  (deploy.free_port: tests and benches)
 
 
 def robot_pattern(args, all_by_default: bool) -> str:
@@ -94,30 +95,3 @@ def close_quietly(*objs) -> None:
         with contextlib.suppress(Exception):  # best effort on the way out
             o.undeclare() if hasattr(o, "undeclare") else o.close()
 
-
-_HANDED_OUT: set[int] = set()
-
-
-def free_port() -> int:
-    """A TCP port on 127.0.0.1 that is free right now (for private loopback Zenoh networks).
-
-    Picked at random below Linux's ephemeral range (32768-60999): a port the kernel hands out for
-    ``bind(0)`` — every Zenoh peer's own listener, every outgoing connection — could be taken by another
-    process between this check and our bind (seen in CI: "Address already in use"); these cannot."""
-    import random
-    import socket
-
-    for _ in range(200):
-        port = random.randrange(20000, 32768)
-        if port in _HANDED_OUT:
-            continue
-        with socket.socket() as s:
-            try:
-                s.bind(("127.0.0.1", port))
-            except OSError:
-                continue
-        _HANDED_OUT.add(port)
-        return port
-    with socket.socket() as s:  # the low range is crowded: fall back to the kernel's choice
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]

@@ -266,18 +266,17 @@ class NavStack:
         return out
 
     def links(self) -> str:
-        """Each process's open links (psutil): an agent's nodes should hold one Unix-socket link to their
-        agent and no TCP link (children: agent); in a mesh (children: mesh), TCP links to every peer."""
+        """Each process's open links (psutil): an agent's nodes should hold one loopback link to their
+        agent (children: agent); in a mesh (children: mesh), links to every peer."""
         lines = []
         for pid, (_, name) in sorted(self.processes().items(), key=lambda kv: kv[1][1]):
             try:
                 proc = psutil.Process(pid)
                 tcp = [c for c in proc.net_connections(kind="tcp") if c.status == psutil.CONN_ESTABLISHED]
-                unix = proc.net_connections(kind="unix")
             except psutil.Error as e:
                 lines.append(f"{name}: {e}")
                 continue
-            lines.append(f"{name}: {len(tcp)} TCP, {len(unix)} Unix-socket links")
+            lines.append(f"{name}: {len(tcp)} TCP links")
         return "\n".join(lines)
 
     # -- measurements ---------------------------------------------------------------------------------

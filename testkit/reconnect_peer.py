@@ -6,8 +6,8 @@ master: serves what move_base and map_server serve: a ``goal`` topic, an acknowl
         service, a latched ``map`` and a 10 Hz ``status`` stream back to the robot.
 extra:  a bystander (``--peers``): publishes a 20 Hz stream and subscribes to the other side's, as the
         many node processes of a real robot and master do (every pair of them holds a Zenoh session)
-agent:  an agent's session (children: agent): the side's one peer, listening on the Unix socket given as
-        the second argument; the other roles of that side then run as its clients (ZENAV_VIA_AGENT)
+agent:  an agent's session (children: agent): the side's one peer, listening on the loopback endpoint given
+        as the second argument; the other roles of that side then run as its clients (ZENAV_VIA_AGENT)
 robot:  reads commands on stdin and sends as the goal senders do:
         ``stream ID``  put ID:0, ID:1, ... on the goal topic every 50 ms until ``stop``
         ``fresh ID``   the same from a publisher declared now (a new sender right after a heal)

@@ -234,14 +234,14 @@ def test_mtls_identifies_master_whichever_side_connects(tmp_path, sessions):
 
 
 def test_an_agents_nodes_get_cmd_vel_only_from_master_through_their_agent(tmp_path, creds, sessions):
-    """Nodes of an agent (children: agent) are clients of its Unix socket and leave access control to it:
+    """Nodes of an agent (children: agent) are clients of its loopback port and leave access control to it:
     the agent's ingress filter must hold for what it forwards to them, and their own link must work
     with the robot's credentials."""
     ep = f"tcp/127.0.0.1:{free_port()}"
     robot_file = gen(tmp_path, "robot", "peer", "--listen", ep, "--user", "robot", "--password-file",
                      str(creds / "robot.pw"), "--users-file", str(creds / "users.txt"),
                      "--acl-cmd-vel-only", "master")
-    sock = f"unixsock-stream/{tmp_path / 'agent.sock'}"
-    agent = sessions(BusConfig(zenoh_config_file=robot_file, local_listen=(sock,)).to_zenoh())
-    node = sessions(BusConfig(zenoh_config_file=robot_file, via_agent=sock).to_zenoh())
+    local = f"tcp/127.0.0.1:{free_port()}"
+    agent = sessions(BusConfig(zenoh_config_file=robot_file, local_listen=(local,)).to_zenoh())
+    node = sessions(BusConfig(zenoh_config_file=robot_file, via_agent=local).to_zenoh())
     assert_cmd_vel_only_from_master(tmp_path, creds, sessions, ep, agent, node)
