@@ -1,6 +1,6 @@
 """CPU of the simulated robot and the master, per node: standing still, then driving goals.
 
-    python bench/stack_cpu.py [--world room] [--planner dwa] [--seconds 20]
+    python bench/stack_cpu.py [--world room] [--planner dwa] [--seconds 20] [--speed 1]
 
 `zenav robot` (simulated P3-AT, its Kinect -> depth_to_scan -> scan, collision monitor) and `zenav master`
 (known map: fake_localization, map_server, both costmaps, move_base) start as separate process groups on a
@@ -60,11 +60,13 @@ def main() -> int:
     ap.add_argument("--world", default="room")
     ap.add_argument("--planner", default="dwa", choices=("dwa", "trajectory"))
     ap.add_argument("--seconds", type=float, default=20.0, help="length of each phase (default 20)")
+    ap.add_argument("--speed", type=float, default=1.0,
+                    help="simulator speed (x real time; the end-to-end tests run at 2; default 1)")
     args = ap.parse_args()
     goals = list(world_goals(args.world).values())[:2]
     with tempfile.TemporaryDirectory(prefix="stack_cpu") as tmp:
-        print(f"starting the {args.world} stack ({args.planner}) ...", file=sys.stderr, flush=True)
-        stack = NavStack(Path(tmp), args.world, args.planner)
+        print(f"starting the {args.world} stack ({args.planner}, {args.speed:g}x) ...", file=sys.stderr, flush=True)
+        stack = NavStack(Path(tmp), args.world, args.planner, args.speed)
         try:
             pids = stack.processes()
             start = sum(cpu_s(p) for p in pids)

@@ -77,7 +77,12 @@ def test_speed_5_runs_ten_sim_seconds_in_about_two_wall_seconds(bus, sim, tmp_pa
     for name, s, step in (("clock", clocks, 0.01), ("odom", odoms, 0.02), ("scan", scans, 0.04)):
         k = np.diff(s) / step
         assert np.allclose(k, np.round(k), atol=1e-3) and np.all(np.round(k) >= 1), f"{name} off its grid"
-        assert np.mean(np.round(k) == 1) >= 0.9, f"{name}: over 10 % of the messages lost"
+        if name != "clock":
+            assert np.mean(np.round(k) == 1) >= 0.9, f"{name}: over 10 % of the messages lost"
+    # Faster than real time the clock goes out once per wake-up of the physics (10 ms of wall time, 5
+    # steps at 5x), with the newest step's time, before that wake-up's messages: not for every step
+    steps = (clocks[-1] - clocks[0]) / 0.01
+    assert len(clocks) <= 0.5 * steps, f"{len(clocks)} clock messages for {steps:.0f} steps at 5x"
 
 
 def test_disabled_motors_ignore_cmd_vel(bus, sim, tmp_path):
