@@ -11,7 +11,7 @@ Published (all stamps sim time; sim time starts at the wall time at start unless
 
     clock                       Clock           every physics step (dt = sim.dt, 100 Hz sim time) up to 1x real
                                                 time; faster, once per wake-up of the physics (CLOCK_WALL_PERIOD,
-                                                10 ms of wall time) for the steps run then, before their messages
+                                                10 ms of wall time), with the last step run then
     odom                        Odometry        odom -> base_link, odom_rate (50 Hz sim time)
     tf                          TFMessage       odom -> base_link, with every odom message
     tf_static (latched)         TFMessage       base_link -> laser, base_link -> camera_link (mount_tf),
@@ -53,7 +53,8 @@ from robot_side.sim.simulator import Pacer, Simulator, resolve_world
 
 log = logging.getLogger("zenav.sim")
 # Wall time between the physics thread's wake-ups: above 1x real time the steps due run together and the
-# clock goes out once for them, before their messages. Every node on sim time handles each
+# clock goes out once for them, with the last (a message of an earlier step of the wake-up can arrive
+# before the clock has reached its stamp: at most 10 ms of wall time ahead). Every node on sim time handles each
 # clock message (about 2 % of a core per process at 100 per second: bench/stack_cpu.py), so at 2x a
 # clock per step doubled that for every process while giving no node a finer view of wall time.
 CLOCK_WALL_PERIOD = 0.01
@@ -195,25 +196,22 @@ class SimNode:
     def _run(self) -> None:
         dt, pacer = self.sim.params.dt, Pacer(self.speed)
         t0, sim0 = time.monotonic(), self.sim.time
-        woke = t0
+        woke = t0 - CLOCK_WALL_PERIOD  # the planned time of the last wake-up
         while not self._stop.is_set():
             n = pacer.steps_due(time.monotonic() - t0, self.sim.time - sim0, dt)
             if n == 0:
                 # at most one wake-up per CLOCK_WALL_PERIOD: faster than real time, the steps due by then
                 # run together and the clock goes out once for them (see _step)
-                due = max(t0 + (self.sim.time - sim0 + dt) / self.speed, woke + CLOCK_WALL_PERIOD)
-                self._stop.wait(max(0.0, due - time.monotonic()))
-                woke = time.monotonic()
+                woke = max(t0 + (self.sim.time - sim0 + dt) / self.speed, woke + CLOCK_WALL_PERIOD)
+                self._stop.wait(max(0.0, woke - time.monotonic()))
                 continue
-            out: list = []
-            for _ in range(n):
+            for i in range(n):
                 if self._stop.is_set():
                     return
                 try:
-                    out += self._step()
+                    self._step(clock=i == n - 1)
                 except Exception:  # noqa: BLE001 - a bad step must not silently kill the robot's clock
                     log.exception("simulation step failed")
-            self._publish(out)
             behind = (time.monotonic() - t0) - (self.sim.time - sim0) / self.speed
             if behind > self.p.max_lag:
                 t0 = time.monotonic() - (self.sim.time - sim0) / self.speed
@@ -222,12 +220,16 @@ class SimNode:
                     log.warning("simulator cannot keep up with %gx real time (%.2f s behind, #%d): "
                                 "running slower", self.speed, behind, self.lag_events)
 
-    def _step(self) -> list:
-        """One physics step; returns what it publishes as (publisher, message)."""
+    def _step(self, clock: bool = True) -> None:
+        """One physics step and what it publishes, each step's messages as it runs (a wake-up's steps sent
+        at once could overflow Zenoh's send queue: stream messages are dropped then). The clock goes
+        out with the last step of a wake-up, before that step's messages."""
         sim, off, out = self.sim, self.offset, []
         with self.lock:
             due = sim.step()
             t = sim.time
+            if clock:
+                out.append((self.pub_clock, Clock(t + off)))
             if self._odom_tick(t):
                 out.append((self.pub_odom, _restamp(sim.odometry(), off)))
                 out.append((self.tf, _restamp(sim.odom_transform(), off)))
@@ -250,14 +252,6 @@ class SimNode:
                 img, info = sim.depth_frame()
                 out.append((self.pub_info, _restamp(info, off)))
                 out.append((self.pub_depth, _restamp(img, off)))
-        return out
-
-    def _publish(self, out: list) -> None:
-        """The clock at the newest step, then the steps' messages in order: no node receives a message
-        stamped after its clock."""
-        with self.lock:
-            now = Clock(self.sim.time + self.offset)
-        self.pub_clock.publish(now)
         for pub, msg in out:
             if pub is self.tf:
                 pub.send(msg)
