@@ -48,8 +48,11 @@ def test_jackal_config_publishes_front_scan_world_aligned_odom_and_truth(bus, ja
     assert s.header.frame_id == "front_laser"
     assert len(s.ranges) == 720
     assert (s.angle_min, s.angle_max, s.range_min, s.range_max) == pytest.approx((-2.35619, 2.35619, 0.1, 30.0))
-    stamps = [m.header.stamp for m in scan.msgs()]
-    assert np.allclose(np.diff(stamps), 0.02, atol=1e-6)  # 50 Hz of sim time
+    # 50 Hz of sim time: every stamp on the 0.02 s grid. A stream message may be dropped on the way on a
+    # loaded machine (Zenoh's drop congestion control, README "Reliability"); the simulator skips none.
+    k = np.diff([m.header.stamp for m in scan.msgs()]) / 0.02
+    assert np.allclose(k, np.round(k), atol=1e-4) and np.all(np.round(k) >= 1), k
+    assert np.mean(np.round(k) == 1) >= 0.9, f"over 10 % of the scans lost: {k}"
     assert len(plain_scan) == 0, "the Jackal's laser is on front/scan only"
     # the side walls of the BARN box, 2.1 m to the left and right of the start (cylinder faces)
     for side in (math.pi / 2, -math.pi / 2):
