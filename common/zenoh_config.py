@@ -24,10 +24,7 @@ DEFAULT_ROBOT = "robot"
 # stream message is dropped: 1-1.5 % of a 4 x 200 Hz stream on loopback with the 2 cores saturated, none
 # with 16 (a best-effort publisher still never blocks longer than Zenoh's wait_before_drop of 1 ms).
 TX_QUEUE_BATCHES = 16
-# An agent (children: agent) forwards every stream of its nodes to each subscriber elsewhere: one queue
-# per link carries what several processes send, so it gets four times as many (Zenoh allocates queue
-# batches as they fill: the lazy allocation mode, its default).
-AGENT_TX_QUEUE_BATCHES = 4 * TX_QUEUE_BATCHES
+# 16 is also Zenoh's most (RBLEN in zenoh-transport's pipeline: a larger size panics as a link opens).
 
 
 @dataclass(frozen=True)
@@ -170,8 +167,8 @@ class BusConfig:
             conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
         return self._queue(conf)
 
-    def _queue(self, conf):
+    @staticmethod
+    def _queue(conf):
         if json.loads(conf.get_json("transport/link/tx/queue/size/data")) == 2:  # a file's other value wins
-            batches = AGENT_TX_QUEUE_BATCHES if self.local_listen else TX_QUEUE_BATCHES
-            conf.insert_json5("transport/link/tx/queue/size/data", str(batches))
+            conf.insert_json5("transport/link/tx/queue/size/data", str(TX_QUEUE_BATCHES))
         return conf
