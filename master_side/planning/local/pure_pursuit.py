@@ -191,13 +191,14 @@ class RegulatedPurePursuit(LocalPlanner):
         if self._safe(ctx, cmd, min(0.5, abs(err) / max(abs(w), 1e-3)))[0]:
             traj = simulate(ctx.pose, ctx.vel, cmd, 0.5, 5).poses[0]
             return LocalResult((0.0, 0.0, float(w)), True, "", traj, 1)
+        reason = f"{why}; turning in place would collide too"
         if self.params.escape_vel < 0.0 and self._escape_from is None:
-            out = self._back_up(ctx, f"{why}; turning in place would collide too: backing up")
+            out = self._back_up(ctx, f"{reason}: backing up")
             if out.ok:
                 self._escape_from = ctx.pose.copy()
                 return out
-        return LocalResult(self._brake(ctx.vel), False, f"{why}; turning in place would collide too",
-                           np.zeros((0, 3)), 1)
+            reason += ", and so would backing up"  # the stop says why no escape was tried further
+        return LocalResult(self._brake(ctx.vel), False, reason, np.zeros((0, 3)), 1)
 
     def _back_up(self, ctx: ScoringContext, why: str) -> LocalResult:
         """Straight back over escape_dist (long enough to leave a contact the padded footprint is in)."""
