@@ -79,15 +79,17 @@ class SimClock:
         self.sleep_until(self._t + seconds)
 
     def sleep_until(self, t: float, cancel: threading.Event | None = None) -> bool:
-        while True:
-            ev = threading.Event()
+        ev, queued = threading.Event(), False
+        while not (cancel is not None and cancel.is_set()):
             with self._lock:
                 if self._closed or self._t >= t:
                     break
-                heapq.heappush(self._sleepers, (t, next(self._seq), ev))
-            if cancel is not None and cancel.is_set():
-                break
-            ev.wait(self.POLL_S)
+                if not queued:  # once per sleep; again only after update / wake took the entry out
+                    ev.clear()
+                    heapq.heappush(self._sleepers, (t, next(self._seq), ev))
+                    queued = True
+            if ev.wait(self.POLL_S):
+                queued = False
         return not (cancel is not None and cancel.is_set()) and not self._closed
 
 

@@ -11,9 +11,12 @@ import math
 import os
 import sys
 import time
+from typing import TYPE_CHECKING
 
 from common.argtypes import nonneg_int, positive
-from common.tf_buffer import EdgeInfo
+
+if TYPE_CHECKING:  # numpy comes with it: not for `zenav --help`
+    from common.tf_buffer import EdgeInfo
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:

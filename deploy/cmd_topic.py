@@ -9,8 +9,6 @@ import threading
 import time
 from collections import defaultdict, deque
 
-import numpy as np
-
 from common.argtypes import nonneg_int, positive, positive_int
 from common.live_keys import LiveKey, live_key
 from deploy import close_quietly, one_robot, open_session, robot_pattern, wait
@@ -80,6 +78,8 @@ def _fmt_float(v: float) -> str:
 
 def summarize(v, depth: int = 0) -> str:
     """A compact one-line rendering: arrays as dtype[shape] min..max, long sequences elided."""
+    import numpy as np  # here, not at import: `zenav --help` stays without numpy
+
     if isinstance(v, np.ndarray):
         s = f"{v.dtype.name}{list(v.shape)}"
         if v.size and v.dtype.kind in "fiu":
@@ -251,6 +251,8 @@ class RateWindow:
         self.total += 1
 
     def stats(self) -> dict | None:
+        import numpy as np
+
         if len(self.times) < 2:
             return None
         d = np.diff(np.asarray(self.times))

@@ -1,12 +1,22 @@
 """Pure simulation of a Pioneer 3-AT, a Pioneer LX or a Clearpath Jackal with a laser and a Kinect-like depth
 camera (no bus here). Two engines behind one ``Simulator``: ``kinematic`` (exact arcs on the world's height
-grid) and ``mujoco`` (rigid-body physics: ``mujoco_base``, ``mujoco_sensors``, ``robot_bodies``)."""
+grid) and ``mujoco`` (rigid-body physics: ``mujoco_base``, ``mujoco_sensors``, ``robot_bodies``).
 
-from robot_side.sim.base import BaseParams, DiffDriveBase
-from robot_side.sim.depth_camera import DepthCamera, DepthCameraParams
-from robot_side.sim.laser import Laser, LaserParams
-from robot_side.sim.simulator import Pacer, Simulator, SimulatorParams
-from robot_side.sim.world import World, WorldParams, load_world
+The names below load on first use, so that a light submodule (``physics_params``, read by ``zenav robot
+--help``) does not import the simulator and numpy with it."""
 
-__all__ = ["BaseParams", "DiffDriveBase", "DepthCamera", "DepthCameraParams", "Laser", "LaserParams", "Pacer",
-           "Simulator", "SimulatorParams", "World", "WorldParams", "load_world"]
+from __future__ import annotations
+
+import importlib
+
+_HOME = {"BaseParams": "base", "DiffDriveBase": "base", "DepthCamera": "depth_camera",
+         "DepthCameraParams": "depth_camera", "Laser": "laser", "LaserParams": "laser", "Pacer": "simulator",
+         "Simulator": "simulator", "SimulatorParams": "simulator", "World": "world", "WorldParams": "world",
+         "load_world": "world"}
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name: str):
+    if name not in _HOME:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)

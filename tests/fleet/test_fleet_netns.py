@@ -36,6 +36,8 @@ from fleet_hosts import (
     zenav,
 )
 
+from tests.support import wait_until
+
 pytestmark = [pytest.mark.netns, pytest.mark.slow]
 GOAL = ("-1.2", "0.3", "0.0")  # 1 m ahead of the room world's start (-2.2, 0, 0)
 GOAL_B = ("-0.6", "1.0", "0.0")  # robot1's second goal: from GOAL, 1 m on, clear of the crate at (0, 0)
@@ -186,8 +188,9 @@ def _wrong_cmd_vel_does_not_move_robot1(fleet, procs: list) -> None:
 def test_fleet_status_finds_stopped_service_missing_node_and_clock_offset(fleet):
     inv, hosts = str(fleet["inv"]), fleet["hosts"]
     assert zenav("fleet", "-i", inv, "down", "master1").returncode == 0
-    os.kill(node_pid(hosts, "robot1", "Pioneer3AT_laserscan_tf"), 15)  # no respawn: stays missing
-    time.sleep(1.0)
+    pid = node_pid(hosts, "robot1", "Pioneer3AT_laserscan_tf")
+    os.kill(pid, 15)  # no respawn: stays missing
+    wait_until(lambda: pid not in hosts.pids("robot1"), 30, "the static TF node gone")
     r = zenav("fleet", "-i", str(fleet["skewed"]), "status", "--seconds", "1.5")
     out = r.stdout
     assert r.returncode == 1, out
