@@ -69,8 +69,8 @@ class Supervisor:
                      "ZENAV_PARENT_PID": str(os.getpid()), "PYTHONUNBUFFERED": "1"}
         self._wake = threading.Event()
         if fork_server is None:
-            # opt-in: no CPU gain measured yet over the suite, see the README
-            fork_server = os.environ.get("ZENAV_FORK_SERVER", "0") in ("1", "true", "yes")
+            # on unless ZENAV_FORK_SERVER=0 (common/fork_server.py, the README)
+            fork_server = os.environ.get("ZENAV_FORK_SERVER", "1") not in ("0", "false", "no")
         self._fork_modules = sorted({s.module for s in specs if s.module}) if fork_server else []
         self._forker: ForkServer | None = None
         self._stop_req = threading.Event()
