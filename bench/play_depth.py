@@ -28,8 +28,9 @@ sys.path.insert(0, str(ROOT))
 
 from common.bus import Node  # noqa: E402
 from common.messages import DepthImage, Header  # noqa: E402
+from common.ports import free_port  # noqa: E402
 from common.zenoh_config import BusConfig  # noqa: E402
-from deploy import checkout_env, free_port  # noqa: E402
+from deploy import checkout_env  # noqa: E402
 from deploy.logs.mcap_io import read_records  # noqa: E402
 
 TOPIC = "camera/depth/image"

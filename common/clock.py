@@ -30,6 +30,9 @@ class WallClock:
         self.sleep(delay)
         return True
 
+    def wake(self) -> None:
+        """Nothing to do: a wall-clock sleeper waits on its cancel event itself (``SimClock.wake``)."""
+
 
 class SimClock:
     """Simulated time: advances only when ``update`` is called (from the ``clock`` topic).
@@ -159,16 +162,12 @@ class Timer:
         """New data: run soon (``on_data`` timers; a no-op for fixed-rate ones)."""
         if self._on_data:
             self._wake.set()
-            wake = getattr(self._clock, "wake", None)
-            if wake is not None:
-                wake()
+            self._clock.wake()
 
     def cancel(self) -> None:
         self._cancel.set()
         self._wake.set()
-        wake = getattr(self._clock, "wake", None)
-        if wake is not None:
-            wake()
+        self._clock.wake()
 
     def join(self, timeout: float = 2.0) -> None:
         if threading.current_thread() is not self._thread:

@@ -8,7 +8,7 @@ own environment, working directory, process group and output pipe. Forking is sa
 with one thread, so the server checks that after its imports and never starts a thread; if a module
 started one, the server says so and the agent starts its nodes with ``python -m`` as before.
 On by default (``ZENAV_FORK_SERVER=0`` starts every node with ``python -m``): the simulated P3-AT's two
-agents start in 6.0-6.9 s of CPU instead of 9.6-10.2 s (``bench/stack_cpu.py``, ``stack_start_cpu_s``).
+agents start in 6.0-7.2 s of CPU instead of 9.2-10.2 s (``bench/stack_cpu.py``, ``stack_start_cpu_s``).
 The imports are frozen out of the garbage collector (``gc.freeze``) before the first fork.
 
     python -u -m common.fork_server FD MODULE... PAD   (started by ForkServer, FD a SOCK_SEQPACKET socket)

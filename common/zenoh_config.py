@@ -145,30 +145,25 @@ class BusConfig:
             conf.insert_json5("listen/endpoints", json.dumps([*eps, *self.local_listen]))
         if apply("multicast"):
             conf.insert_json5("scouting/multicast/enabled", json.dumps(self.multicast))
-        if apply("lease_ms"):
-            conf.insert_json5("transport/link/tx/lease", str(self.lease_ms))
-            conf.insert_json5("transport/link/tx/keep_alive", "4")
-        if self.shared_memory is not None:
-            conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
         if apply("autoconnect"):
             strategy = json.dumps({"peer": {"to_router": "always", "to_peer": self.autoconnect}})
             conf.insert_json5("scouting/multicast/autoconnect_strategy", strategy)
             conf.insert_json5("scouting/gossip/autoconnect_strategy", strategy)
-        return self._queue(conf)
+        return self._transport(conf)
 
     def _agent_node(self, conf):
         for key, value in (("mode", "client"), ("connect/endpoints", [self.via_agent]), ("listen/endpoints", []),
                            ("scouting/multicast/enabled", False), ("access_control/enabled", False)):
             conf.insert_json5(key, json.dumps(value))
+        return self._transport(conf)
+
+    def _transport(self, conf):
+        """Link settings every session gets, an agent's node too: lease, shared memory, send queue."""
         if self._applies("lease_ms"):
             conf.insert_json5("transport/link/tx/lease", str(self.lease_ms))
             conf.insert_json5("transport/link/tx/keep_alive", "4")
         if self.shared_memory is not None:
             conf.insert_json5("transport/shared_memory/enabled", json.dumps(self.shared_memory))
-        return self._queue(conf)
-
-    @staticmethod
-    def _queue(conf):
         if json.loads(conf.get_json("transport/link/tx/queue/size/data")) == 2:  # a file's other value wins
             conf.insert_json5("transport/link/tx/queue/size/data", str(TX_QUEUE_BATCHES))
         return conf

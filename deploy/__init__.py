@@ -12,7 +12,6 @@ import threading
 import time
 
 import common  # noqa: F401  (first: one BLAS thread per process, see common/__init__.py)
-from common.ports import free_port  # noqa: F401  (deploy.free_port: tests and benches)
 
 
 def robot_pattern(args, all_by_default: bool) -> str:

@@ -20,8 +20,9 @@ import yaml
 
 from common.bus import Node
 from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, Scalar
+from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy import barn, free_port
+from deploy import barn
 from deploy.procs import ProcessGroup
 from robot_side.worlds.barn import GOAL, GOAL_IN_ODOM, START
 

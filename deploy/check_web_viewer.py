@@ -25,7 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-from deploy import checkout_env, free_port
+from common.ports import free_port
+from deploy import checkout_env
 from deploy.monitor.cdp import CDP
 
 REPO = Path(__file__).resolve().parents[1]

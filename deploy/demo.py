@@ -20,8 +20,8 @@ import yaml
 from common.bus import Node
 from common.geometry import Pose2D, normalize_angle
 from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, Odometry
+from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy import free_port
 from deploy.map_check import map_accuracy
 from deploy.procs import ProcessGroup
 from deploy.world_maps import export_world_map, world_path

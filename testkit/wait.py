@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
-from deploy import free_port
+from common.ports import free_port
 
 __all__ = ["free_port", "wait_until"]
 

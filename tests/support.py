@@ -11,7 +11,7 @@ from typing import Iterator
 
 import pytest
 
-from deploy import free_port
+from common.ports import free_port
 from testkit.wait import wait_until
 
 __all__ = ["free_port", "ip", "listening", "two_netns", "wait_until"]

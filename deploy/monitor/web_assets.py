@@ -12,12 +12,13 @@ the user asked) serves the copies.
 from __future__ import annotations
 
 import os
-import socket
 import subprocess
 import sys
 import time
 import urllib.request
 from pathlib import Path
+
+from common.ports import free_port
 
 FILES = ("re_viewer.js", "re_viewer_bg.wasm", "index.html")
 
@@ -42,16 +43,10 @@ def ensure_assets(timeout: float = 120.0) -> Path:
     return dest
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def _extract(dest: Path) -> None:
     import rerun as rr
 
-    port = _free_port()
+    port = free_port()
     rr.serve_web_viewer(web_port=port, open_browser=False)
     end = time.monotonic() + 60
     for name in FILES:

@@ -16,8 +16,8 @@ import yaml
 
 from common.bus import Node
 from common.messages import CostmapSensors, MoveBaseStatus, Odometry
+from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy import free_port
 from deploy.procs import ProcessGroup
 from tests.support import wait_until
 

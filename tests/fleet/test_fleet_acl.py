@@ -16,7 +16,7 @@ from pathlib import Path
 
 import yaml
 
-from deploy import free_port
+from common.ports import free_port
 from deploy.fleet import inventory, render
 
 HERE = Path(__file__).resolve().parent
