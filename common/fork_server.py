@@ -126,6 +126,9 @@ def _run_node(req: dict, out_fd: int, server: int) -> None:
     sys.argv = [req["module"], *req["args"]]
     import runpy
 
+    # as under ``python -m``, the module runs as __main__ only: the server's imported copy would make runpy
+    # warn ("found in sys.modules ... prior to execution") on every node start
+    sys.modules.pop(req["module"], None)
     runpy.run_module(req["module"], run_name="__main__", alter_sys=True)
     sys.exit(0)
 
