@@ -17,13 +17,17 @@ from tests.slam_e2e.slam_demo import run_slam_demo, wall_length
 # the room and the corridor; 78-83 % with the Kinect's 57-degree scan, the robot 1-2 m off by then)
 WITHIN_TWO_CELLS = 0.95
 CELL = 0.05  # hector_p3at.yaml's map_resolution
+# real time, not the other SLAM tests' 2x: without odometry every scan has to be matched before the next
+# moves the robot too far; at 2x with a CPU hog beside the suite the node fell behind and lost track once
+# (50 % of the cells within two cells, a doubled room)
+SPEED = 1.0
 
 
 
 @pytest.mark.slow
 def test_hector_demo_maps_the_room_with_its_walls_within_two_cells(robot_name, tmp_path):
     # the corridor (measured 100 %) is left out for the suite's time: `zenav demo --slam hector`
-    ok, results, acc = run_slam_demo("room", "hector", robot_name, tmp_path)
+    ok, results, acc = run_slam_demo("room", "hector", robot_name, tmp_path, speed=SPEED)
     goals = [f"{r.name}: {r.reason} ({r.xy_error:.2f} m)" for r in results]
     assert ok, f"the loop was not driven: {goals} (logs in {tmp_path})"
     assert acc is not None, f"no SLAM map received (logs in {tmp_path})"
