@@ -1,11 +1,12 @@
-"""Issue 6 acceptance on the corridor world, for both local planners, in one process: the simulated P3-AT
+"""Issue 6 acceptance in one process: the corridor world with both local planners and the room with
+trajectory rollout (the room with DWA is driven over the bus, test_nav_e2e_room_dwa.py). The simulated P3-AT
 (its Kinect's depth image through depth_to_scan), both costmaps and move_base built from the shipped robot
 and master YAMLs and stepped in lock-step on the simulated clock (deploy/barn_inproc.InProcessStack).
 
 The same checks as the bus tests (nav_e2e_checks.check_world_goals): every goal of the world reached within
 0.3 m / 0.1 rad of ground truth, no collision, no goal moved, and the final in-place rotation never turns
 back. In lock-step no control cycle is ever late, so a reversal here is the planner's own. The bus wiring of
-the same nodes is tested by the room modules (both planners) and the recovery module."""
+the same nodes is tested by the room modules (both planners' configs) and the recovery module."""
 
 from __future__ import annotations
 
@@ -30,15 +31,18 @@ def final_rotation(run: GoalOutcome, xy_goal_tolerance: float) -> list[float]:
     return [w for t, _, w in run.cmds[last_move + 1:] if abs(w) > 1e-9 and t > entered]
 
 
-@pytest.mark.parametrize("planner", ["dwa", "trajectory"])
-def test_nav_inproc_corridor_reaches_the_world_goals_without_collision(planner, tmp_path):
-    stack = InProcessStack(WORLDS / "corridor.yaml", ROBOT_CONFIG, master_config_for(planner, "corridor", tmp_path))
+CASES = [("corridor", "dwa"), ("corridor", "trajectory"), ("room", "trajectory")]
+
+
+@pytest.mark.parametrize(("world", "planner"), CASES)
+def test_nav_inproc_reaches_the_world_goals_without_collision(world, planner, tmp_path):
+    stack = InProcessStack(WORLDS / f"{world}.yaml", ROBOT_CONFIG, master_config_for(planner, world, tmp_path))
     tolerance = stack.mb.local_params.xy_goal_tolerance
     rotations = []
-    for name, goal in world_goals("corridor").items():
+    for name, goal in world_goals(world).items():
         run = stack.goto(Pose2D(*goal), TIME_LIMIT_S, goal_id=name)
         xy, yaw = pose_error(run.truth, goal)
-        line = (f"corridor/{planner} (in process) {name}: xy {xy:.3f} m yaw {yaw:.3f} rad in {run.sim_s:.1f} s "
+        line = (f"{world}/{planner} (in process) {name}: xy {xy:.3f} m yaw {yaw:.3f} rad in {run.sim_s:.1f} s "
                 f"of sim time; {run.reason}")
         RESULTS.append(line)
         assert run.status == GoalStatus.SUCCEEDED, f"{line}\n" + "\n".join(stack.events[-20:])
