@@ -1,12 +1,12 @@
-"""Issue 6 acceptance in one process: the corridor world with both local planners and the room with
-trajectory rollout (the room with DWA is driven over the bus, test_nav_e2e_room_dwa.py). The simulated P3-AT
-(its Kinect's depth image through depth_to_scan), both costmaps and move_base built from the shipped robot
-and master YAMLs and stepped in lock-step on the simulated clock (deploy/barn_inproc.InProcessStack).
+"""Issue 6 acceptance in one process: the room and the corridor worlds with both local planners. The
+simulated P3-AT (its Kinect's depth image through depth_to_scan), both costmaps and move_base built from the
+shipped robot and master YAMLs and stepped in lock-step on the simulated clock (deploy/barn_inproc.py).
 
-The same checks as the bus tests (nav_e2e_checks.check_world_goals): every goal of the world reached within
-0.3 m / 0.1 rad of ground truth, no collision, no goal moved, and the final in-place rotation never turns
-back. In lock-step no control cycle is ever late, so a reversal here is the planner's own. The bus wiring of
-the same nodes is tested by the room modules (both planners' configs) and the recovery module."""
+Every goal of the world reached within 0.3 m / 0.1 rad of ground truth, no collision, no goal moved, and the
+final in-place rotation never turns back (in lock-step no control cycle is ever late, so a reversal here is
+the planner's own). The same configs over the bus (robot and master agents, every node its own process):
+the room modules (a goal in base_link, a stale TF, an unreachable goal, a cancel, a resent goal) and the
+recovery module."""
 
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ def final_rotation(run: GoalOutcome, xy_goal_tolerance: float) -> list[float]:
     return [w for t, _, w in run.cmds[last_move + 1:] if abs(w) > 1e-9 and t > entered]
 
 
-CASES = [("corridor", "dwa"), ("corridor", "trajectory"), ("room", "trajectory")]
+CASES = [("room", "dwa"), ("room", "trajectory"), ("corridor", "dwa"), ("corridor", "trajectory")]
 
 
 @pytest.mark.parametrize(("world", "planner"), CASES)
