@@ -94,8 +94,10 @@ def test_rate_paces_log_seconds_per_wall_second(bus, rate):
     st = bus.play(rate=rate, clock=False, end_tick=0.0).run()
     wall = time.monotonic() - t
     wait_until(lambda: len(scans) == 21, 30, "every scan")
-    span = scans[-1][0] - scans[0][0]
-    assert span >= 2.0 / rate * 0.9, (span, rate)  # never faster than asked
+    # never faster than asked, on the player's side: the 2 s of log took at least 2 s / rate of wall time
+    # (the arrival times are no measure of it: a loaded machine delivered the first scans 0.14 s late and
+    # in a burst with the next, so 0.4 s of sending arrived within 0.26 s)
+    assert st.wall_s >= 2.0 / rate - 1e-3, (st.wall_s, rate)
     assert wall < 2.0 / rate * 3 + 5.0  # and not crawling (generous: a loaded machine)
     assert st.rate_achieved == pytest.approx(rate, rel=0.35)
 
