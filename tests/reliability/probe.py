@@ -3,7 +3,7 @@
 Prints one line per event, wall time first (the robot PC's clock)::
 
     GT t x y yaw v stamp w  ground truth, 50 Hz        SAFE t v w     what the base is told
-    CMD t v w sim           cmd_vel from the master    COLL t count   a collision
+    CMD t v w sim           cmd_vel from the master    COLL t count stamp x y   a collision (sim time, where)
     MON t action            collision monitor state    ST t status goal_id state reason   move_base/status
 
 ``stamp`` is ground truth's header stamp and ``sim`` the last simulated clock seen when the command came:
@@ -62,7 +62,8 @@ def main() -> None:
                    callback=lambda m: say("CMD", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}", f"{sim_now():.4f}"))
     node.subscribe("safety/cmd_vel", Twist, mode="queue",
                    callback=lambda m: say("SAFE", f"{m.linear.x:.4f}", f"{m.angular.z:.4f}"))
-    node.subscribe("collision", Collision, mode="queue", callback=lambda m: say("COLL", m.count))
+    node.subscribe("collision", Collision, mode="queue", callback=lambda m: say(
+        "COLL", m.count, f"{m.header.stamp:.4f}", f"{m.x:.4f}", f"{m.y:.4f}"))
     node.subscribe("collision_monitor/state", CollisionMonitorState, mode="queue",
                    callback=lambda m: say("MON", m.action))
     node.subscribe("move_base/status", MoveBaseStatus, mode="queue",

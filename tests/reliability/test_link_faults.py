@@ -268,7 +268,13 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
         assert expiry_only > gap
         assert acted, "the collision monitor never acted"
         assert travelled < gap
-        assert not probe.events("COLL", t0), "collision"
+        coll = probe.events("COLL", t0)
+        if coll:  # when (sim time) and where it touched, against the motion and the monitor around it
+            t_c = float(coll[0][0])
+            trace = [" ".join(w) for w in probe.lines if len(w) > 1 and w[1] in ("GT", "SAFE", "MON", "COLL", "SENT")
+                     and t_cut - 0.2 <= float(w[0]) <= t_c + 0.3]
+            raise AssertionError(f"collision {coll[0][1:]} (count, sim stamp, contact x y); box line {spawned}, "
+                                 f"start {start}, stop {stop}:\n" + "\n".join(trace[:150]))
     finally:
         _teleop(stack, "stop")  # before the heal: the stream must not push the robot on into the box
         _link(stack, "heal")
