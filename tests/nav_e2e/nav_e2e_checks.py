@@ -101,6 +101,26 @@ def check_final_rotation(run: GoalRun) -> None:
                    f"period {period:.3f} s)")
 
 
+def check_world_goals(stack: NavStack) -> list[GoalRun]:
+    """Every goal of the world's ``goals:``, in order: reached within 0.3 m / 0.1 rad of ground truth,
+    no collision, and the final in-place rotation never reverses."""
+    before = stack.collision_count()
+    runs = []
+    for name, goal in world_goals(stack.world).items():
+        run = run_goal(stack, name, goal)
+        runs.append(run)
+        assert run.code == 0, f"{name}: {run.line(stack)}\n{stack.logs()}"
+        assert run.status.status == GoalStatus.SUCCEEDED, run.line(stack)
+        assert run.xy_err <= XY_TOL, run.line(stack)
+        assert run.yaw_err <= YAW_TOL, run.line(stack)
+        assert stack.collision_count() == before, f"{name}: collision {stack.collisions.last()}"
+        assert run.status.goal_offset_m == 0.0, f"{name}: a free goal was moved: {run.status}"
+        check_final_rotation(run)
+    # the final-rotation check must have had something to look at
+    assert any(len(final_rotation_signs(r)) >= 3 for r in runs), [final_rotation_signs(r) for r in runs]
+    return runs
+
+
 def check_base_link_goal(stack: NavStack, offset: tuple[float, float, float]) -> GoalRun:
     """A goal relative to base_link lands at (ground truth at send time) ∘ offset. The offset is chosen
     for the world's start pose: a robot left elsewhere (an earlier test failed) is driven there first."""

@@ -1,7 +1,5 @@
 """Issue 6 acceptance on the room world with the DWA master config (master_side/config/p3at_known_map.yaml):
-`zenav robot` + `zenav master` as separate processes on a private loopback bus, one pair for the module.
-The world's goals with this config are driven in one process (test_nav_inproc_world_goals.py); here the
-bus: a goal in base_link, a stale TF, an unreachable goal, a cancel, a resent goal."""
+`zenav robot` + `zenav master` as separate processes on a private loopback bus, one pair for the module."""
 
 from __future__ import annotations
 
@@ -16,6 +14,7 @@ from tests.nav_e2e.nav_e2e_checks import (
     check_base_link_goal,
     check_stale_tf_reason,
     check_unreachable_goal_aborts,
+    check_world_goals,
     send_goal_async,
     status_of,
 )
@@ -31,9 +30,13 @@ def stack(tmp_path_factory):
     s.close()
 
 
+def test_nav_e2e_room_dwa_reaches_the_world_goals_without_collision(stack):
+    check_world_goals(stack)
+
+
 def test_nav_e2e_room_dwa_base_link_goal_lands_at_the_offset_from_the_robot(stack):
-    # at the world's start (-2.2, 0, 0): 1 m ahead of the robot and 0.5 m to its left, turned +90 deg
-    check_base_link_goal(stack, (1.0, 0.5, 1.5708))
+    # at back_to_start (-2.2, 0, pi): 1 m behind the robot and 0.5 m to its right, turned +90 deg
+    check_base_link_goal(stack, (-1.0, -0.5, 1.5708))
 
 
 def test_nav_e2e_room_dwa_stale_tf_stops_the_robot_and_says_which_edge(stack):

@@ -5,8 +5,8 @@ shipped robot and master YAMLs and stepped in lock-step on the simulated clock (
 Every goal of the world reached within 0.3 m / 0.1 rad of ground truth, no collision, no goal moved, and the
 final in-place rotation never turns back (in lock-step no control cycle is ever late, so a reversal here is
 the planner's own). The same configs over the bus (robot and master agents, every node its own process):
-the room modules (a goal in base_link, a stale TF, an unreachable goal, a cancel, a resent goal) and the
-recovery module."""
+the room modules (the room's goals with DWA, a goal in base_link, a stale TF, an unreachable goal, a cancel,
+a resent goal) and the recovery module."""
 
 from __future__ import annotations
 
