@@ -24,8 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
-from common.config import read_yaml
+from common.config import read_yaml, strip_frame
 from common.geometry import Pose2D
+from common.launch import Launch
 from common.messages import LaserScan, Twist
 from deploy import barn
 from master_side.costmap.layered import LayeredCostmap
@@ -40,6 +41,7 @@ from master_side.move_base.planner_thread import ImmediatePlanner
 from master_side.move_base.recovery import recoveries_from_params
 from master_side.move_base.state_machine import MoveBaseMachine, State
 from master_side.planning.navfn import NavFn
+from robot_side import agent as robot_agent
 from robot_side.depth.depth_to_scan import DepthToScan, DepthToScanParams
 from robot_side.depth.depth_to_scan_node import DepthToScanTopics
 from robot_side.depth.node_util import split_params
@@ -84,25 +86,16 @@ class _ScanSource:
     z: float
 
 
-def _node_specs(launch: dict):
-    """Every node mapping of a robot or master YAML (sections of nodes, as the agents read them)."""
-    for section in launch.values():
-        if isinstance(section, dict):
-            for spec in section.values():
-                if isinstance(spec, dict) and "module" in spec:
-                    yield spec
-
-
-def _scan_sources(sim, robot: dict, source: str) -> list[_ScanSource]:
+def _scan_sources(sim, robot: Launch, source: str) -> list[_ScanSource]:
     out = []
     if sim.laser is not None:
         lp = sim.laser.p
         out.append(_ScanSource("laser", lp.topic.strip("/"), sim.scan, Pose2D(lp.x, lp.y, lp.yaw), lp.z))
     if sim.camera is not None:
         cp = sim.camera.p  # base_link -> the depth frame is the rendered mount (robot_side.sim.mounts_node)
-        for spec in _node_specs(robot):
-            if spec["module"] == "robot_side.depth.depth_to_scan_node":
-                topics, params = split_params(spec.get("params"), source, DepthToScanTopics, DepthToScanParams)
+        for e in robot.entries:
+            if e.opts.module == "robot_side.depth.depth_to_scan_node":
+                topics, params = split_params(e.params, source, DepthToScanTopics, DepthToScanParams)
                 conv = DepthToScan(params)
                 out.append(_ScanSource("depth_camera", topics.scan_topic.strip("/"),
                                        lambda conv=conv: conv.convert(*sim.depth_frame()),
@@ -116,7 +109,7 @@ def _scan_sources(sim, robot: dict, source: str) -> list[_ScanSource]:
 class _Costmap:
     def __init__(self, cfg):
         self.cfg, self.lcm = cfg, LayeredCostmap.from_config(cfg)
-        self.frame = cfg.costmap.global_frame.strip("/")
+        self.frame = strip_frame(cfg.costmap.global_frame)
         f = cfg.costmap.update_frequency
         self.period = 1.0 / f if f > 0 else math.inf
         self.next = 0.0
@@ -131,13 +124,9 @@ class InProcessStack:
                  master_config: str | Path = MASTER_CONFIG, plan_hz: float = 5.0, seed: int = 0,
                  engine: str | None = None, friction: float | None = None):
         robot_config, master_config = Path(robot_config), Path(master_config)
-        robot = read_yaml(robot_config)
-        sim_cfg = dict(robot["platform"]["sim"]["params"])
-        sim_cfg["world"] = str(world_path)
-        sim_cfg.setdefault("sim", {})
-        sim_cfg["sim"] = {**sim_cfg["sim"], "seed": seed}
-        if engine is not None:
-            sim_cfg["engine"] = engine
+        robot = robot_agent.load(str(robot_config), world=str(world_path), engine=engine)  # as the agent reads it
+        sim_cfg = dict(next(e.params for e in robot.entries if e.opts.module == robot_agent.SIM_MODULE) or {})
+        sim_cfg["sim"] = {**(sim_cfg.get("sim") or {}), "seed": seed}
         if friction is not None:
             sim_cfg["physics"] = {**(sim_cfg.get("physics") or {}), "friction": friction}
         _, self.sim, _ = sim_node.load(sim_cfg, str(robot_config))
@@ -163,8 +152,8 @@ class InProcessStack:
                     if isinstance(layer, StaticLayer):
                         layer.set_map(grid, self.frame_from_world(cm.frame) if cm.lcm.rolling_window else None)
         self.mb = mb_cfg
-        self.global_frame = (mb_cfg.global_frame or "odom").strip("/")
-        self.local_frame = mb_cfg.local_frame.strip("/")
+        self.global_frame = strip_frame(mb_cfg.global_frame or "odom")
+        self.local_frame = strip_frame(mb_cfg.local_frame)
         p = mb_cfg.params
         self.navfn = NavFn(mb_cfg.navfn)
         self.controller = LocalController(mb_cfg.make_local_planner(), mb_cfg.footprint)
@@ -182,7 +171,7 @@ class InProcessStack:
     # -- frames -------------------------------------------------------------------------------------
     def pose_in(self, frame: str) -> Pose2D:
         """The robot in ``frame`` as TF would give it: odometry in odom, ground truth in map."""
-        return self.sim.base.odom if frame.strip("/") == "odom" else self.sim.base.pose
+        return self.sim.base.odom if strip_frame(frame) == "odom" else self.sim.base.pose
 
     def frame_from_world(self, frame: str) -> Pose2D:
         return self.pose_in(frame).compose(self.sim.base.pose.inverse())
@@ -215,6 +204,7 @@ class InProcessStack:
 
     def _observe(self, src: _ScanSource) -> None:
         scan = src.read()
+        points: dict[bool, np.ndarray] = {}  # the scan's points in its frame, per inf_is_valid
         for cm in self.costmaps.values():
             sensor = self.pose_in(cm.frame).compose(src.mount)
             origin = np.array([sensor.x, sensor.y, src.z])
@@ -224,7 +214,8 @@ class InProcessStack:
                 for name, buf in layer.buffers.items():
                     if (buf.params.topic or name).strip("/") != src.topic or buf.params.data_type != "LaserScan":
                         continue
-                    pts = scan_to_points(scan, buf.params.inf_is_valid)
+                    iv = buf.params.inf_is_valid
+                    pts = points[iv] if iv in points else points.setdefault(iv, scan_to_points(scan, iv))
                     xy = sensor.apply(pts[:, :2]) if len(pts) else np.zeros((0, 2))
                     layer.add_observation(name, np.column_stack((xy, np.full(len(xy), src.z))), origin,
                                           self.sim.time)
