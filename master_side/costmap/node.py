@@ -146,8 +146,18 @@ class CostmapNode:
         with self.lock:
             layer.set_map(msg, to_global)
 
+    def _missing_maps(self) -> list[str]:
+        """Map topics of enabled static layers that have no map yet. ROS's StaticLayer blocks the
+        costmap's start until its map comes, so move_base never plans on a costmap without it; this
+        costmap neither updates nor publishes its master grid until then."""
+        return [x.params.map_topic for x in self.lcm.layers
+                if isinstance(x, StaticLayer) and x.enabled and x.map is None]
+
     def update(self) -> None:
         now = self.node.clock.now()
+        if missing := self._missing_maps():
+            self._say(f"not updating: waiting for the map on {', '.join(missing)}")
+            return
         base = self.cfg.costmap.robot_base_frame
         try:
             tf = self.tf.buffer.lookup(self.frame, base, 0.0, self.tol)
@@ -175,7 +185,7 @@ class CostmapNode:
         # the layers as of the last update carry its stamp, so they pair with that master grid
         header = Header(self._updated if self._updated is not None else self.node.clock.now(), self.frame)
         with self.lock:
-            if self.cfg.costmap.update_frequency <= 0:
+            if self.cfg.costmap.update_frequency <= 0 and not self._missing_maps():
                 self.pub.publish(self.lcm.master.to_message(header))
             for layer in self.lcm.layers:
                 grid = layer.grid()

@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import threading
+import time
+
 import pytest
 from bushelp import Child, free_port
 
 from common.bus import Node
+from common.geometry import Transform
+from common.messages import Header, TransformStamped
+from common.tf import TFBroadcaster
 from common.zenoh_config import BusConfig
 
 
@@ -46,3 +52,26 @@ def node_pair(robot_name, hub_port):
     yield make
     for n in reversed(nodes):
         n.close()
+
+
+@pytest.fixture
+def tf_feed():
+    """start(node, edges): publishes (parent, child) identity transforms stamped now at 20 Hz."""
+    stop, threads = threading.Event(), []
+
+    def start(node, edges) -> None:
+        tf = TFBroadcaster(node)
+
+        def run() -> None:
+            while not stop.is_set():
+                now = time.time()
+                tf.send([TransformStamped(Header(now, p), c, Transform()) for p, c in edges])
+                stop.wait(0.05)
+
+        threads.append(threading.Thread(target=run, daemon=True))
+        threads[-1].start()
+
+    yield start
+    stop.set()
+    for t in threads:
+        t.join(2.0)

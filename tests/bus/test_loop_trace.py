@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import threading
 import time
 from pathlib import Path
 
@@ -14,32 +13,9 @@ from bushelp import wait_for
 
 from common.geometry import Pose2D, Transform
 from common.messages import Costmap, Header, LaserScan, MoveBaseGoal, PoseStamped, Scalar, TransformStamped
-from common.tf import StaticTFBroadcaster, TFBroadcaster
+from common.tf import StaticTFBroadcaster
 
 CONFIG = Path(__file__).resolve().parents[2] / "master_side" / "config"
-
-
-@pytest.fixture
-def tf_feed():
-    """start(node, edges): publishes (parent, child) identity transforms stamped now at 20 Hz."""
-    stop, threads = threading.Event(), []
-
-    def start(node, edges) -> None:
-        tf = TFBroadcaster(node)
-
-        def run() -> None:
-            while not stop.is_set():
-                now = time.time()
-                tf.send([TransformStamped(Header(now, p), c, Transform()) for p, c in edges])
-                stop.wait(0.05)
-
-        threads.append(threading.Thread(target=run, daemon=True))
-        threads[-1].start()
-
-    yield start
-    stop.set()
-    for t in threads:
-        t.join(2.0)
 
 
 def _traces(node, topic: str) -> list:
