@@ -24,11 +24,13 @@ from pathlib import Path
 
 import numpy as np
 
-from common.config import read_yaml, strip_frame
+from common.config import strip_frame
 from common.geometry import Pose2D
-from common.launch import Launch
+from common.launch import Entry, Launch
 from common.messages import LaserScan, Twist
+from common.runner import node_config
 from deploy import barn
+from master_side import agent as master_agent
 from master_side.costmap.layered import LayeredCostmap
 from master_side.costmap.observation import scan_to_points
 from master_side.costmap.obstacle_layer import ObstacleLayer
@@ -119,6 +121,17 @@ class _Costmap:
         return m.data, m.resolution, (m.origin_x, m.origin_y)
 
 
+def node_params(entry: Entry, launch_source: str) -> tuple[dict, str]:
+    """A launch entry's parameter mapping and the file relative paths in it are read against: its own
+    ``params:`` (the launch file) or its ``config:`` file (``section:`` of it), as the node gets them."""
+    if entry.params is not None:
+        return entry.params, launch_source
+    path = entry.opts.config
+    if path and not Path(path).is_absolute():
+        path = str((Path(launch_source).parent / path).resolve())
+    return node_config(path, entry.opts.section or None)
+
+
 class InProcessStack:
     def __init__(self, world_path: str | Path, robot_config: str | Path = ROBOT_CONFIG,
                  master_config: str | Path = MASTER_CONFIG, plan_hz: float = 5.0, seed: int = 0,
@@ -131,19 +144,18 @@ class InProcessStack:
             sim_cfg["physics"] = {**(sim_cfg.get("physics") or {}), "friction": friction}
         _, self.sim, _ = sim_node.load(sim_cfg, str(robot_config))
         self.sources = _scan_sources(self.sim, robot, str(robot_config))
-        nodes = read_yaml(master_config)["nodes"]
         self.costmaps: dict[str, _Costmap] = {}
         mb_cfg, grid = None, None
-        for entry in nodes.values():
-            params = entry.get("params") or {}
-            if entry.get("module") == "master_side.costmap.node":
-                base = master_config.parent
+        for entry in master_agent.load(str(master_config)).entries:  # as the master agent reads it
+            params, source = node_params(entry, str(master_config))
+            if entry.opts.module == "master_side.costmap.node":
+                base = Path(source).parent
                 cfg = load_costmap_files(base / params["common"], base / params["specific"], name=params.get("name"))
                 self.costmaps[cfg.name] = _Costmap(cfg)
-            elif entry.get("module") == "master_side.move_base.node":
-                mb_cfg = load_move_base_config(params, str(master_config))
-            elif entry.get("module") == "master_side.mapping.map_server_node":
-                grid, _ = map_server_node.load(params, str(master_config))
+            elif entry.opts.module == "master_side.move_base.node":
+                mb_cfg = load_move_base_config(params, source)
+            elif entry.opts.module == "master_side.mapping.map_server_node":
+                grid, _ = map_server_node.load(params, source)
         if mb_cfg is None or set(self.costmaps) != {"global_costmap", "local_costmap"}:
             raise ValueError(f"{master_config}: needs global_costmap, local_costmap and move_base nodes")
         if grid is not None:  # the map frame is the world's (ground truth)
