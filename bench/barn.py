@@ -47,11 +47,11 @@ def select_worlds(n: int, listed: str) -> list[int]:
 
 def _fast(args: tuple) -> dict:
     world, workdir, master, robot, plan_hz, engine, friction = args
-    from deploy.barn_inproc import InProcessStack
+    from deploy.barn_inproc import BarnStack
     from robot_side.worlds.barn import GOAL
 
     path = barn.write_world(world, workdir)
-    stack = InProcessStack(path, robot_config=robot, master_config=master, plan_hz=plan_hz, seed=world,
+    stack = BarnStack(path, robot_config=robot, master_config=master, plan_hz=plan_hz, seed=world,
                            engine=engine, friction=friction)
     o = stack.run(world, GOAL)
     return {"run": o.run, "cycle_ms": o.cycle_ms, "plan_ms": o.plan_ms, "wall_s": o.wall_s,

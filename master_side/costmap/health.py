@@ -11,9 +11,13 @@ it reached the costmap, turned into a ``CostmapSensors`` message with one state 
 Other nodes read the messages with ``SensorHealth``::
 
     health = SensorHealth(required=("local_costmap",))
-    node.subscribe("local_costmap/sensors", CostmapSensors, callback=health.update, mode="queue")
-    node.subscribe("global_costmap/sensors", CostmapSensors, callback=health.update, mode="queue")
-    why = health.problem(node.clock.now(), max_age=3.0)   # "" when every source is fine
+    on_report = lambda m: health.update(m, time.monotonic())
+    node.subscribe("local_costmap/sensors", CostmapSensors, callback=on_report, mode="queue")
+    node.subscribe("global_costmap/sensors", CostmapSensors, callback=on_report, mode="queue")
+    why = health.problem(time.monotonic(), max_age=3.0)   # "" when every source is fine
+
+The reports go out at 1 Hz of wall time whatever the clock does, so their age is measured in wall time
+from their arrival: at 2x simulated time a report's stamp ages 2 s between two reports.
 """
 
 from __future__ import annotations

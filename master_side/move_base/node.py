@@ -66,7 +66,7 @@ from master_side.planning.warmup import warm_local_planners
 TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)
 NO_CMD_ROUTE = "cmd_vel reaches no subscriber (no route to the robot's base or collision monitor)"
 SEEN_GOALS = 256  # goal ids remembered (with their last answer) so that a resent goal is not restarted
-SENSORS_MAX_AGE = 3.0  # s without a costmap's sensor report before it counts as not reporting
+SENSORS_MAX_AGE = 3.0  # wall s without a costmap's sensor report (sent at 1 Hz) before it counts as not reporting
 
 __all__ = ["MoveBaseNode", "start", "check"]
 
@@ -100,7 +100,10 @@ class MoveBaseNode:
         self.odom = node.subscribe("odom", Odometry)
         self.local_costmap = node.subscribe("local_costmap/costmap", Costmap, callback=self._on_local_costmap)
         for name in ("local_costmap", "global_costmap"):
-            node.subscribe(f"{name}/sensors", CostmapSensors, callback=self.health.update, mode="queue")
+            # the costmaps report at 1 Hz of wall time (also while a simulated clock stands or runs faster):
+            # a report's age is wall time since it came, not simulated time since its stamp
+            node.subscribe(f"{name}/sensors", CostmapSensors, mode="queue",
+                           callback=lambda m: self.health.update(m, time.monotonic()))
         self.cmd = node.publisher("cmd_vel")
         self.safety = node.subscribe("collision_monitor/state", CollisionMonitorState)  # the robot's monitor
         self.collision = node.subscribe("collision", Collision)  # a simulated robot's contacts (latched)
@@ -255,7 +258,7 @@ class MoveBaseNode:
         vel = (odom.twist.linear.x, odom.twist.linear.y, odom.twist.angular.z) if odom else (0.0, 0.0, 0.0)
         cm = self.local_costmap.latest()
         costmap = None if cm is None else (cm.data, cm.resolution, (cm.origin.x, cm.origin.y))
-        self._blind = blind = self.health.problem(now, SENSORS_MAX_AGE)
+        self._blind = blind = self.health.problem(time.monotonic(), SENSORS_MAX_AGE)
         with self.lock:
             if local_pose is not None:
                 self.controller.update(local_pose, lfg, costmap)

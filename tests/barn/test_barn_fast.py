@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from deploy import barn
-from deploy.barn_inproc import ROBOT_CONFIG, InProcessStack
+from deploy.barn_inproc import ROBOT_CONFIG, BarnStack
 from robot_side.worlds.barn import GOAL
 
 REPO = Path(__file__).resolve().parents[2]
@@ -17,7 +17,7 @@ REPO = Path(__file__).resolve().parents[2]
 
 def test_the_jackal_crosses_a_barn_world_in_the_fast_mode(tmp_path):
     path = barn.write_world(23, tmp_path)
-    stack = InProcessStack(path, ROBOT_CONFIG, REPO / "master_side" / "config" / "jackal_barn_zenav.yaml", seed=23)
+    stack = BarnStack(path, ROBOT_CONFIG, REPO / "master_side" / "config" / "jackal_barn_zenav.yaml", seed=23)
     out = stack.run(23, GOAL)
     assert out.run.success, f"{out.run} {out.final_state}\n" + "\n".join(out.events[-20:])
     assert not out.run.collision
