@@ -3,21 +3,33 @@
 Reads the simulator's ``ground_truth`` (map → base_link) and ``odom`` (odom → base_link) and
 publishes ``map → odom`` on ``tf`` so that map → base_link is the true pose. Use it instead of AMCL
 or SLAM when the simulated robot navigates on the world's own map.
+
+Parameter (ROS's name and default): ``transform_tolerance`` (s, 0.1) — map → odom is stamped that much
+after the step it comes from, as ROS's fake_localization (and amcl) future-date it: a lookup of
+map → base_link at the latest time then uses the newest odometry instead of waiting for this node's
+extra hop (the pose move_base steers by was that hop old, under load several control cycles).
 """
 
 from __future__ import annotations
 
 import threading
+from dataclasses import dataclass
 
 from common.bus import Node
-from common.config import ConfigError
+from common.config import load_params, param
 from common.messages import Header, Odometry, TFMessage, TransformStamped
 
 
-def map_to_odom(truth: Odometry, odom: Odometry) -> TransformStamped:
-    """map→odom = (map→base) ∘ (odom→base)⁻¹, stamped with the odometry's stamp."""
+@dataclass(frozen=True)
+class FakeLocalizationParams:
+    transform_tolerance: float = param(0.1, lo=0.0, hi=10.0, unit="s",
+                                       doc="map -> odom is stamped this much after its simulator step")
+
+
+def map_to_odom(truth: Odometry, odom: Odometry, future_date: float = 0.0) -> TransformStamped:
+    """map→odom = (map→base) ∘ (odom→base)⁻¹, stamped with the odometry's stamp + ``future_date``."""
     t = truth.pose2d.compose(odom.pose2d.inverse())
-    return TransformStamped(Header(odom.header.stamp, truth.header.frame_id or "map"),
+    return TransformStamped(Header(odom.header.stamp + future_date, truth.header.frame_id or "map"),
                             odom.header.frame_id or "odom", t.to_transform())
 
 
@@ -49,8 +61,8 @@ class StepPairer:
 
 
 class FakeLocalization:
-    def __init__(self, node: Node) -> None:
-        self.node = node
+    def __init__(self, node: Node, params: FakeLocalizationParams = FakeLocalizationParams()) -> None:
+        self.node, self.p = node, params
         self.lock = threading.Lock()
         self.pairs = StepPairer()
         self.pub = node.publisher("tf")
@@ -61,16 +73,20 @@ class FakeLocalization:
         with self.lock:
             pair = self.pairs.add(kind, msg)
         if pair is not None:
-            self.pub.publish(TFMessage((map_to_odom(*pair),)))
+            self.pub.publish(TFMessage((map_to_odom(*pair, self.p.transform_tolerance),)))
 
     def close(self) -> None:
         pass
 
 
+def check(cfg: dict, source: str) -> list[str]:
+    """The agents' parameter check (common.node_check)."""
+    load_params(FakeLocalizationParams, cfg, source)
+    return []
+
+
 def start(node: Node, cfg: dict, source: str) -> FakeLocalization:
-    if cfg:
-        raise ConfigError(source, sorted(cfg)[0], "fake_localization takes no parameters")
-    return FakeLocalization(node)
+    return FakeLocalization(node, load_params(FakeLocalizationParams, cfg, source))
 
 
 if __name__ == "__main__":

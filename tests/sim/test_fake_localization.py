@@ -3,9 +3,12 @@ between its two inputs' delivery threads (each subscription has its own queue of
 
 from __future__ import annotations
 
+import pytest
+
+from common.config import ConfigError
 from common.geometry import Pose2D
 from common.messages import Header, Odometry
-from robot_side.sim.fake_localization import StepPairer, map_to_odom
+from robot_side.sim.fake_localization import FakeLocalizationParams, StepPairer, check, map_to_odom
 
 
 def _odom(t: float, frame: str, pose: Pose2D) -> Odometry:
@@ -37,3 +40,19 @@ def test_old_unmatched_steps_are_dropped():
     assert sorted(pairs.pending["truth"]) == [round(i * 1e4) for i in range(5, 10)]
     assert pairs.add("odom", _odom(2.0, "odom", Pose2D())) is None  # its partner was dropped
     assert pairs.add("odom", _odom(7.0, "odom", Pose2D())) is not None
+
+
+def test_map_to_odom_is_future_dated_by_transform_tolerance_as_ros_does():
+    truth, odom = _odom(5.0, "map", Pose2D(1.0, 0.0, 0.0)), _odom(5.0, "odom", Pose2D())
+    assert FakeLocalizationParams().transform_tolerance == 0.1  # ROS fake_localization's default
+    assert map_to_odom(truth, odom, 0.1).header.stamp == 5.1
+    assert check({"transform_tolerance": 0.2}, "f.yaml") == []
+
+
+def test_a_bad_transform_tolerance_names_the_file_key_and_range():
+    with pytest.raises(ConfigError) as e:
+        check({"transform_tolerance": -1.0}, "master.yaml")
+    assert "master.yaml" in str(e.value) and "transform_tolerance" in str(e.value) and "[0.0, 10.0]" in str(e.value)
+    with pytest.raises(ConfigError) as e:
+        check({"transform_tolerence": 0.1}, "master.yaml")
+    assert "transform_tolerance" in str(e.value)  # did you mean
