@@ -138,11 +138,6 @@ class TFBuffer:
         with self._cv:
             return sorted(set(self._edges) | {e.parent for e in self._edges.values()})
 
-    def has_frame(self, frame: str) -> bool:
-        frame = strip_frame(frame)
-        with self._cv:
-            return frame in self._edges or any(e.parent == frame for e in self._edges.values())
-
     def parent(self, frame: str) -> str | None:
         with self._cv:
             e = self._edges.get(strip_frame(frame))

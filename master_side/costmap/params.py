@@ -50,11 +50,6 @@ class CostmapConfig:
     ignored: tuple[str, ...] = ()  # keys (as written in the costmap namespace) accepted without effect
     notes: tuple[str, ...] = ()    # the same as "file: key: no effect (why)" lines
 
-    @property
-    def size_in_cells(self) -> tuple[int, int]:
-        c = self.costmap
-        return int(c.width / c.resolution + 1e-6), int(c.height / c.resolution + 1e-6)
-
 
 def load_costmap_config(common: dict | None, specific: dict | None,
                         source: str | tuple[str, str] = "<config>", *, name: str | None = None,

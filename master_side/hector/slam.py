@@ -130,10 +130,5 @@ class HectorSlam:
         self._last_update = pose
         self.map_updates += 1
 
-    def reset_motion(self) -> None:
-        """Forget the velocity (e.g. after a gap in the scans)."""
-        self._prev, self._velocity = None, None
-        self._steps.clear()
-
     def occupancy_grid(self, stamp: float = 0.0, frame_id: str = "map", crop: bool = False) -> OccupancyGrid:
         return self.levels[0].occupancy_grid(stamp, frame_id, crop)

@@ -35,11 +35,6 @@ class RunResult:
         return 1000.0 * self.update_cpu_s / self.processed if self.processed else 0.0
 
     @property
-    def cpu_realtime_factor(self) -> float:
-        """Data time / process CPU time (one core, whatever else runs on the machine)."""
-        return self.data_s / self.cpu_s if self.cpu_s > 0 else float("inf")
-
-    @property
     def realtime_factor(self) -> float:
         """Data time / wall time (> 1 means faster than real time)."""
         return self.data_s / self.wall_s if self.wall_s > 0 else float("inf")

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from common.config import ConfigError, load_params, param, read_yaml
+from common.config import ConfigError, param, read_yaml
 from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
 from common.pgm import read_pgm
@@ -235,6 +235,3 @@ def load_world(path: str | Path, params: WorldParams = WorldParams(), start: Any
         w.name = path.stem
     return w.with_start(start) if start is not None else w
 
-
-def load_world_params(mapping: dict | None, source: str = "<config>") -> WorldParams:
-    return load_params(WorldParams, mapping, source, "world")

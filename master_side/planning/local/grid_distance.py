@@ -210,11 +210,3 @@ class MapGrid:
     def _goal_targets(self, plan_xy: np.ndarray) -> np.ndarray:
         cell = self.local_goal_cell(plan_xy)
         return np.zeros(0, np.int64) if cell is None else np.array([cell])
-
-    def goal_xy(self, plan_xy: np.ndarray) -> np.ndarray | None:
-        """World coordinates of the local goal cell's centre."""
-        cell = self.local_goal_cell(plan_xy)
-        if cell is None:
-            return None
-        r, c = divmod(cell, self.grid.shape[1])
-        return self.origin + (np.array([c, r]) + 0.5) * self.resolution
