@@ -1,6 +1,8 @@
-"""Pose types with compose / inverse: Pose2D for the plane, Transform (quaternion) for 3D.
+"""Pose types with compose / inverse: Pose2D for the plane, Transform (quaternion) for 3D; angle
+wrapping and the point-in-polygon test every footprint check uses (costmaps, planners, collision
+monitor, simulator).
 
-Both are frozen dataclasses and also bus messages (registered in ``common.messages``).
+Both pose types are frozen dataclasses and also bus messages (registered in ``common.messages``).
 Conventions follow ROS/REP-103: x forward, y left, z up, angles in radians, quaternions (x, y, z, w).
 """
 
@@ -20,6 +22,32 @@ def normalize_angle(a: float) -> float:
 def normalize_angles(a: np.ndarray) -> np.ndarray:
     """Vectorised ``normalize_angle``."""
     return (a + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def points_in_polygon(x: np.ndarray, y: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Even-odd rule for many points at once: ``x``/``y`` any same shape, ``poly`` (K, 2) vertices in
+    order; loops over the polygon's few edges, vectorised over the points."""
+    inside = np.zeros(np.shape(x), bool)
+    xj, yj = poly[-1]
+    for xi, yi in poly:
+        cross = (yi > y) != (yj > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xint = (xj - xi) * (y - yi) / (yj - yi) + xi
+        inside ^= cross & (x < xint)
+        xj, yj = xi, yi
+    return inside
+
+
+def footprint_radii(footprint: np.ndarray) -> tuple[float, float]:
+    """(inscribed, circumscribed) radius of a footprint polygon (K, 2) around the robot's origin: the
+    nearest point of its outline and its farthest vertex (costmap_2d's calculateMinAndMaxDistances)."""
+    fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
+    if len(fp) == 0:
+        return 0.0, 0.0
+    a, ab = fp, np.roll(fp, -1, axis=0) - fp
+    t = np.clip(-(a * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-12), 0.0, 1.0)
+    closest = a + ab * t[:, None]
+    return float(np.min(np.hypot(closest[:, 0], closest[:, 1]))), float(np.max(np.hypot(fp[:, 0], fp[:, 1])))
 
 
 @dataclass(frozen=True)

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from common.geometry import Pose2D
+from common.geometry import Pose2D, points_in_polygon
 from common.messages import Costmap, Header
 from master_side.costmap.cost_values import NO_INFORMATION
 
@@ -170,19 +170,6 @@ class Costmap2D:
         origin = Pose2D(self.origin_x, self.origin_y, 0.0)
         return Costmap(header=header, resolution=self.resolution, origin=origin, data=self.data.copy(),
                        layer=layer)
-
-
-def points_in_polygon(x: np.ndarray, y: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Even-odd rule, vectorised over points (loops over the few polygon edges)."""
-    inside = np.zeros(np.shape(x), bool)
-    n = len(poly)
-    for i in range(n):
-        (xa, ya), (xb, yb) = poly[i], poly[(i + 1) % n]
-        crosses = (ya > y) != (yb > y)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xc = xa + (y - ya) * (xb - xa) / (yb - ya)
-        inside ^= crosses & (x < xc)
-    return inside
 
 
 # -- combining a layer's grid into the master (CostmapLayer helpers), grids must be aligned -----------

@@ -66,25 +66,6 @@ def footprint_from_params(footprint: Any, robot_radius: float, padding: float) -
     return pad_footprint(fp, padding)
 
 
-def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    ab = b - a
-    denom = np.einsum("ij,ij->i", ab, ab)
-    t = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.where(denom > 0, denom, 1.0), 0.0, 1.0)
-    closest = a + t[:, None] * ab
-    return np.hypot(*(p - closest).T)
-
-
-def inscribed_circumscribed(footprint: np.ndarray) -> tuple[float, float]:
-    """(inscribed, circumscribed) radius around the base origin (costmap_2d calculateMinAndMaxDistances)."""
-    fp = np.asarray(footprint, float)
-    if len(fp) == 0:
-        return 0.0, 0.0
-    vertex = np.hypot(fp[:, 0], fp[:, 1])
-    origin = np.zeros_like(fp)
-    edge = _point_segment_distance(origin, fp, np.roll(fp, -1, axis=0))
-    return float(min(vertex.min(), edge.min())), float(vertex.max())
-
-
 def transform_footprint(footprint: np.ndarray, pose: Pose2D) -> np.ndarray:
     """The footprint placed at ``pose`` (global frame)."""
     return pose.apply(np.asarray(footprint, float))

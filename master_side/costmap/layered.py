@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from common.geometry import Pose2D
+from common.geometry import Pose2D, footprint_radii
 from master_side.costmap import inflation_layer, obstacle_layer, static_layer, voxel_layer  # noqa: F401 (register)
 from master_side.costmap.cost_values import FREE, NO_INFORMATION
 from master_side.costmap.costmap2d import Costmap2D, Window
-from master_side.costmap.footprint import inscribed_circumscribed, make_footprint_from_radius
+from master_side.costmap.footprint import make_footprint_from_radius
 from master_side.costmap.layer import LAYER_TYPES, Bounds, Layer, layer_class, register_layer
 
 if TYPE_CHECKING:
@@ -72,7 +72,7 @@ class LayeredCostmap:
 
     def set_footprint(self, footprint: np.ndarray) -> None:
         self.footprint = np.asarray(footprint, float).reshape(-1, 2)
-        self.inscribed_radius, self.circumscribed_radius = inscribed_circumscribed(self.footprint)
+        self.inscribed_radius, self.circumscribed_radius = footprint_radii(self.footprint)
         for layer in self.layers:
             layer.on_footprint_changed()
 

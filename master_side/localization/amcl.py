@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from common.geometry import Pose2D, normalize_angle
+from common.geometry import Pose2D, normalize_angle, normalize_angles
 from common.messages import LaserScan, OccupancyGrid
 from master_side.localization.likelihood_field import LikelihoodField, beam_likelihoods, select_beams
 from master_side.localization.motion_model import DiffMotionModel
@@ -54,7 +54,7 @@ class Amcl:
         n = self.p.max_particles
         sd = np.sqrt(np.maximum(np.asarray(cov, float), 0.0))
         self.poses = np.asarray(mean.as_array()) + self.rng.standard_normal((n, 3)) * sd
-        self.poses[:, 2] = (self.poses[:, 2] + np.pi) % (2 * np.pi) - np.pi
+        self.poses[:, 2] = normalize_angles(self.poses[:, 2])
         self._reset(mean, np.diag(np.asarray(cov, float)))
 
     def global_localization(self) -> None:

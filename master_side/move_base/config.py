@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 
 from common.config import Problems, include, load_params, strip_frame
+from common.geometry import footprint_radii
 from master_side import ros_params as ros
-from master_side.costmap.footprint import inscribed_circumscribed
 from master_side.costmap.params import CostmapConfig, load_costmap_config
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.recovery import RotateLimits
@@ -80,7 +80,7 @@ class MoveBaseConfig:
 
     @property
     def circumscribed_radius(self) -> float:
-        return float(inscribed_circumscribed(self.footprint)[1])
+        return float(footprint_radii(self.footprint)[1])
 
     def make_local_planner(self):
         planner = _local_planners()[self.local_kind][2](self.local_params)

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from common.geometry import Pose2D
+from common.geometry import Pose2D, normalize_angles
 from master_side.costmap.cost_values import LETHAL
 from master_side.move_base.state_machine import ControlResult
 
@@ -20,7 +20,7 @@ def transform_path(path: np.ndarray, tf: Pose2D) -> np.ndarray:
     if len(path) == 0:
         return path
     xy = tf.apply(path[:, :2])
-    th = (path[:, 2] + tf.theta + np.pi) % (2 * np.pi) - np.pi
+    th = normalize_angles(path[:, 2] + tf.theta)
     return np.column_stack((xy, th))
 
 

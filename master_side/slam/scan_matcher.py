@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from common.geometry import normalize_angles
 from master_side.slam import kernels
 from master_side.slam.field import COARSE, PAD_C, PAD_F, Field, FieldSet, make_field
 from master_side.slam.params import GMappingParams
@@ -132,12 +133,12 @@ class ScanMatcher:
         if prior is not None:
             m = prior.mean
             d2 = (cand[..., 0] - m[:, 0][e]) ** 2 + (cand[..., 1] - m[:, 1][e]) ** 2
-            a = (cand[..., 2] - m[:, 2][e] + np.pi) % (2 * np.pi) - np.pi
+            a = normalize_angles(cand[..., 2] - m[:, 2][e])
             return n * (prior.translation_weight[e] * d2 + prior.rotation_weight[e] * a * a)
         lin, ang = window
         d2 = (cand[..., 0] - pose0[:, 0][e]) ** 2 + (cand[..., 1] - pose0[:, 1][e]) ** 2
         d2 = d2 / max(lin, 1e-3) ** 2
-        a = (cand[..., 2] - pose0[:, 2][e] + np.pi) % (2 * np.pi) - np.pi
+        a = normalize_angles(cand[..., 2] - pose0[:, 2][e])
         return 0.05 * n * (d2 + (a / max(ang, 1e-3)) ** 2)
 
     # -- matching ----------------------------------------------------------------------------

@@ -24,9 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from common.geometry import points_in_polygon
 from robot_side.safety.params import PolygonParams
 
-__all__ = ["CollisionMonitor", "Verdict", "points_in_polygon", "circle_polygon"]
+__all__ = ["CollisionMonitor", "Verdict", "circle_polygon"]
 
 
 @dataclass(frozen=True)
@@ -43,19 +44,6 @@ class Verdict:
 def circle_polygon(radius: float, n: int = 32) -> np.ndarray:
     a = np.linspace(0.0, 2 * math.pi, n, endpoint=False)
     return np.column_stack([radius * np.cos(a), radius * np.sin(a)])
-
-
-def points_in_polygon(px: np.ndarray, py: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Even-odd rule for many points at once; ``px``/``py`` any same shape, ``poly`` (K, 2)."""
-    inside = np.zeros(np.shape(px), bool)
-    xj, yj = poly[-1]
-    for xi, yi in poly:
-        cross = (yi > py) != (yj > py)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xint = (xj - xi) * (py - yi) / (yj - yi) + xi
-        inside ^= cross & (px < xint)
-        xj, yj = xi, yi
-    return inside
 
 
 class _Polygon:

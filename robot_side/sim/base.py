@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from common.config import ConfigError, load_params, param
-from common.geometry import Pose2D, normalize_angle
+from common.geometry import Pose2D, normalize_angle, points_in_polygon
 from common.messages import Collision, Header, Odometry, Twist
 from robot_side.sim.world import World
 
@@ -122,15 +122,7 @@ def _footprint_samples(poly: np.ndarray, step: float) -> np.ndarray:
     ys = np.arange(ymin, ymax + step, step)
     gx, gy = np.meshgrid(np.minimum(xs, xmax), np.minimum(ys, ymax))
     pts = np.column_stack((gx.ravel(), gy.ravel()))
-    inside = np.zeros(len(pts), bool)
-    j = len(poly) - 1
-    for i in range(len(poly)):  # even-odd rule
-        (xi, yi), (xj, yj) = poly[i], poly[j]
-        cross = (yi > pts[:, 1]) != (yj > pts[:, 1])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xint = xi + (pts[:, 1] - yi) * (xj - xi) / (yj - yi)
-        inside ^= cross & (pts[:, 0] < xint)
-        j = i
+    inside = points_in_polygon(pts[:, 0], pts[:, 1], poly)
     edges = []
     for a, b in zip(poly, np.roll(poly, -1, axis=0)):
         n = max(2, math.ceil(np.linalg.norm(b - a) / step) + 1)

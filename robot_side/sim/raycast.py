@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from common.geometry import normalize_angles
+
 __all__ = ["SurfaceCells", "surface_cells", "candidates", "expand_pairs", "ray_square"]
 
 
@@ -87,7 +89,7 @@ def candidates(sc: SurfaceCells, px: float, py: float, yaw: float, max_range: fl
     near = r - rad <= max_range
     idx, dx, dy, r = idx[near], dx[near], dy[near], r[near]
     bearing = np.arctan2(dy, dx) - yaw
-    bearing = (bearing + np.pi) % (2 * np.pi) - np.pi
+    bearing = normalize_angles(bearing)
     half = np.full(r.shape, np.pi)
     far = r > rad
     half[far] = np.arcsin(rad / r[far])

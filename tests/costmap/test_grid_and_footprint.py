@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from costmap_helpers import layered
 
-from common.geometry import Pose2D
+from common.geometry import Pose2D, footprint_radii
 from common.messages import Header, OccupancyGrid
 from master_side.costmap.cost_values import FREE, LETHAL, NO_INFORMATION
 from master_side.costmap.costmap2d import (
@@ -16,7 +16,6 @@ from master_side.costmap.costmap2d import (
 )
 from master_side.costmap.footprint import (
     footprint_from_params,
-    inscribed_circumscribed,
     parse_footprint,
     transform_footprint,
 )
@@ -54,12 +53,12 @@ def test_footprint_string_parsing_padding_and_radii():
     assert fp.shape == (4, 2)
     padded = footprint_from_params(fp.tolist(), 0.46, 0.05)
     assert padded[0].tolist() == pytest.approx([0.35, -0.25])
-    inscribed, circumscribed = inscribed_circumscribed(padded)
+    inscribed, circumscribed = footprint_radii(padded)
     assert inscribed == pytest.approx(0.25)
     assert circumscribed == pytest.approx(math.hypot(0.35, 0.25))
     circle = footprint_from_params("[]", 0.5, 0.0)
     assert len(circle) == 16
-    assert inscribed_circumscribed(circle)[1] == pytest.approx(0.5)
+    assert footprint_radii(circle)[1] == pytest.approx(0.5)
     moved = transform_footprint(fp, Pose2D(1.0, 2.0, math.pi / 2))
     assert moved[0].tolist() == pytest.approx([1.2, 2.3])
     with pytest.raises(ValueError, match="at least 3"):

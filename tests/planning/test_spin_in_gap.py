@@ -12,12 +12,11 @@ import numpy as np
 from planning_helpers import inflate
 
 from common.config import read_yaml
-from common.geometry import Pose2D
+from common.geometry import Pose2D, footprint_radii
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.state_machine import ControlResult, MoveBaseMachine, State
 from master_side.planning.grid import LETHAL
 from master_side.planning.local import TrajectoryPlanner, TrajectoryPlannerParams
-from master_side.planning.local.map_grid import footprint_radii
 
 RES = 0.05
 BARN = Path(__file__).resolve().parents[2] / "master_side" / "config" / "barn" / "base_local_planner_params.yaml"

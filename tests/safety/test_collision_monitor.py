@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from common.config import ConfigError
-from common.geometry import Pose2D
+from common.geometry import Pose2D, points_in_polygon
 from common.messages import Twist
-from robot_side.safety.collision_monitor import CollisionMonitor, points_in_polygon
+from robot_side.safety.collision_monitor import CollisionMonitor
 from robot_side.safety.node import scan_points
 from robot_side.safety.params import PolygonParams, load_monitor, padded
 from robot_side.sim.base import P3AT_FOOTPRINT, BaseParams

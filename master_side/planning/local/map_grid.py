@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from master_side.costmap.costmap2d import points_in_polygon
+from common.geometry import normalize_angles, points_in_polygon
 from master_side.planning.local.goal_cell import _PREFIXES, pushed_goal_cell
 from master_side.planning.local.grid_distance import _LATTICES, MapGrid, densify
 
@@ -134,18 +134,7 @@ def footprint_outline(footprint: np.ndarray, spacing: float) -> np.ndarray:
     return densify(np.vstack((fp, fp[:1])), spacing)[:-1]
 
 
-def footprint_radii(footprint: np.ndarray) -> tuple[float, float]:
-    """(inscribed, circumscribed) radius of a footprint polygon around the robot origin."""
-    fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
-    circ = float(np.max(np.hypot(fp[:, 0], fp[:, 1])))
-    a, b = fp, np.roll(fp, -1, axis=0)
-    ab = b - a
-    t = np.clip(-(a * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-12), 0.0, 1.0)
-    closest = a + ab * t[:, None]
-    return float(np.min(np.hypot(closest[:, 0], closest[:, 1]))), circ
-
-
 def angle_diff(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray | float:
     """Shortest signed angle a - b in [-pi, pi)."""
-    d = (np.asarray(a) - np.asarray(b) + math.pi) % (2 * math.pi) - math.pi
+    d = normalize_angles(np.asarray(a) - np.asarray(b))
     return float(d) if np.ndim(d) == 0 else d
