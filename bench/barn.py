@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
             results = list(_progress(ex.map(_fast, jobs), len(jobs), t0))
     else:
-        from deploy.procs import terminate_as_interrupt
+        from deploy.process_group import terminate_as_interrupt
 
         jobs = [(w, str(work), a.master, a.robot, a.speed, a.engine, a.friction) for w in worlds]
         with terminate_as_interrupt():  # a killed bench stops each world's robot and master agents too

@@ -26,7 +26,7 @@ from common.config import load_params, read_yaml  # noqa: E402
 from common.geometry import Pose2D  # noqa: E402
 from master_side.planning.grid import INSCRIBED, LETHAL  # noqa: E402
 from master_side.planning.local import DWAPlanner, DWAPlannerParams  # noqa: E402
-from master_side.planning.local.map_grid import forget_recent_fills  # noqa: E402
+from master_side.planning.local.scoring_context import forget_recent_fills  # noqa: E402
 from master_side.planning.navfn import NavFn, path_length  # noqa: E402
 
 SHARED = Path(os.environ.get("ZENAV_SHARED", REPO.parent / "shared"))

@@ -223,3 +223,8 @@ class Transform:
 
 # In ROS a Pose and a Transform carry the same data; zenav uses one type for both.
 Pose = Transform
+
+
+# REP-103's camera convention: a camera's link frame (x forward, y left, z up) <- its optical frame
+# (z forward, x right, y down). The Kinect driver and the simulated depth camera both publish it.
+OPTICAL_FROM_LINK = Transform.from_xyz_rpy(0.0, 0.0, 0.0, -math.pi / 2, 0.0, -math.pi / 2)

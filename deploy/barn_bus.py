@@ -23,7 +23,7 @@ from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, Scalar
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy import barn
-from deploy.procs import ProcessGroup
+from deploy.process_group import ProcessGroup
 from robot_side.worlds.barn import GOAL, GOAL_IN_ODOM, START
 
 REPO = Path(__file__).resolve().parents[1]

@@ -71,7 +71,7 @@ def monitor_args(args) -> tuple[str, ...]:
 
 def run(args) -> int:
     from deploy.demo import Demo, DemoOptions
-    from deploy.procs import terminate_as_interrupt
+    from deploy.process_group import terminate_as_interrupt
 
     given = [o for o, v in (("--connect", getattr(args, "connect", None)), ("--listen", getattr(args, "listen", None)),
                             ("--mode", getattr(args, "mode", None)),

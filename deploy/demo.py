@@ -23,7 +23,7 @@ from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, O
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.map_check import map_accuracy
-from deploy.procs import ProcessGroup
+from deploy.process_group import ProcessGroup
 from deploy.world_maps import export_world_map, world_path
 from master_side.mapping.map_io import save_map
 from robot_side.sim.world import parse_pose

@@ -57,9 +57,9 @@ from master_side.costmap.health import SensorHealth
 from master_side.move_base.config import check, load_move_base_config
 from master_side.move_base.controller import LocalController
 from master_side.move_base.global_planning_node import GlobalPlanning
-from master_side.move_base.inputs import collision_hint, robot_pose, safety_override
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
+from master_side.move_base.robot_inputs import collision_hint, robot_pose, safety_override
 from master_side.move_base.state_machine import MoveBaseMachine, State
 from master_side.planning.warmup import warm_local_planners
 

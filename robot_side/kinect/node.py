@@ -30,7 +30,7 @@ import threading
 import time
 
 from common.config import ConfigError
-from common.geometry import Transform
+from common.geometry import OPTICAL_FROM_LINK, Transform
 from common.messages import Header, TransformStamped
 from common.tf import StaticTFBroadcaster
 from robot_side.device_node import EXIT_DEVICE_LOST, DeviceNode  # noqa: F401 - EXIT_DEVICE_LOST re-exported
@@ -44,7 +44,6 @@ from robot_side.kinect.freenect import (
     depth_image,
     load_kinect_params,
 )
-from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
 
 log = logging.getLogger("zenav.kinect")
 

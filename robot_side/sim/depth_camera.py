@@ -24,17 +24,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from common.config import load_params, param
-from common.geometry import Pose2D, Transform
+from common.geometry import Pose2D
 from common.messages import CameraInfo, DepthImage, Header
 from robot_side.sim.raycast import candidates, expand_pairs, ray_square, safe_inverse, surface_cells
 from robot_side.sim.world import World
 
-__all__ = ["DepthCameraParams", "DepthCamera", "DEPTH_MODES", "OPTICAL_FROM_LINK"]
+__all__ = ["DepthCameraParams", "DepthCamera", "DEPTH_MODES"]
 
 # openni depth_mode / image_mode -> (width, height)
 DEPTH_MODES = {2: (640, 480), 5: (320, 240), 8: (160, 120)}
-# camera_link (x forward, y left, z up) <- optical frame (z forward, x right, y down)
-OPTICAL_FROM_LINK = Transform.from_xyz_rpy(0.0, 0.0, 0.0, -math.pi / 2, 0.0, -math.pi / 2)
 
 
 @dataclass(frozen=True)

@@ -7,10 +7,9 @@ from __future__ import annotations
 import math
 import threading
 
-from common.geometry import Transform
+from common.geometry import OPTICAL_FROM_LINK, Transform
 from common.messages import Header, TransformStamped
 from common.tf import StaticTFBroadcaster, TFError, TFListener
-from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
 from robot_side.sim.node_params import SimNodeParams
 from robot_side.sim.simulator import Simulator
 

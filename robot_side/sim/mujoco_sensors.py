@@ -10,8 +10,8 @@ import math
 
 import numpy as np
 
-from common.geometry import Pose2D
-from robot_side.sim.depth_camera import OPTICAL_FROM_LINK, DepthCamera, DepthCameraParams
+from common.geometry import OPTICAL_FROM_LINK, Pose2D
+from robot_side.sim.depth_camera import DepthCamera, DepthCameraParams
 from robot_side.sim.laser import Laser, LaserParams
 from robot_side.sim.mujoco_base import MujocoBase
 from robot_side.sim.mujoco_scene import FLOOR_GROUP, OBSTACLE_GROUP

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from common.config import ConfigError, load_params, param
-from common.geometry import Pose2D, Transform
+from common.geometry import OPTICAL_FROM_LINK, Pose2D, Transform
 from common.messages import (
     CameraInfo,
     Clock,
@@ -35,7 +35,6 @@ from common.messages import (
 )
 from robot_side.sim.base import BaseParams, DiffDriveBase, load_base_params
 from robot_side.sim.depth_camera import (
-    OPTICAL_FROM_LINK,
     DepthCamera,
     DepthCameraParams,
     load_depth_camera_params,

@@ -7,7 +7,8 @@ import os
 
 import pytest
 
-from tests.costmap_e2e.costmap_e2e_rig import REPO, CmeProc, cme_free_port
+from common.ports import free_port
+from tests.costmap_e2e.costmap_e2e_rig import REPO, CmeProc
 
 
 @pytest.fixture
@@ -15,7 +16,7 @@ def cme_bus(robot_name):
     from common.bus import Node
     from common.zenoh_config import BusConfig
 
-    port = cme_free_port()
+    port = free_port()
     cfg = BusConfig(robot=robot_name, listen=(f"tcp/127.0.0.1:{port}",), multicast=False)
     node = Node("costmap_e2e_test", config=cfg, use_sim_time=False)
     env = {**os.environ, "ZENAV_ROBOT": robot_name, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
@@ -33,7 +34,7 @@ def cme_procs(tmp_path):
 
     def start(name: str, argv: list[str], env: dict) -> CmeProc:
         """Each process listens on its own loopback port (peers connect to each other by gossip)."""
-        env = {**env, "ZENAV_LISTEN": f"tcp/127.0.0.1:{cme_free_port()}"}
+        env = {**env, "ZENAV_LISTEN": f"tcp/127.0.0.1:{free_port()}"}
         p = CmeProc(name, argv, env, tmp_path / f"{name}.log")
         started.append(p)
         return p

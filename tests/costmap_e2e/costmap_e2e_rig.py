@@ -17,14 +17,8 @@ import numpy as np
 import psutil
 import yaml
 
-from common.ports import free_port
-
 REPO = Path(__file__).resolve().parents[2]
 ROOM = REPO / "robot_side" / "worlds" / "room.yaml"
-
-
-def cme_free_port() -> int:
-    return free_port()  # below the ephemeral range (common.ports.free_port)
 
 
 def cme_wait(cond, timeout: float, what: str, procs=(), period: float = 0.05):

@@ -7,7 +7,7 @@ from __future__ import annotations
 from common.geometry import Transform
 from common.messages import Header, TransformStamped
 from common.tf_buffer import TFBuffer
-from master_side.move_base.inputs import robot_pose
+from master_side.move_base.robot_inputs import robot_pose
 
 
 def test_a_quiet_map_to_odom_edge_is_named_with_its_age_and_publisher():

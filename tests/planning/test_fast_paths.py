@@ -14,7 +14,7 @@ from master_side.planning.gradient_path import descend
 from master_side.planning.grid import LETHAL, NO_INFORMATION
 from master_side.planning.local import DWAPlanner, DWAPlannerParams
 from master_side.planning.local.costs import GoalAlign, GoalDistance, PathAlign, PathDistance
-from master_side.planning.local.map_grid import ScoringContext
+from master_side.planning.local.scoring_context import ScoringContext
 from master_side.planning.local.trajectories import Trajectories, _integrate_constant, linspace_window, sample_grid
 from master_side.planning.navfn import NavfnParams
 from master_side.planning.potential import pad_costs, propagate

@@ -15,8 +15,8 @@ from master_side.planning.local.costs import (
     PathDistance,
     Twirling,
 )
-from master_side.planning.local.map_grid import ScoringContext
 from master_side.planning.local.scoring import ScoredSamplingPlanner
+from master_side.planning.local.scoring_context import ScoringContext
 from master_side.planning.local.trajectories import Trajectories, simulate
 
 RES = 0.05

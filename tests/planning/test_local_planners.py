@@ -19,7 +19,7 @@ from master_side.planning.local import (
     TrajectoryPlannerParams,
 )
 from master_side.planning.local.costs import ObstacleCost
-from master_side.planning.local.map_grid import ScoringContext, angle_diff
+from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories
 from master_side.planning.navfn import NavFn
 

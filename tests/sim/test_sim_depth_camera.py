@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from sim_helpers import wall_world
 
-from common.geometry import Pose2D
-from robot_side.sim.depth_camera import DEPTH_MODES, OPTICAL_FROM_LINK, DepthCamera, DepthCameraParams
+from common.geometry import OPTICAL_FROM_LINK, Pose2D
+from robot_side.sim.depth_camera import DEPTH_MODES, DepthCamera, DepthCameraParams
 from robot_side.sim.world import World
 
 RES = 0.02

@@ -7,10 +7,10 @@ import time
 
 import numpy as np
 
+from common.geometry import OPTICAL_FROM_LINK
 from common.messages import BatteryState, CameraInfo, Clock, DepthImage, LaserScan, MotorState, Odometry
 from common.tf import TFListener
 from robot_side.sim.base import BaseParams
-from robot_side.sim.depth_camera import OPTICAL_FROM_LINK
 from tests.sim_e2e.conftest import Recorder, open_world, publisher_matched, wait_until
 from tests.sim_e2e.e2e_checks import (
     Rig,

@@ -15,8 +15,8 @@ import numpy as np
 from common.geometry import Pose2D
 from master_side.planning.grid import check_grid
 from master_side.planning.local.costs import ObstacleCost
-from master_side.planning.local.map_grid import ScoringContext, angle_diff
 from master_side.planning.local.scoring import ScoredSamplingPlanner
+from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories, simulate
 
 # Control cycles of command lag budgeted before the final in-place rotation brakes (see _rotation_speed).

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from master_side.planning.local.map_grid import ScoringContext
+from master_side.planning.local.scoring_context import ScoringContext
 from master_side.planning.local.trajectories import Trajectories
 
 REJECT = -1.0

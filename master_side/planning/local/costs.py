@@ -11,11 +11,11 @@ import math
 import numpy as np
 
 from master_side.planning.local.cost_base import REJECT, CostFunction  # noqa: F401 (re-exported)
-from master_side.planning.local.map_grid import (
+from master_side.planning.local.obstacle_cost import ObstacleCost  # noqa: F401 (re-exported)
+from master_side.planning.local.scoring_context import (
     ScoringContext,
     angle_diff,
 )
-from master_side.planning.local.obstacle_cost import ObstacleCost  # noqa: F401 (re-exported)
 from master_side.planning.local.traj_cells import all_inside, finite_end_values, last_cells, point_cells
 from master_side.planning.local.trajectories import Trajectories
 

@@ -18,7 +18,7 @@ from common.geometry import footprint_radii
 from common.jit import kernel
 from master_side.planning.grid import INSCRIBED, LETHAL
 from master_side.planning.local.cost_base import REJECT, CostFunction
-from master_side.planning.local.map_grid import ScoringContext, footprint_outline
+from master_side.planning.local.scoring_context import ScoringContext, footprint_outline
 from master_side.planning.local.traj_cells import BIG, kernel_inside, max_cell_values, point_cells, steps_xy
 from master_side.planning.local.trajectories import Trajectories
 

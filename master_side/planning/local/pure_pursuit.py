@@ -33,8 +33,8 @@ from common.config import param
 from master_side.planning.grid import LETHAL
 from master_side.planning.local.base import Limits, LocalPlanner, LocalResult
 from master_side.planning.local.costs import ObstacleCost
-from master_side.planning.local.map_grid import ScoringContext
 from master_side.planning.local.scoring import ScoredSamplingPlanner
+from master_side.planning.local.scoring_context import ScoringContext
 from master_side.planning.local.trajectories import simulate
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from master_side.planning.local.cost_base import REJECT, CostFunction
-from master_side.planning.local.map_grid import ScoringContext
+from master_side.planning.local.scoring_context import ScoringContext
 from master_side.planning.local.trajectories import Trajectories
 
 FIRST_EXACT = 2  # trajectories scored exactly before the bounds are tightened

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from common.jit import kernel
-from master_side.planning.local.map_grid import ScoringContext
+from master_side.planning.local.scoring_context import ScoringContext
 from master_side.planning.local.trajectories import Trajectories
 
 BIG = 1 << 20  # as in ScoringContext.cells_xy: truncation of a shifted value is floor()

@@ -32,10 +32,10 @@ from common.config import param
 from common.geometry import footprint_radii
 from master_side.costmap.footprint import pad_footprint
 from master_side.planning.local.base import Limits, LocalPlanner, LocalResult
-from master_side.planning.local.map_grid import ScoringContext, angle_diff
 from master_side.planning.local.scoring import ScoredSamplingPlanner
-from master_side.planning.local.tp_costs import TPOscillation, TrajectoryCost
+from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories, ros_steps, simulate_ramped
+from master_side.planning.local.trajectory_cost import TPOscillation, TrajectoryCost
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,7 @@ import numpy as np
 
 from master_side.planning.grid import INSCRIBED
 from master_side.planning.local.costs import ObstacleCost
-from master_side.planning.local.map_grid import ScoringContext, angle_diff
+from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories
 
 HEADING_WEIGHT = 0.3  # trajectory_planner.cpp: the fixed weight of heading_diff
