@@ -14,7 +14,7 @@ from master_side.localization.amcl import Amcl
 from master_side.localization.likelihood_field import LikelihoodField, beam_likelihoods, select_beams
 from master_side.localization.params import AmclParams, load_amcl_params
 from master_side.localization.sampling import kld_limit, kld_resample
-from tests.amcl.test_amcl_support import KINECT, LASER, RES, box_map, cast_scan, noisy_step, pose_error
+from tests.amcl.amcl_support import KINECT, LASER, RES, box_map, cast_scan, noisy_step, pose_error
 
 LASER_IN_BASE = Pose2D(0.1, 0.0, 0.0)
 

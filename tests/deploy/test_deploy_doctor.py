@@ -8,7 +8,7 @@ import os
 import sys
 
 import pytest
-from test_deploy_helpers import HELPER, env_for, free_port, start, stop, wait_line, zenav
+from deploy_helpers import HELPER, env_for, free_port, start, stop, wait_line, zenav
 
 from deploy.hosts.doctor_checks import serial_check, skew_check
 from tests.support import two_netns

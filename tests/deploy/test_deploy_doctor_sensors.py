@@ -10,7 +10,7 @@ import sys
 
 import pytest
 import yaml
-from test_deploy_helpers import HELPER, REPO, env_for, free_port, start, stop, wait_line, zenav
+from deploy_helpers import HELPER, REPO, env_for, free_port, start, stop, wait_line, zenav
 
 from common.messages import CostmapSensors, Header, ObservationSourceStatus
 from deploy.hosts.doctor_checks import sensor_checks

@@ -9,7 +9,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
-from test_deploy_helpers import REPO
+from deploy_helpers import REPO
 
 SCRIPT = REPO / "deploy" / "hosts" / "install-robot.sh"
 

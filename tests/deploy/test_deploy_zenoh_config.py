@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 import zenoh
-from test_deploy_helpers import env_for, free_port, start, stop, wait_line
+from deploy_helpers import env_for, free_port, start, stop, wait_line
 
 from common.zenoh_config import BusConfig
 from deploy.cli import build_parser

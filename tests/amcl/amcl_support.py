@@ -1,4 +1,4 @@
-"""Helpers for the AMCL tests (no tests here): small maps, a grid ray caster, a noisy odometry drive."""
+"""Helpers for the AMCL tests: small maps, a grid ray caster, a noisy odometry drive."""
 
 from __future__ import annotations
 

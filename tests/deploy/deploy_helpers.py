@@ -1,6 +1,6 @@
-"""Helpers for the deploy tests (no tests here). Run as a script it is a fake robot:
+"""Helpers for the deploy tests. Run as a script it is a fake robot:
 
-    python tests/deploy/test_deploy_helpers.py fakerobot [--skew S]
+    python tests/deploy/deploy_helpers.py fakerobot [--skew S]
 
 publishing scan (10 Hz), odom and tf odom→base_link (20 Hz) with header stamps time.time() + skew,
 on the bus configured by ZENAV_* (prints READY once up)."""
