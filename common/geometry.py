@@ -225,6 +225,26 @@ class Transform:
 Pose = Transform
 
 
+
+class TurnCounter:
+    """How far a heading has turned, all turns counted (|wrap(yaw_k - yaw_k-1)| summed), since ``reset``.
+    The in-place spin checks of move_base (max_in_place_rotation) and of the trajectory planner (a full
+    revolution without moving) count with it; each decides itself what resets the count."""
+
+    def __init__(self) -> None:
+        self.turned = 0.0
+        self._yaw: float | None = None
+
+    def reset(self) -> None:
+        self.turned, self._yaw = 0.0, None
+
+    def add(self, yaw: float) -> float:
+        """Count the turn from the last heading to ``yaw`` (nothing for the first one); the total."""
+        if self._yaw is not None:
+            self.turned += abs(normalize_angle(yaw - self._yaw))
+        self._yaw = float(yaw)
+        return self.turned
+
 # REP-103's camera convention: a camera's link frame (x forward, y left, z up) <- its optical frame
 # (z forward, x right, y down). The Kinect driver and the simulated depth camera both publish it.
 OPTICAL_FROM_LINK = Transform.from_xyz_rpy(0.0, 0.0, 0.0, -math.pi / 2, 0.0, -math.pi / 2)

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from common.geometry import Pose2D, normalize_angle
+from common.geometry import Pose2D, TurnCounter, normalize_angle
 from common.messages import GoalStatus
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.planner_thread import ImmediatePlanner
@@ -115,8 +115,7 @@ class MoveBaseMachine:
         self._last_valid_plan = self._last_valid_control = self._osc_time = self._prog_time = now
         self._osc_pose = self._prog_pose = pose
         self._retries = 0
-        self._spin = 0.0
-        self._spin_yaw: float | None = None
+        self._spin = TurnCounter()  # in-place turning while commanding no translation
 
     # -- goal management -----------------------------------------------------------------------
     def set_goal(self, goal_id: str, goal: Pose2D, now: float) -> None:
@@ -241,14 +240,11 @@ class MoveBaseMachine:
         """'' or why the in-place turning has gone on too long (zenav's max_in_place_rotation)."""
         limit = self.params.max_in_place_rotation
         if limit <= 0 or math.hypot(cmd[0], cmd[1]) >= IN_PLACE:
-            self._spin, self._spin_yaw = 0.0, None
+            self._spin.reset()
             return ""
-        if self._spin_yaw is not None:
-            self._spin += abs(normalize_angle(pose.theta - self._spin_yaw))
-        self._spin_yaw = pose.theta
-        if self._spin < limit:
+        if self._spin.add(pose.theta) < limit:
             return ""
-        self._spin, self._spin_yaw = 0.0, None
+        self._spin.reset()
         return f"turned {limit:.1f} rad in place without moving (the local planner finds nothing better)"
 
     def _start_recovery(self, trigger: Trigger, why: str) -> None:
@@ -278,7 +274,7 @@ class MoveBaseMachine:
         if done:
             self._recovery = None
             self._osc_time, self._last_valid_plan, self._retries = now, now, 0
-            self._spin, self._spin_yaw = 0.0, None
+            self._spin.reset()
             self.planner.start(self.goal.pose)
             self._enter(State.PLANNING, "recovery done, replanning")
             self.reason = "waiting for a global plan"

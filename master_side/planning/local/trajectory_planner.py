@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from common.config import param
-from common.geometry import footprint_radii
+from common.geometry import TurnCounter, footprint_radii
 from master_side.costmap.footprint import pad_footprint
 from master_side.planning.local.base import Limits, LocalPlanner, LocalResult
 from master_side.planning.local.scoring import ScoredSamplingPlanner
@@ -118,8 +118,8 @@ class TrajectoryPlanner(LocalPlanner):
         self.flags = TPOscillation(p.oscillation_reset_dist)
         super().__init__(p.limits(), ScoredSamplingPlanner([]), self.flags, p.prune_plan)
         self._escape: np.ndarray | None = None  # pose where the escape started
-        self._spin = 0.0  # in-place turning (rad) since the robot last moved oscillation_reset_dist
-        self._spin_from: np.ndarray | None = None  # (x, y, theta) where that turning started / last seen
+        self._spin = TurnCounter()  # in-place turning since the robot last moved oscillation_reset_dist
+        self._spin_from: np.ndarray | None = None  # (x, y) where that turning started
         self._no_spin_from: np.ndarray | None = None  # where in-place rotation was left out
         self.footprint_padding = 0.0  # the costmap's footprint_padding (move_base sets it): see _back_up
 
@@ -192,13 +192,14 @@ class TrajectoryPlanner(LocalPlanner):
             self._no_spin_from = None
         start = self._spin_from
         if start is None or math.hypot(*(pose[:2] - start[:2])) > reset:
-            self._spin, self._spin_from = 0.0, pose.copy()
+            self._spin.reset()
+            self._spin.add(pose[2])
+            self._spin_from = pose[:2].copy()
             return False
-        self._spin += abs(angle_diff(pose[2], start[2]))
-        start[2] = pose[2]
-        if self._spin < 2 * math.pi:
+        if self._spin.add(pose[2]) < 2 * math.pi:
             return False
-        self._spin, self._spin_from, self._no_spin_from = 0.0, None, pose.copy()
+        self._spin.reset()
+        self._spin_from, self._no_spin_from = None, pose.copy()
         return True
 
     def _rollout(self, pose: np.ndarray, vel: np.ndarray, samples: np.ndarray) -> Trajectories:
