@@ -1,14 +1,16 @@
-"""Layer contract (costmap_2d::Layer / CostmapLayer) and the type-name -> class registry.
+"""Layer contract (costmap_2d::Layer / CostmapLayer, nav2's Layer) and the type-name -> class registry.
 
 Each cycle the LayeredCostmap calls ``update_bounds(robot_pose, bounds) -> bounds`` on every enabled
-layer, then ``update_costs(master, window)`` over the window of cells that changed.
+layer, then ``update_costs(master, window)`` over the window of cells that changed. ``CostmapPlugin``
+is the whole contract as a Protocol; ``Layer`` implements each hook as a no-op (a layer overrides what
+it uses) and a layer changes only its own state: the master grid only in ``update_costs``.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
@@ -73,6 +75,38 @@ def layer_class(type_name: str) -> type[Layer]:
         raise KeyError(f"unknown costmap layer type {type_name!r}; known: {sorted(LAYER_TYPES)}") from None
 
 
+class CostmapPlugin(Protocol):
+    """What the LayeredCostmap calls on each of its layers."""
+
+    name: str
+
+    @property
+    def enabled(self) -> bool: ...
+
+    def initialize(self, layered: LayeredCostmap) -> None:
+        """Added to ``layered`` (the master grid exists)."""
+
+    def match_size(self) -> None: ...
+
+    def update_origin(self, new_origin_x: float, new_origin_y: float) -> None: ...
+
+    def on_footprint_changed(self) -> None: ...
+
+    def update_bounds(self, robot_pose: Pose2D, bounds: Bounds) -> Bounds: ...
+
+    def update_costs(self, master: Costmap2D, window: Window) -> None: ...
+
+    def reset(self) -> None: ...
+
+    def clear_outside(self, outside: np.ndarray) -> None: ...
+
+    def is_current(self, now: float) -> bool: ...
+
+    def stale_sources(self, now: float) -> list[str]: ...
+
+    def grid(self) -> Costmap2D | None: ...
+
+
 class Layer:
     """A plugin layer. Subclasses set ``Params`` (a frozen params dataclass) and override the hooks."""
 
@@ -83,7 +117,6 @@ class Layer:
         self.name = name
         self.params = params
         self.layered: LayeredCostmap | None = None
-        self.current = True
 
     @property
     def enabled(self) -> bool:
@@ -110,6 +143,18 @@ class Layer:
 
     def reset(self) -> None:
         """Forget everything (move_base recovery 'clear costmaps')."""
+
+    def clear_outside(self, outside: np.ndarray) -> None:
+        """ClearCostmapRecovery: forget what this layer learnt from sensors in the master's cells where
+        ``outside`` (bool, (size_y, size_x)) is True; a layer without sensor data keeps everything."""
+
+    def is_current(self, now: float) -> bool:
+        """ROS isCurrent: are this layer's inputs recent enough (no inputs: always)?"""
+        return True
+
+    def stale_sources(self, now: float) -> list[str]:
+        """Names of the inputs that make this layer not current."""
+        return []
 
     def grid(self) -> Costmap2D | None:
         """This layer's own grid for display (None if it has none)."""

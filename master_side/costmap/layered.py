@@ -17,7 +17,7 @@ from master_side.costmap import inflation_layer, obstacle_layer, static_layer, v
 from master_side.costmap.cost_values import FREE, NO_INFORMATION
 from master_side.costmap.costmap2d import Costmap2D, Window
 from master_side.costmap.footprint import make_footprint_from_radius
-from master_side.costmap.layer import LAYER_TYPES, Bounds, Layer, layer_class, register_layer
+from master_side.costmap.layer import LAYER_TYPES, Bounds, CostmapPlugin, layer_class, register_layer
 
 if TYPE_CHECKING:
     from master_side.costmap.params import CostmapConfig
@@ -34,11 +34,12 @@ class LayeredCostmap:
         master.default_value = NO_INFORMATION if track_unknown_space else FREE
         master.reset()
         self.master = master
-        self.layers: list[Layer] = []
+        self.layers: list[CostmapPlugin] = []
         self.footprint = np.zeros((0, 2))
         self.inscribed_radius = self.circumscribed_radius = 0.0
         self.last_window: Window | None = None
         self.initialized = False  # True after the first update_map
+        self._full_update = False  # the next update_map recomputes the whole master (after clear_outside)
         self.set_footprint(make_footprint_from_radius(0.46) if footprint is None else footprint)
 
     @classmethod
@@ -56,7 +57,7 @@ class LayeredCostmap:
             lc.add_layer(layer)
         return lc
 
-    def add_layer(self, layer: Layer) -> Layer:
+    def add_layer(self, layer: CostmapPlugin) -> CostmapPlugin:
         if any(existing.name == layer.name for existing in self.layers):
             raise ValueError(f"costmap already has a layer named {layer.name!r}")
         self.layers.append(layer)
@@ -64,7 +65,7 @@ class LayeredCostmap:
         layer.on_footprint_changed()
         return layer
 
-    def layer(self, name: str) -> Layer:
+    def layer(self, name: str) -> CostmapPlugin:
         for layer in self.layers:
             if layer.name == name:
                 return layer
@@ -95,7 +96,7 @@ class LayeredCostmap:
         bounds = Bounds()
         for layer in enabled:
             bounds = layer.update_bounds(robot_pose, bounds)
-        if getattr(self, "_full_update", False):  # after a clear: recompute everything once
+        if self._full_update:  # after a clear: recompute everything once
             self._full_update = False
             bounds = bounds.expand_points(np.array([m.origin_x, m.origin_x + m.size_in_meters_x]),
                                           np.array([m.origin_y, m.origin_y + m.size_in_meters_y]))
@@ -116,34 +117,26 @@ class LayeredCostmap:
             layer.reset()
 
     def clear_outside(self, robot_pose: Pose2D, distance: float) -> None:
-        """ClearCostmapRecovery: forget obstacles outside a square of side ``distance`` centred on the
-        robot (0 = everywhere); the static layer is kept."""
-        from master_side.costmap.obstacle_layer import ObstacleLayer
-
+        """ClearCostmapRecovery: every layer forgets what its sensors marked outside a square of side
+        ``distance`` centred on the robot (the static layer keeps its map); the next update recomputes
+        the whole master."""
+        m = self.master
+        xs = m.origin_x + (np.arange(m.size_x) + 0.5) * m.resolution
+        ys = m.origin_y + (np.arange(m.size_y) + 0.5) * m.resolution
+        inside_x = np.abs(xs - robot_pose.x) <= distance / 2.0
+        inside_y = np.abs(ys - robot_pose.y) <= distance / 2.0
+        outside = ~(inside_y[:, None] & inside_x[None, :])
         for layer in self.layers:
-            if not isinstance(layer, ObstacleLayer) or layer.costmap is None:
-                continue
-            cm = layer.costmap
-            xs = cm.origin_x + (np.arange(cm.size_x) + 0.5) * cm.resolution
-            ys = cm.origin_y + (np.arange(cm.size_y) + 0.5) * cm.resolution
-            inside_x = np.abs(xs - robot_pose.x) <= distance / 2.0
-            inside_y = np.abs(ys - robot_pose.y) <= distance / 2.0
-            outside = ~(inside_y[:, None] & inside_x[None, :])
-            cm.data[outside] = cm.default_value
-            if hasattr(layer, "marked"):
-                layer.marked[:, outside] = False
-                layer.unknown[:, outside] = True
-            for buf in layer.buffers.values():  # buffered readings would mark the cleared cells again
-                buf.clear()
+            layer.clear_outside(outside)
         self._full_update = True
 
     def is_current(self, now: float) -> bool:
-        return all(getattr(x, "is_current", lambda _t: True)(now) for x in self.layers if x.enabled)
+        return all(x.is_current(now) for x in self.layers if x.enabled)
 
     def stale_sources(self, now: float) -> list[str]:
         out: list[str] = []
         for x in self.layers:
-            if x.enabled and hasattr(x, "stale_sources"):
+            if x.enabled:
                 out += [f"{x.name}/{s}" for s in x.stale_sources(now)]
         return out
 

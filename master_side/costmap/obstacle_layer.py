@@ -77,6 +77,13 @@ class ObstacleLayer(CostmapLayer):
         for b in self.buffers.values():
             b.clear()
 
+    def clear_outside(self, outside: np.ndarray) -> None:
+        if self.costmap is None:
+            return
+        self.costmap.data[outside] = self.costmap.default_value
+        for b in self.buffers.values():  # buffered readings would mark the cleared cells again
+            b.clear()
+
     # -- marking / clearing (overridden by the voxel layer) ---------------------------------------
     def _marking_points(self, obs: Observation) -> np.ndarray:
         """Points that may mark: under max_obstacle_height and within [obstacle_min_range, obstacle_range)."""

@@ -41,6 +41,11 @@ class VoxelLayer(ObstacleLayer):
         self.marked[:] = False
         self.unknown[:] = True
 
+    def clear_outside(self, outside: np.ndarray) -> None:
+        super().clear_outside(outside)
+        self.marked[:, outside] = False
+        self.unknown[:, outside] = True
+
     def voxels(self) -> tuple[np.ndarray, np.ndarray]:
         """(marked, unknown) bool arrays (z, y, x), for display."""
         return self.marked, self.unknown

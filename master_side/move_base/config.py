@@ -26,6 +26,7 @@ from master_side import ros_params as ros
 from master_side.costmap.params import CostmapConfig, load_costmap_config
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.recovery import RotateLimits
+from master_side.planning.local.base import LocalPlannerPlugin
 from master_side.planning.local.dwa import DWAPlanner, DWAPlannerParams
 from master_side.planning.local.pure_pursuit import PurePursuitParams, RegulatedPurePursuit
 from master_side.planning.local.trajectory_planner import TrajectoryPlanner, TrajectoryPlannerParams
@@ -82,10 +83,9 @@ class MoveBaseConfig:
     def circumscribed_radius(self) -> float:
         return float(footprint_radii(self.footprint)[1])
 
-    def make_local_planner(self):
+    def make_local_planner(self) -> LocalPlannerPlugin:
         planner = _local_planners()[self.local_kind][2](self.local_params)
-        if hasattr(planner, "footprint_padding"):  # the escape may check the robot's own outline
-            planner.footprint_padding = self.local_costmap.costmap.footprint_padding
+        planner.footprint_padding = self.local_costmap.costmap.footprint_padding
         return planner
 
 

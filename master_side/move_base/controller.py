@@ -13,6 +13,7 @@ import numpy as np
 from common.geometry import Pose2D, normalize_angles
 from master_side.costmap.cost_values import LETHAL
 from master_side.move_base.state_machine import ControlResult
+from master_side.planning.local.base import LocalPlannerPlugin
 
 
 def transform_path(path: np.ndarray, tf: Pose2D) -> np.ndarray:
@@ -25,15 +26,16 @@ def transform_path(path: np.ndarray, tf: Pose2D) -> np.ndarray:
 
 
 class LocalController:
-    """Implements the controller protocol of ``MoveBaseMachine`` on top of a local planner."""
+    """The ``contracts.Controller`` of ``MoveBaseMachine`` on top of a local planner."""
 
-    def __init__(self, planner, footprint: np.ndarray) -> None:
+    def __init__(self, planner: LocalPlannerPlugin, footprint: np.ndarray) -> None:
         self.planner = planner
         self.footprint = np.asarray(footprint, float).reshape(-1, 2)
         self.global_plan = np.zeros((0, 3))
         self.local_pose: Pose2D | None = None  # robot pose in the local frame, set each cycle
         self.local_from_global: Pose2D | None = None
-        self.costmap = None  # (grid uint8, resolution, (ox, oy)) of the local costmap
+        self.costmap: tuple[np.ndarray, float, tuple[float, float]] | None = None  # the local costmap's
+        # (grid uint8, resolution, (ox, oy))
         self.last: ControlResult | None = None
         self._sent_tf: Pose2D | None = None
         self._sent_plan_id = -1

@@ -17,12 +17,9 @@ zenav's addition (``max_in_place_rotation``): valid commands that only turn the 
 full revolution without it getting anywhere count as a failed controller (recovery), so a local
 planner that prefers spinning to entering a tight gap cannot spin until the goal's timeout.
 
-Collaborators, supplied by the node:
-  planner: start(goal) / stop() / wake() / poll(now, pose) -> PlanOutcome (see planner_thread); a plain
-           callable planner(start, goal) -> (path, goal_used) is wrapped in an ImmediatePlanner
-  controller.set_plan(path); controller.compute(pose, velocity) -> ControlResult;
-  controller.goal_reached(pose, velocity) -> bool
-  recoveries: list of RecoveryBehavior (see recovery.py)
+Collaborators, supplied by the node: a ``GlobalPlanner``, a ``Controller`` and ``Recovery`` behaviours
+(the Protocols of ``contracts.py``); a plain planning function goes in through
+``planner_thread.ImmediatePlanner(fn, planner_frequency)``.
 """
 
 from __future__ import annotations
@@ -35,8 +32,8 @@ import numpy as np
 
 from common.geometry import Pose2D, TurnCounter, normalize_angle
 from common.messages import GoalStatus
+from master_side.move_base.contracts import Controller, GlobalPlanner, Recovery
 from master_side.move_base.params import MoveBaseParams
-from master_side.move_base.planner_thread import ImmediatePlanner
 
 
 class State(enum.Enum):
@@ -94,20 +91,19 @@ class _Goal:
 @dataclass
 class MoveBaseMachine:
     params: MoveBaseParams
-    planner: object
-    controller: object
-    recoveries: list = field(default_factory=list)
+    planner: GlobalPlanner
+    controller: Controller
+    recoveries: list[Recovery] = field(default_factory=list)
 
     def __post_init__(self) -> None:
-        if callable(self.planner) and not hasattr(self.planner, "poll"):
-            self.planner = ImmediatePlanner(self.planner, self.params.planner_frequency)
         self.state = State.IDLE
         self.status = GoalStatus.PENDING
         self.goal: _Goal | None = None
         self.reason = "no goal"
         self.recovery_index = 0
         self.trigger: Trigger | None = None
-        self._recovery = None
+        self._recovery: Recovery | None = None
+        self._recovery_started = False  # its start() runs on the first CLEARING tick, with that tick's time
         self._pending_event = ""
         self._reset_clocks(0.0, None)
 
@@ -260,15 +256,15 @@ class MoveBaseMachine:
             return
         self._recovery = enabled[self.recovery_index]
         self.recovery_index += 1
-        self._recovery.start_pending = True
+        self._recovery_started = False
         self._enter(State.CLEARING, f"recovery {self.recovery_index}/{len(enabled)} "
                                     f"({self._recovery.name}) because {why}")
         self.reason = f"recovery {self.recovery_index}/{len(enabled)}: {self._recovery.name} ({why})"
 
     def _tick_clearing(self, now: float, pose: Pose2D, velocity) -> Decision:
         r = self._recovery
-        if getattr(r, "start_pending", False):
-            r.start_pending = False
+        if not self._recovery_started:
+            self._recovery_started = True
             r.start(now)
         cmd, done = r.step(now, pose, velocity)
         if done:

@@ -8,6 +8,7 @@ import pytest
 from common.geometry import Pose2D
 from common.messages import GoalStatus
 from master_side.move_base.params import MoveBaseParams
+from master_side.move_base.planner_thread import ImmediatePlanner
 from master_side.move_base.recovery import ClearCostmapRecovery, RotateRecovery, default_recoveries
 from master_side.move_base.state_machine import ControlResult, MoveBaseMachine, State
 
@@ -42,7 +43,8 @@ class ScriptedController:
 
 def machine(planner=None, controller=None, recoveries=None, **kw):
     params = MoveBaseParams(**kw)
-    return MoveBaseMachine(params, planner or ScriptedPlanner(), controller or ScriptedController(),
+    return MoveBaseMachine(params, ImmediatePlanner(planner or ScriptedPlanner(), params.planner_frequency),
+                           controller or ScriptedController(),
                            recoveries if recoveries is not None else [])
 
 

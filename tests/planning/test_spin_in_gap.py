@@ -14,6 +14,7 @@ from planning_helpers import inflate
 from common.config import read_yaml
 from common.geometry import Pose2D, footprint_radii
 from master_side.move_base.params import MoveBaseParams
+from master_side.move_base.planner_thread import ImmediatePlanner
 from master_side.move_base.state_machine import ControlResult, MoveBaseMachine, State
 from master_side.planning.grid import LETHAL
 from master_side.planning.local import TrajectoryPlanner, TrajectoryPlannerParams
@@ -109,8 +110,9 @@ def test_move_base_sends_an_endless_in_place_spin_to_recovery():
             return (0.0, 0.0, 0.0), True
 
     rec = Record()
-    m = MoveBaseMachine(MoveBaseParams(controller_patience=1e6),
-                        lambda s, g: (np.array([[s.x, s.y, 0.0], [g.x, g.y, 0.0]]), g), _Spinner(), [rec])
+    params = MoveBaseParams(controller_patience=1e6)
+    plan = ImmediatePlanner(lambda s, g: (np.array([[s.x, s.y, 0.0], [g.x, g.y, 0.0]]), g), params.planner_frequency)
+    m = MoveBaseMachine(params, plan, _Spinner(), [rec])
     m.set_goal("g", Pose2D(3.0, 0.0, 0.0), 0.0)
     yaw, t = 0.0, 0.0
     while not rec.started and t < 60.0:

@@ -1,4 +1,6 @@
-"""Local planner interface and the behaviour shared by DWA and trajectory rollout.
+"""Local planner interface (``LocalPlannerPlugin``, the Protocol move_base's controller calls, as ROS's
+nav_core::BaseLocalPlanner) and the behaviour shared by DWA, trajectory rollout and pure pursuit
+(``LocalPlanner``).
 
 A cycle: prune the plan behind the robot, cut the part inside the local costmap, then either the goal
 approach (inside ``xy_goal_tolerance``: brake, rotate in place to the goal yaw, stop) or sample
@@ -9,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -61,6 +64,22 @@ def _toward(v: float, target: float, step: float) -> float:
     return min(v + step, target) if target > v else max(v - step, target)
 
 
+class LocalPlannerPlugin(Protocol):
+    """What ``move_base.controller.LocalController`` asks of a local planner, all in the local costmap's
+    frame. ``footprint_padding``: the local costmap's padding (set by move_base)."""
+
+    footprint_padding: float
+
+    def set_plan(self, path: np.ndarray) -> None:
+        """A new global plan, (N, 3) rows of (x, y, theta)."""
+
+    def is_goal_reached(self, pose: Pose2D, velocity: tuple[float, float, float]) -> bool: ...
+
+    def compute_velocity(self, pose: Pose2D, velocity: tuple[float, float, float], grid: np.ndarray,
+                         resolution: float, origin: tuple[float, float], footprint: np.ndarray) -> LocalResult:
+        """The command for this cycle (``LocalResult.ok`` False with a reason when there is none)."""
+
+
 class LocalPlanner:
     """Shared logic; subclasses provide ``_samples(vel)`` and ``_simulate(pose, vel, samples)`` (or their
     own ``_choose(ctx)``)."""
@@ -77,6 +96,9 @@ class LocalPlanner:
         self._latched = False
         self._rot_dir = 0.0
         self._rot_cmd = 0.0  # last rotation speed commanded by the goal approach (along _rot_dir)
+        # the local costmap's footprint_padding (move_base sets it): a planner that must tell the robot's
+        # bare outline from the padded one uses it (the trajectory planner's escape, see its _back_up)
+        self.footprint_padding = 0.0
 
     # --- interface -------------------------------------------------------------------------------------
     def set_plan(self, path: np.ndarray) -> None:

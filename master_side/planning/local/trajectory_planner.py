@@ -121,7 +121,6 @@ class TrajectoryPlanner(LocalPlanner):
         self._spin = TurnCounter()  # in-place turning since the robot last moved oscillation_reset_dist
         self._spin_from: np.ndarray | None = None  # (x, y) where that turning started
         self._no_spin_from: np.ndarray | None = None  # where in-place rotation was left out
-        self.footprint_padding = 0.0  # the costmap's footprint_padding (move_base sets it): see _back_up
 
     def _context(self, ctx: ScoringContext) -> ScoringContext:
         ctx.within_robot = True  # TrajectoryPlanner::findBestPath marks the footprint cells
