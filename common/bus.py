@@ -68,10 +68,11 @@ class Node:
         self._closed = False
         if use_sim_time is None:
             use_sim_time = os.environ.get("ZENAV_USE_SIM_TIME", "0") in ("1", "true", "yes")
-        self.clock: WallClock | SimClock = SimClock() if use_sim_time else WallClock()
+        sim = SimClock() if use_sim_time else None
+        self.clock: WallClock | SimClock = sim if sim is not None else WallClock()
         self.stats_sources: list[Any] = []  # objects with stats() -> TopicStats rows (subscriptions, TF)
         if use_sim_time:
-            self.subscribe("clock", Clock, callback=lambda m: self.clock.update(m.clock), inline=True)
+            self.subscribe("clock", Clock, callback=lambda m: sim.update(m.clock), inline=True)
         self.service(f"node_stats/{name}", lambda _req: self.stats(), token=False)
         self._node_token = self._declare_token("node")
         self.log = logging.getLogger(f"zenav.{name}")
@@ -132,7 +133,10 @@ class Node:
             finally:
                 query.drop()
 
-        q = self.queryables.declare(key, lambda query: self._pool.submit(run, query), complete=True)
+        def submit(query: zenoh.Query) -> None:
+            self._pool.submit(run, query)
+
+        q = self.queryables.declare(key, submit, complete=True)
         if token:  # node_stats/<node> has none: every node serves it
             self._declare_token("srv", name)
         return q

@@ -85,7 +85,8 @@ class Publisher:
         self._attachment = node.name.encode()
         self._attachment_z = zenoh.ZBytes(self._attachment)  # built once, not per message
         self._last: bytes | None = None
-        self._queryable = self._latched_token = None
+        self._queryable: Any = None
+        self._latched_token: Any = None
         self.count = 0
         if latched:  # answers queries for the last message; its own token tells subscribers to ask it
             self._queryable = node.queryables.declare(self.key, self._on_query, complete=False)
@@ -102,7 +103,8 @@ class Publisher:
         """Whether some subscriber is reachable now (Zenoh's matching status): False for a publisher
         whose readers are gone or whose route has not formed (yet) — what a lost link looks like."""
         try:
-            return bool(self._pub.matching_status.matching)
+            # zenoh's stub types matching_status as bool; it is a MatchingStatus
+            return bool(self._pub.matching_status.matching)  # type: ignore[attr-defined]
         except zenoh.ZError:  # undeclared
             return False
 

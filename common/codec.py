@@ -73,7 +73,7 @@ def _unpack_array(code: int, data: bytes) -> Any:
 
 
 _DTYPES = {n: np.dtype(n).newbyteorder("<") for n in _ALLOWED_DTYPES}
-_DTYPE_NAMES = {dt: n for n in _ALLOWED_DTYPES for dt in (np.dtype(n).newbyteorder(o) for o in "<>")}
+_DTYPE_NAMES = {dt: n for n in _ALLOWED_DTYPES for dt in (np.dtype(n).newbyteorder("<"), np.dtype(n).newbyteorder(">"))}
 _SCALARS = frozenset({float, int, str, bool, bytes, type(None)})  # sent as they are
 # Encoders and decoders compiled once per message type / annotation: the generic walk over
 # dataclasses.fields() and typing.get_origin() per field cost more than Zenoh itself per scan.
@@ -203,8 +203,8 @@ def _make_decoder(ann: Any) -> Callable[[Any], Any]:  # noqa: C901 - one branch 
     if ann is float:
         return lambda v: v if type(v) is float else float(v) if type(v) is int else _raise(": expected float")
     if ann in (bool, int, str, type(None)):
-        want = "nil" if ann is type(None) else ann.__name__
-        return lambda v: v if type(v) is ann else _raise(f": expected {want}")
+        expected = "nil" if ann is type(None) else ann.__name__
+        return lambda v: v if type(v) is ann else _raise(f": expected {expected}")
     name = getattr(ann, "_msg_name", None)
     if name is not None:
         return _make_builder(REGISTRY[name])
@@ -218,7 +218,7 @@ def _raise(text: str) -> Any:
 def _plain(cls: type) -> bool:
     """A plain dataclass (generated __init__, no __post_init__, no slots): fill its __dict__ directly, 10x
     cheaper than __init__'s object.__setattr__ per field of a frozen class; every field is given."""
-    init = getattr(cls.__init__, "__code__", None)
+    init = getattr(getattr(cls, "__init__", None), "__code__", None)
     return (init is not None and init.co_filename == "<string>" and not hasattr(cls, "__post_init__")
             and "__slots__" not in cls.__dict__ and all(f.init for f in dataclasses.fields(cls)))
 
@@ -252,7 +252,7 @@ def _make_builder(schema) -> Callable[[Any], Any]:
     return build
 
 
-def _fast_of(cls: type) -> Callable[[Any], Any]:
+def _fast_of(cls: Any) -> Callable[[Any], Any]:
     fn = _FAST.get(cls)
     if fn is None:
         schema = REGISTRY[cls._msg_name]

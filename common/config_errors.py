@@ -18,7 +18,7 @@ class ConfigError(ValueError):
     ``str(e)`` is all of them, one ``source: key: why`` per line."""
 
     def __init__(self, source: str, key: str, message: str, *, problems: Iterable[Problem] | None = None):
-        self.problems: list[Problem] = [tuple(p) for p in problems or ()] or [(source, key, message)]
+        self.problems: list[Problem] = [(p[0], p[1], p[2]) for p in problems or ()] or [(source, key, message)]
         self.source, self.key, self.message = self.problems[0]
         super().__init__("\n".join(f"{s}: {k}: {m}" for s, k, m in self.problems))
 

@@ -138,7 +138,8 @@ class ForkedProc:
     """A node forked by the server, with the part of ``subprocess.Popen`` the supervisor uses."""
 
     def __init__(self, pid: int, stdout) -> None:
-        self.pid, self.stdout, self.returncode = pid, stdout, None
+        self.pid, self.stdout = pid, stdout
+        self.returncode: int | None = None
         self._done = threading.Event()
 
     def _ended(self, code: int) -> None:
@@ -238,7 +239,7 @@ class ForkServer:
                 self._cv.wait_for(lambda: self._replies or not self.usable, 30.0)
                 reply = self._replies.pop(0) if self._replies else {"error": self.why or "no answer"}
                 if "pid" in reply:
-                    proc = ForkedProc(reply["pid"], os.fdopen(r, "rb"))
+                    proc = ForkedProc(int(reply["pid"]), os.fdopen(r, "rb"))
                     if proc.pid in self._early:
                         proc._ended(self._early.pop(proc.pid))
                     else:

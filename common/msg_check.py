@@ -197,7 +197,7 @@ def _make_fine(cls: type) -> Callable[[Any], bool]:
         elif ann is np.ndarray:  # get_type_hints drops the Arr annotation
             ok = ("x.__class__ is ndarray" if (cls, k) in _NONFINITE_OK else
                   "x.__class__ is ndarray and (x.dtype.kind != 'f' or isfinite(x).all())")
-        elif dataclasses.is_dataclass(ann) and ann is not cls:
+        elif isinstance(ann, type) and dataclasses.is_dataclass(ann) and ann is not cls:
             env[f"T_{k}"], env[f"F_{k}"] = ann, _fine_of(ann)
             ok = f"x.__class__ is T_{k} and F_{k}(x)"
         else:  # tuples, unions...: the generic walk

@@ -9,6 +9,10 @@ import sys
 import threading
 from collections import deque
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from common.fork_server import ForkedProc
 
 WAITING, STARTING, RUNNING, RESTARTING = "WAITING", "STARTING", "RUNNING", "RESTARTING"
 EXITED, FAILED, STOPPING, STOPPED = "EXITED", "FAILED", "STOPPING", "STOPPED"
@@ -59,7 +63,7 @@ class NodeStatus:
     exit_code: int | None = None
     pids: list[int] = field(default_factory=list)          # every pid ever started
     deaths: deque = field(default_factory=lambda: deque(maxlen=64))
-    proc: subprocess.Popen | None = None
+    proc: subprocess.Popen | ForkedProc | None = None
     start_at: float = 0.0                                   # RESTARTING: when to spawn
     seen: set = field(default_factory=set)                  # wait_for topics seen
     wait_since: float = 0.0

@@ -165,7 +165,7 @@ class Supervisor:
                           file=self.status_out or sys.stderr, flush=True)
         return self._forker.spawn(spec.module, spec.argv()[3:], env)
 
-    def _pump(self, st: NodeStatus, proc: subprocess.Popen) -> None:
+    def _pump(self, st: NodeStatus, proc: subprocess.Popen | ForkedProc) -> None:
         prefix = f"[{st.spec.name}] "
         for raw in iter(proc.stdout.readline, b""):
             line = raw.decode(errors="replace").rstrip()
@@ -174,7 +174,7 @@ class Supervisor:
                 print(prefix + line, file=self.out, flush=True)
         proc.stdout.close()
 
-    def _reap(self, proc: subprocess.Popen) -> None:
+    def _reap(self, proc: subprocess.Popen | ForkedProc) -> None:
         proc.wait()
         self._wake.set()
 

@@ -19,7 +19,7 @@ import math
 import operator
 import threading
 import time
-from typing import Any
+from typing import Any, Callable
 
 from common.config import strip_frame
 from common.geometry import Quaternion, Transform, Vector3
@@ -45,8 +45,9 @@ log = logging.getLogger("zenav.tf")
 
 # -- static_transform_publisher arguments ------------------------------------------------------
 
-_BINOPS = {ast.Add: operator.add, ast.Sub: operator.sub, ast.Mult: operator.mul, ast.Div: operator.truediv}
-_UNOPS = {ast.UAdd: operator.pos, ast.USub: operator.neg}
+_BINOPS: dict[type, Callable[[float, float], float]] = {ast.Add: operator.add, ast.Sub: operator.sub,
+                                                       ast.Mult: operator.mul, ast.Div: operator.truediv}
+_UNOPS: dict[type, Callable[[float], float]] = {ast.UAdd: operator.pos, ast.USub: operator.neg}
 _NAMES = {"pi": math.pi, "PI": math.pi}
 
 
@@ -57,7 +58,7 @@ def eval_number(text: str) -> float:
     def ev(n: ast.AST) -> float:
         if isinstance(n, ast.Expression):
             return ev(n.body)
-        if isinstance(n, ast.Constant) and type(n.value) in (int, float):
+        if isinstance(n, ast.Constant) and isinstance(n.value, (int, float)) and not isinstance(n.value, bool):
             return float(n.value)
         if isinstance(n, ast.Name) and n.id in _NAMES:
             return _NAMES[n.id]

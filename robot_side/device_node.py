@@ -8,7 +8,7 @@ once the device runs, and from ``check`` calls ``device_lost(...)`` — logged o
 from __future__ import annotations
 
 import threading
-from typing import Callable
+from typing import Callable, TypeVar
 
 EXIT_DEVICE_LOST = 1  # not 0 (a clean stop) and not a config error's status: the agent respawns
 
@@ -42,7 +42,10 @@ class DeviceNode:
         return True
 
 
-def start_or_exit(name: str, make: Callable[[], DeviceNode], errors: type[BaseException] | tuple) -> DeviceNode:
+D = TypeVar("D", bound=DeviceNode)
+
+
+def start_or_exit(name: str, make: Callable[[], D], errors: type[BaseException] | tuple) -> D:
     """``make()``, a connection error turned into one ``zenav NAME: why`` line and a non-zero exit."""
     try:
         return make()

@@ -1,4 +1,4 @@
-"""The code base stays clean under the project's ruff rules (pyproject.toml)."""
+"""The code base stays clean under the project's ruff rules and its type checker (pyproject.toml)."""
 
 from __future__ import annotations
 
@@ -18,6 +18,16 @@ def test_ruff_finds_nothing():
         pytest.fail("ruff is not installed (deploy/install.sh --test installs it)")
     proc = subprocess.run([ruff, "check", "--no-cache", str(REPO)], capture_output=True, text=True, cwd=REPO)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-1000:]
+
+
+def test_mypy_finds_no_type_error_in_common_master_side_and_robot_side():
+    """The plugin contracts (move_base/contracts.py, LocalPlannerPlugin, CostmapPlugin) and every annotation
+    of the three packages hold; mypy's settings are [tool.mypy] in pyproject.toml."""
+    proc = subprocess.run([sys.executable, "-m", "mypy", "common", "master_side", "robot_side"],
+                          capture_output=True, text=True, cwd=REPO)
+    if "No module named mypy" in proc.stderr:
+        pytest.fail("mypy is not installed (deploy/install.sh --test installs it)")
+    assert proc.returncode == 0, proc.stdout[-4000:] + proc.stderr[-1000:]
 
 
 def test_algorithm_modules_never_import_zenoh_or_rerun():

@@ -52,8 +52,10 @@ class LayeredCostmap:
                  global_frame=c.global_frame, footprint=np.array(cfg.footprint))
         for spec in cfg.layers:
             kind = layer_class(spec.type)
-            layer = kind(spec.name, spec.params, dict(spec.sources)) if spec.sources is not None \
-                else kind(spec.name, spec.params)
+            if spec.sources is None:
+                layer = kind(spec.name, spec.params)
+            else:  # observation layers (obstacle, voxel) also take their sources
+                layer = kind(spec.name, spec.params, dict(spec.sources))  # type: ignore[call-arg]
             lc.add_layer(layer)
         return lc
 

@@ -32,6 +32,7 @@ from pathlib import Path
 from common.bus import Node
 from common.clock import Timer, WallClock
 from common.config import ConfigError
+from common.geometry import Pose2D
 from common.messages import Empty, Header, LaserScan, OccupancyGrid, PointCloud, PolygonStamped, Scalar, Text
 from common.tf import TFListener
 from master_side.costmap.footprint import transform_footprint
@@ -52,7 +53,7 @@ class CostmapNode:
         self.watch = SensorWatch(self.name, time.monotonic(), sensor_grace)
         self.lcm = LayeredCostmap.from_config(cfg)
         self.lock = threading.Lock()
-        self.pose = None  # last robot pose in the global frame
+        self.pose: Pose2D | None = None  # last robot pose in the global frame
         self._updated: float | None = None  # time of the last update
         self._newest_obs = 0.0  # newest observation stamp buffered (traceability: <name>/costmap_trace)
         self.tf = TFListener(node)

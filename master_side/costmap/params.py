@@ -84,12 +84,12 @@ def load_costmap_config(common: dict | None, specific: dict | None,
 def load_costmap_files(common_path: str | Path, specific_path: str | Path, *, name: str | None = None,
                        notes: list[str] | None = None) -> CostmapConfig:
     problems = Problems()
-    data = []
+    data: list[dict | None] = []
     for path in (common_path, specific_path):
         with problems.collect():
             data.append(read_yaml(path))
     problems.raise_if_any()
-    return load_costmap_config(*data, (str(common_path), str(specific_path)), name=name, notes=notes)
+    return load_costmap_config(data[0], data[1], (str(common_path), str(specific_path)), name=name, notes=notes)
 
 
 @dataclass(frozen=True)
@@ -106,7 +106,8 @@ class CostmapNodeParams:
 def check_costmap_node(cfg: dict, source: str) -> list[str]:
     """The costmap node's parameters checked without the bus: every problem in one ConfigError;
     returns the no-effect notes (the agents call this before starting anything)."""
-    problems, notes = Problems(), []
+    problems = Problems()
+    notes: list[str] = []
     p = None
     with problems.collect():
         p = load_params(CostmapNodeParams, cfg, source)

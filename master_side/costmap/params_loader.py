@@ -53,12 +53,14 @@ class NamespaceLoader:
 
     def __init__(self, merged: dict, origins: Origins):
         self.m, self.origins = merged, origins
-        self.problems, self.notes, self.ignored = Problems(), [], []
+        self.problems = Problems()
+        self.notes: list[str] = []
+        self.ignored: list[str] = []
         self.consumed: set[str] = set()       # costmap-level keys read by a layer / source
         self.reasons: dict[str, str] = {}     # costmap-level key -> why it has no effect here
 
     def load(self, cls: type, mapping: dict, section: str, components: tuple[str, ...],
-             ignore: set[str] = frozenset(), extra: dict[str, str] | None = None) -> Any:
+             ignore: frozenset[str] | set[str] = frozenset(), extra: dict[str, str] | None = None) -> Any:
         found: list = []
         no_effect = {**no_effect_keys(components, cls), **(extra or {})}
         try:

@@ -89,18 +89,24 @@ class MoveBaseConfig:
         return planner
 
 
-def _collect(problems: Problems, fn, *args, **kw):
+def _or_empty(found: tuple[dict[str, Any], str] | None, source: str) -> tuple[dict[str, Any], str]:
+    """An included file's (mapping, source), or an empty mapping from ``source`` when it is not given."""
+    return found or ({}, source)
+
+
+def _collect(problems: Problems, fn, *args, **kw) -> Any:
     with problems.collect():
         return fn(*args, **kw)
     return None
 
 
 def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
-    problems, notes = Problems(), []
+    problems = Problems()
+    notes: list[str] = []
     for k in sorted(set(cfg) - set(NODE_KEYS)):
         problems.add(source, k, f"unknown key (known: {', '.join(NODE_KEYS)})")
-    files = {k: _collect(problems, include, cfg.get(k), source, k) for k in NODE_KEYS}
-    mb, mb_src = files["move_base"] or ({}, source)
+    files: dict[str, Any] = {k: _collect(problems, include, cfg.get(k), source, k) for k in NODE_KEYS}
+    mb, mb_src = _or_empty(files["move_base"], source)
     rec_names = set(DEFAULT_RECOVERY_NAMES)
     if isinstance(mb.get("recovery_behaviors"), list):
         rec_names |= {str(b.get("name")) for b in mb["recovery_behaviors"] if isinstance(b, dict)}
@@ -113,7 +119,7 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
     kinds = _local_planners()
     kind = params.base_local_planner if params else "base_local_planner/TrajectoryPlannerROS"
     section, pcls, _, component = kinds[kind]
-    lp, lp_src = files["local_planner"] or ({}, source)
+    lp, lp_src = _or_empty(files["local_planner"], source)
     data = dict(lp.get(section, lp if section not in lp and lp else {}) or {})
     others = [s for s, *_ in kinds.values() if s != section and s in lp]
     for s in others:
@@ -124,10 +130,11 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
         local_params = _collect(problems, ros.load_ros_params, pcls, data, lp_src, section, component, notes)
     else:  # zenav's own planner: every key must be one of its parameters
         local_params = _collect(problems, load_params, pcls, data, lp_src, section)
-    gp, gp_src = files["global_planner"] or ({}, source)
+    gp, gp_src = _or_empty(files["global_planner"], source)
     navfn = _collect(problems, ros.load_ros_params, NavfnParams, gp.get("NavfnROS", gp) or {}, gp_src,
                      "NavfnROS", ros.NAVFN, notes)
-    (common, c_src), (local, l_src) = files["costmap_common"] or ({}, source), files["local_costmap"] or ({}, source)
+    common, c_src = _or_empty(files["costmap_common"], source)
+    local, l_src = _or_empty(files["local_costmap"], source)
     lc = _collect(problems, load_costmap_config, common, local, (c_src, l_src), name="local_costmap")
     gc = None
     if cfg.get("global_costmap") is not None and files["global_costmap"]:

@@ -13,7 +13,7 @@ import numpy as np
 from common.geometry import Pose2D, normalize_angles
 from master_side.costmap.cost_values import LETHAL
 from master_side.move_base.state_machine import ControlResult
-from master_side.planning.local.base import LocalPlannerPlugin
+from master_side.planning.local.base import LocalPlannerPlugin, velocity3
 
 
 def transform_path(path: np.ndarray, tf: Pose2D) -> np.ndarray:
@@ -64,10 +64,10 @@ class LocalController:
             return ControlResult(reason="robot pose in the local frame unknown")
         self._sync_plan()
         grid, res, origin = self.costmap
-        r = self.planner.compute_velocity(self.local_pose, tuple(velocity), grid, res, origin, self.footprint)
-        self.last = ControlResult(tuple(r.cmd), bool(r.ok), r.reason, r.trajectory)
+        r = self.planner.compute_velocity(self.local_pose, velocity3(velocity), grid, res, origin, self.footprint)
+        self.last = ControlResult(velocity3(r.cmd), bool(r.ok), r.reason, r.trajectory)
         if not r.ok and not r.reason:
-            self.last = ControlResult(tuple(r.cmd), False, "local planner gave no command", r.trajectory)
+            self.last = ControlResult(velocity3(r.cmd), False, "local planner gave no command", r.trajectory)
         return self.last
 
     def goal_reached(self, pose: Pose2D, velocity) -> bool:

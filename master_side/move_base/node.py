@@ -91,7 +91,7 @@ class MoveBaseNode:
         self.machine = MoveBaseMachine(p, self.planner, self.controller, recoveries)
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None
-        self._last_terminal = None
+        self._last_terminal: tuple[str, int] | None = None
         self._answers: collections.OrderedDict[str, MoveBaseStatus] = collections.OrderedDict()
         self._pose_global: Pose2D | None = None
         self._blind = ""

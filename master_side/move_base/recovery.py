@@ -16,6 +16,7 @@ import numpy as np
 
 from common.config import ConfigError, load_params, param
 from common.geometry import Pose2D, normalize_angle
+from master_side.move_base.contracts import Recovery
 
 CLEAR_TYPES = ("clear_costmap_recovery/ClearCostmapRecovery", "ClearCostmapRecovery")
 ROTATE_TYPES = ("rotate_recovery/RotateRecovery", "RotateRecovery")
@@ -129,7 +130,7 @@ def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked
     names = [str(b["name"]) for b in spec]
     if len(set(names)) != len(names):
         raise ConfigError(source, "recovery_behaviors", f"behaviour names must be unique: {names}")
-    out = []
+    out: list[Recovery] = []
     for b in spec:
         name, kind = str(b["name"]), str(b["type"])
         ns = namespaces.get(name) or {}

@@ -34,6 +34,7 @@ from common.geometry import Pose2D, TurnCounter, normalize_angle
 from common.messages import GoalStatus
 from master_side.move_base.contracts import Controller, GlobalPlanner, Recovery
 from master_side.move_base.params import MoveBaseParams
+from master_side.planning.local.base import velocity3
 
 
 class State(enum.Enum):
@@ -204,7 +205,7 @@ class MoveBaseMachine:
                 self.recovery_index = 0
             if self.state is State.CONTROLLING:
                 self.reason = self._no_progress(now, pose, res.cmd)
-                cmd = tuple(res.cmd)
+                cmd = velocity3(res.cmd)
             return self._decide(cmd, new_plan)
         if self.state is not State.CONTROLLING:  # the oscillation check started a recovery
             return self._decide(ZERO, new_plan)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 from pathlib import Path
+from typing import Any
 
 from common.argtypes import positive_int
 from common.config import ConfigError
@@ -14,8 +16,6 @@ from master_side.slam.params import load_gmapping
 
 
 def _run(argv: list[str]) -> int:
-    from master_side.slam.offline import run, write_outputs
-
     ap = argparse.ArgumentParser(prog="zenav slam run", description="gmapping-style SLAM over a log")
     ap.add_argument("log", help="CARMEN .clf/.log or ROS1 .bag (/scan, /odom)")
     ap.add_argument("--out", required=True, help="output folder (map.pgm, map.yaml, trajectory.txt)")
@@ -34,13 +34,16 @@ def _run(argv: list[str]) -> int:
     for kv in a.set:
         k, _, v = kv.partition("=")
         overrides[k] = float(v) if any(c in v for c in ".e") else int(v)
+    # the two methods' offline runners share run(log, params, max_scans) and write_outputs(result, out)
+    runner: Any = importlib.import_module("master_side.hector.offline" if a.method == "hector"
+                                          else "master_side.slam.offline")
+    load: Any = load_gmapping
     if a.method == "hector":
-        from master_side.hector.offline import run, write_outputs
-        from master_side.hector.params import load_hector as load
-    else:
-        load = load_gmapping
-        if a.particles is not None:
-            overrides["particles"] = a.particles
+        from master_side.hector.params import load_hector
+
+        load = load_hector
+    elif a.particles is not None:
+        overrides["particles"] = a.particles
     try:
         params = load(a.config, a.section, **overrides)
     except ConfigError as e:
@@ -50,12 +53,12 @@ def _run(argv: list[str]) -> int:
         print(f"zenav slam run: {a.log}: no such file", file=sys.stderr)
         return 2
     try:
-        res = run(a.log, params, a.max_scans)
+        res = runner.run(a.log, params, a.max_scans)
     except (LogError, OSError, ValueError) as e:
         print(f"zenav slam run: {e}", file=sys.stderr)
         return 2
     try:
-        write_outputs(res, a.out)
+        runner.write_outputs(res, a.out)
     except OSError as e:
         print(f"zenav slam run: cannot write {a.out}: {e.strerror or e}", file=sys.stderr)
         return 2

@@ -98,7 +98,7 @@ class FieldCache:
         for i, item in enumerate(items):
             by_grid.setdefault(item[3], []).append(i)
         occ = np.empty((m, TILE + 2 * r, TILE + 2 * r), np.float32)  # each tile with its r-cell border
-        order = []
+        order: list[int] = []
         for rows in by_grid.values():
             g = items[rows[0]][0]
             t = np.array([items[i][1:3] for i in rows], np.int64)
@@ -109,8 +109,8 @@ class FieldCache:
             at = len(order)
             map_kernels.gather_patches(g.pool.data.reshape(-1), nbr, TILE_BITS, r, occ[at:at + len(rows)])
             order.extend(rows)
-        at = np.full(m, r, np.int64)
-        map_kernels.tile_fields(occ, np.arange(m), at, at, r, FAR, self.table, COARSE, self.fine, self.coarse,
+        border = np.full(m, r, np.int64)
+        map_kernels.tile_fields(occ, np.arange(m), border, border, r, FAR, self.table, COARSE, self.fine, self.coarse,
                                 slots[order])
         for key, s in zip(todo, slots.tolist()):
             self.slots[key] = s

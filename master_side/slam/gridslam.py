@@ -60,9 +60,9 @@ def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D, free: bool 
     """``free=False``: no free-space points (a scan that is only matched, not integrated)."""
     r = np.asarray(scan.ranges, float)
     a = scan.angles()
-    valid = np.isfinite(r) & (r > max(scan.range_min, 1e-3)) & (r < p.maxRange)
+    valid: np.ndarray = np.isfinite(r) & (r > max(scan.range_min, 1e-3)) & (r < p.maxRange)
     usable = p.usable_range
-    hit = valid & (r < usable)
+    hit: np.ndarray = valid & (r < usable)
     length = np.minimum(r, usable)[valid]
     ca, sa = np.cos(a[valid]), np.sin(a[valid])
     ends = np.column_stack((length * ca, length * sa))
@@ -74,10 +74,10 @@ def prepare_beams(scan: LaserScan, p: GMappingParams, laser: Pose2D, free: bool 
     n = np.maximum(np.floor((length - p.delta) / step).astype(np.int64), 0)
     beam = np.repeat(np.arange(len(n)), n)
     s = (np.arange(n.sum()) - np.repeat(np.cumsum(n) - n, n)) * step
-    free = np.column_stack((s * ca[beam], s * sa[beam]))
-    hits = np.column_stack((r[hit] * np.cos(a[hit]), r[hit] * np.sin(a[hit])))
-    match = hits[:: p.lskip + 1]
-    return Beams(laser.apply(match), laser.apply(hits), laser.apply(free), laser.apply(ends),
+    free_pts = np.column_stack((s * ca[beam], s * sa[beam]))
+    hits_all = np.column_stack((r[hit] * np.cos(a[hit]), r[hit] * np.sin(a[hit])))
+    match = hits_all[:: p.lskip + 1]
+    return Beams(laser.apply(match), laser.apply(hits_all), laser.apply(free_pts), laser.apply(ends),
                  np.array([laser.x, laser.y]))
 
 
@@ -121,7 +121,7 @@ class GridSlam:
         self.motion = MotionModel(params.srr, params.srt, params.str_, params.stt)
         self.matcher = ScanMatcher(params)
         self.fields = FieldCache(params)
-        self._track_field = None
+        self._track_field: tuple | None = None
         self.particles: list[Particle] = []
         self.last_odom: Pose2D | None = None  # odometry at the last processed scan
         self.prev_odom: Pose2D | None = None  # odometry at the last scan

@@ -7,6 +7,7 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -101,7 +102,7 @@ def read_bag(path: str | Path, scan_topic: str = "/scan", odom_topic: str = "/od
         with Reader(str(path)) as reader:
             conns = [c for c in reader.connections if c.topic in (scan_topic, odom_topic)]
             for conn, _, raw in reader.messages(connections=conns):
-                msg = store.deserialize_ros1(raw, conn.msgtype)
+                msg: Any = store.deserialize_ros1(raw, conn.msgtype)
                 stamp = msg.header.stamp.sec + msg.header.stamp.nanosec * 1e-9
                 if conn.topic == odom_topic:
                     p, q = msg.pose.pose.position, msg.pose.pose.orientation

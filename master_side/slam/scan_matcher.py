@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -33,8 +34,8 @@ class MotionPrior:
     """The odometry prediction a match is pulled towards; weights in score per beam per m^2 / rad^2."""
 
     mean: np.ndarray  # (3,) x, y, theta  (or (P, 3) with (P,) weights for a batch)
-    translation_weight: float | np.ndarray
-    rotation_weight: float | np.ndarray
+    translation_weight: Any  # float, or (P,) ndarray for a batch
+    rotation_weight: Any
 
 
 def _rotated(pts: np.ndarray, thetas: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

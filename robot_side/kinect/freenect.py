@@ -146,7 +146,8 @@ class FreenectSync:
         if code != 0 or not self._buf.value:
             raise FreenectError(f"freenect_sync_get_depth(index {index}, format {fmt}) returned {code}")
         ptr = ctypes.cast(self._buf, ctypes.POINTER(ctypes.c_uint16 * (WIDTH * HEIGHT)))
-        return np.frombuffer(ptr.contents, np.uint16).reshape(HEIGHT, WIDTH), int(self._ts.value)
+        # a ctypes array is a buffer (numpy's stubs do not say so)
+        return np.frombuffer(ptr.contents, np.uint16).reshape(HEIGHT, WIDTH), int(self._ts.value)  # type: ignore[call-overload]
 
     def stop(self) -> None:
         """freenect_sync_stop: ends the library's USB thread and closes the device."""

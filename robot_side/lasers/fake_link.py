@@ -8,7 +8,7 @@ import os
 import select
 import socket
 import time
-from typing import Self
+from typing import Any, Self
 
 from robot_side.fake_device import open_raw_pty
 
@@ -19,7 +19,10 @@ class FakeDeviceLink:
 
     def __init__(self) -> None:
         self._rx = b""
-        self._fd = self._slave = self._server = self._conn = None
+        self._fd: int | None = None
+        self._slave: int | None = None
+        self._server: socket.socket | None = None
+        self._conn: socket.socket | None = None
         self._link: str | None = None
 
     @classmethod
@@ -47,7 +50,7 @@ class FakeDeviceLink:
                 self._conn, _ = self._server.accept()
                 self._rx = b""
             return b""
-        fd = self._conn if self._conn is not None else self._fd
+        fd: Any = self._conn if self._conn is not None else self._fd  # a socket or the pty's fd
         r, _, _ = select.select([fd], [], [], timeout)
         if not r:
             return b""

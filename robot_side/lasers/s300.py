@@ -142,7 +142,8 @@ class TelegramStream:
         del self.buf[:n]
 
     def feed(self, data: bytes) -> list[Telegram]:
-        buf, out = self.buf, []
+        buf = self.buf
+        out: list[Telegram] = []
         buf += data
         while True:
             i = buf.find(SYNC)

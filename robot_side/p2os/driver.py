@@ -165,7 +165,10 @@ class P2OSDriver:
                 self._write(P.close())
             self._write(P.sync(step))
             tries += 1
-            body = self._wait_packet(p.sync_timeout, lambda b, s=step: b[0] == s and not is_sip(b))
+            def echo(b: bytes, s: int = step) -> bool:  # the robot's echo of SYNC s
+                return b[0] == s and not is_sip(b)
+
+            body = self._wait_packet(p.sync_timeout, echo)
             if body is not None:
                 step, tries, reply = step + 1, 0, body
             elif step > 0:

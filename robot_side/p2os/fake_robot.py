@@ -77,6 +77,8 @@ class FakeP2OSRobot:
         self.lock = threading.Lock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._slave_fd: int | None = None  # on_pty: the slave end, kept open
+        self._link: str | None = None  # on_pty: a symlink to the pty
         self._last_rx = self._last_step = time.monotonic()
         self._next_sip = 0.0
 
@@ -100,12 +102,10 @@ class FakeP2OSRobot:
         if self._thread is not None:
             self._thread.join(2.0)
         self.port.close()
-        for fd in (getattr(self, "_slave_fd", None),):
-            if fd is not None:
-                os.close(fd)
-        link = getattr(self, "_link", None)
-        if link and os.path.islink(link):
-            os.unlink(link)
+        if self._slave_fd is not None:
+            os.close(self._slave_fd)
+        if self._link and os.path.islink(self._link):
+            os.unlink(self._link)
 
     def _run(self) -> None:
         while not self._stop.is_set():

@@ -109,8 +109,8 @@ class MonitorNode:
 
     def _points_in_base(self) -> np.ndarray | None:
         """Every source's current and remembered points in the base frame now (None: no odom TF)."""
-        pts = [m.points() for m in self.memory.values()]
-        pts = np.vstack(pts) if pts else np.zeros((0, 2))
+        parts = [m.points() for m in self.memory.values()]
+        pts = np.vstack(parts) if parts else np.zeros((0, 2))
         try:
             tr = self.tf.buffer.lookup(self.p.base_frame_id, self.p.odom_frame_id).transform
         except TFError:

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from robot_side.sim.physics_params import MUJOCO_INSTALL, PhysicsParams
 from robot_side.sim.robot_bodies import RobotBody
@@ -38,9 +39,9 @@ def import_mujoco():
 
 @dataclass
 class Scene:
-    model: object          # mujoco.MjModel
-    data: object           # mujoco.MjData
-    spec: object           # mujoco.MjSpec (kept for recompiling when a box is added)
+    model: Any             # mujoco.MjModel (mujoco ships no type stubs)
+    data: Any              # mujoco.MjData
+    spec: Any              # mujoco.MjSpec (kept for recompiling when a box is added)
     base_body: int         # body id of the robot
     wheel_joints: list[int]      # qvel address per wheel, in body.wheels order
     left: list[int]        # indices into wheels of the left side (y > 0)

@@ -224,7 +224,8 @@ class SimNode:
         """One physics step and what it publishes, each step's messages as it runs (a wake-up's steps sent
         at once could overflow Zenoh's send queue: stream messages are dropped then). The clock goes
         out with the last step of a wake-up, before that step's messages."""
-        sim, off, out = self.sim, self.offset, []
+        sim, off = self.sim, self.offset
+        out: list[tuple[Any, Any]] = []  # (publisher or TF broadcaster, message)
         with self.lock:
             due = sim.step()
             t = sim.time

@@ -85,6 +85,10 @@ class Simulator:
             depth_camera = depth_camera and dataclasses.replace(depth_camera, seed=params.seed + 2)
             physics = dataclasses.replace(physics, seed=params.seed + 3)
         self.world, self.params = world, params
+        # the engine's base and sensors (robot_side.sim.mujoco_* for MuJoCo): the same methods either way
+        self.base: Any
+        self.laser: Any
+        self.camera: Any
         if params.engine == "mujoco":
             from robot_side.sim.mujoco_base import MujocoBase
             from robot_side.sim.mujoco_sensors import RayDepthCamera, RayLaser

@@ -30,6 +30,11 @@ LAG_CYCLES = 3.0
 ROTATION_HOLD_M = 0.05
 
 
+def velocity3(v) -> tuple[float, float, float]:
+    """(vx, vy, wz) as three floats, from any 3-sequence (an array row, a tuple)."""
+    return float(v[0]), float(v[1]), float(v[2])
+
+
 @dataclass(frozen=True)
 class LocalResult:
     cmd: tuple[float, float, float]  # (vx, vy, w) robot frame, m/s and rad/s
@@ -180,7 +185,7 @@ class LocalPlanner:
             return LocalResult(self._brake(ctx.vel), False, res.reason, np.zeros((0, 3)), len(trajs))
         cmd = trajs.vels[res.best]
         self.oscillation.update(cmd, ctx.pose)
-        return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.row(res.best), len(trajs))
+        return LocalResult(velocity3(cmd), True, "", trajs.row(res.best), len(trajs))
 
     def _samples(self, vel: np.ndarray) -> np.ndarray:
         raise NotImplementedError
@@ -209,7 +214,7 @@ class LocalPlanner:
     def _brake(self, v: np.ndarray) -> tuple[float, float, float]:
         """One cycle of deceleration toward zero at the acceleration limits."""
         a, dt = self.limits.acc, self.limits.sim_period
-        return tuple(_toward(float(v[i]), 0.0, a[i] * dt) for i in range(3))
+        return velocity3([_toward(float(v[i]), 0.0, a[i] * dt) for i in range(3)])
 
     def _approach_goal(self, ctx: ScoringContext, goal: np.ndarray) -> LocalResult:
         """Inside the xy tolerance: brake, then rotate in place to the goal yaw without ever reversing.

@@ -16,7 +16,8 @@ from master_side.planning.local.grid_distance import densify
 _PREFIXES: dict = {}  # (prefix, costmap) -> summary, the last few
 
 
-def _cells_ok(grid: np.ndarray, resolution: float, origin: np.ndarray, pts: np.ndarray):
+def _cells_ok(grid: np.ndarray, resolution: float, origin: np.ndarray, pts: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray]:
     """(flat cells, on the map and known) of points, as ``plan_cells`` computes them."""
     h, w = grid.shape
     c = np.floor((pts[:, 0] - origin[0]) / resolution).astype(np.int64)

@@ -31,12 +31,13 @@ class _Lattice:
         h, w = shape
         n = h * w
         idx = np.arange(n).reshape(h, w)
-        src, dst = [], []
+        srcs: list[np.ndarray] = []
+        dsts: list[np.ndarray] = []
         for a, b in ((idx[:, :-1], idx[:, 1:]), (idx[:, 1:], idx[:, :-1]), (idx[:-1, :], idx[1:, :]),
                      (idx[1:, :], idx[:-1, :])):
-            src.append(a.ravel())
-            dst.append(b.ravel())
-        src, dst = np.concatenate(src), np.concatenate(dst)
+            srcs.append(a.ravel())
+            dsts.append(b.ravel())
+        src, dst = np.concatenate(srcs), np.concatenate(dsts)
         order = np.argsort(src, kind="stable")
         self.shape, self.n = shape, n
         self.dst = dst[order].astype(np.int32)

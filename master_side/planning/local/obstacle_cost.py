@@ -37,12 +37,12 @@ class ObstacleCost(CostFunction):
 
     def __init__(self, scale: float = 1.0):
         super().__init__(scale)
-        self._key = None
+        self._key: tuple | None = None
 
     def prepare(self, ctx: ScoringContext) -> bool:
         super().prepare(ctx)
         g = ctx.grid
-        key = (g.shape, zlib.crc32(np.ascontiguousarray(g)), float(ctx.resolution), ctx.footprint.tobytes())
+        key = (g.shape, zlib.crc32(np.ascontiguousarray(g).data), float(ctx.resolution), ctx.footprint.tobytes())
         if key == self._key:  # the same costmap as the last call (several checks in one cycle)
             return True
         blocked = g >= LETHAL
@@ -81,7 +81,7 @@ class ObstacleCost(CostFunction):
         first = ~same
         src = np.maximum.accumulate(np.where(first, np.arange(t)[None, :], 0), axis=1)
         src = (src + (np.arange(s) * t)[:, None]).ravel()
-        first = first.ravel()
+        first_flat = first.ravel()
         # outline cells can be LETHAL only within the circumscribed radius; they can cost > 0 within
         # circumscribed + inflation extent. Check the first band, drop rejected trajectories, then the second.
         band = self.circumscribed + 1.5 * res  # cell-centre distances: allow for the discretisation
@@ -92,7 +92,7 @@ class ObstacleCost(CostFunction):
         # the inflation cost changes little over one cell
         for lo, hi, outline in ((-np.inf, band, self.outline), (band, band + self.extent, self.outline[::2])):
             dead = np.repeat(bad.reshape(s, t).any(axis=1), t)
-            near = np.flatnonzero(first & ~dead & (clear <= hi) & (clear > lo))
+            near = np.flatnonzero(first_flat & ~dead & (clear <= hi) & (clear > lo))
             if near.size == 0:
                 continue
             p = pts[near]

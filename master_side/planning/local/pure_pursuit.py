@@ -85,8 +85,8 @@ class RegulatedPurePursuit(LocalPlanner):
         self.params = p = params or PurePursuitParams()
         super().__init__(p.limits(), ScoredSamplingPlanner([]), _NoOscillation(), p.prune_plan)
         self.checker = ObstacleCost()
-        self._clear_key = None
-        self._clear = None
+        self._clear_key: tuple | None = None
+        self._clear: np.ndarray | None = None
         self._escape_from: np.ndarray | None = None  # where backing up started
 
     # -- helpers -------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -134,7 +135,7 @@ def footprint_outline(footprint: np.ndarray, spacing: float) -> np.ndarray:
     return densify(np.vstack((fp, fp[:1])), spacing)[:-1]
 
 
-def angle_diff(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray | float:
-    """Shortest signed angle a - b in [-pi, pi)."""
+def angle_diff(a: np.ndarray | float, b: np.ndarray | float) -> Any:
+    """Shortest signed angle a - b in [-pi, pi): a float for two scalars, else an ndarray."""
     d = normalize_angles(np.asarray(a) - np.asarray(b))
     return float(d) if np.ndim(d) == 0 else d

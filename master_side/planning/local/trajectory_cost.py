@@ -45,6 +45,7 @@ class TrajectoryCost:
         self.obstacle.prepare(ctx)
         occ = self.obstacle.score(trajs)
         hit = occ < 0
+        nopath: np.ndarray
         if p.simple_attractor:
             end = trajs.poses[:, -1, :2] - ctx.plan[-1, :2]
             goal, path, heading = (end ** 2).sum(axis=1), np.zeros(n), np.zeros(n)
@@ -61,7 +62,7 @@ class TrajectoryCost:
             if pts.shape[1] == 0:  # the scoring time lies beyond sim_time: ROS scores zeros
                 path, goal, nopath = np.zeros(n), np.zeros(n), np.zeros(n, bool)
             else:
-                nopath = ~(np.isfinite(pd).all(axis=1) & np.isfinite(gd).all(axis=1))
+                nopath = np.asarray(~(np.isfinite(pd).all(axis=1) & np.isfinite(gd).all(axis=1)))
                 path, goal = pd[:, -1], gd[:, -1]
             heading = self._heading_diff(pts, ctx) if p.heading_scoring else np.zeros(n)
         pb, gb = self._biases(ctx)
@@ -135,7 +136,7 @@ class TPOscillation:
     def reset(self) -> None:
         self.rotating_left = self.rotating_right = self.stuck_left = self.stuck_right = False
         self.strafe_left = self.strafe_right = self.stuck_left_strafe = self.stuck_right_strafe = False
-        self.prev = None
+        self.prev: np.ndarray | None = None
 
     def chose(self, cmd: np.ndarray, pose: np.ndarray) -> None:
         vx, vy, w = (float(v) for v in cmd)

@@ -31,7 +31,7 @@ import numpy as np
 from common.config import param
 from common.geometry import TurnCounter, footprint_radii
 from master_side.costmap.footprint import pad_footprint
-from master_side.planning.local.base import Limits, LocalPlanner, LocalResult
+from master_side.planning.local.base import Limits, LocalPlanner, LocalResult, velocity3
 from master_side.planning.local.scoring import ScoredSamplingPlanner
 from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories, ros_steps, simulate_ramped
@@ -178,7 +178,7 @@ class TrajectoryPlanner(LocalPlanner):
             cmd = samples[best]
             self.flags.chose(cmd, pose)
             self._end_escape(pose)
-            return LocalResult(tuple(float(x) for x in cmd), True, "", trajs.poses[best], len(samples))
+            return LocalResult(velocity3(cmd), True, "", trajs.poses[best], len(samples))
         return self._back_up(ctx, len(samples))
 
     def _spun(self, pose: np.ndarray, footprint: np.ndarray) -> bool:
