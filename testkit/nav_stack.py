@@ -193,7 +193,7 @@ class NavStack:
             self.collisions = NavTimeline(self.node, "collision", Collision)
             self.cmd = NavTimeline(self.node, "cmd_vel", Twist)
             self.status = NavTimeline(self.node, "move_base/status", MoveBaseStatus, keep=20000)
-            self.cancel_pub = self.node.publisher("move_base/cancel")
+            self.cancel_pub = self.node.publisher("move_base/cancel", reliable=True)  # one-shot: never dropped
             env_r = {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{robot_port}",
                      "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port}"}
             self.robot_proc = self._start("robot", [*_zenav(), "robot", "--config", str(ROBOT_CONFIG),

@@ -80,7 +80,7 @@ def test_nav_e2e_a_robot_held_in_place_says_no_progress_and_zenav_goal_prints_it
     from deploy.cmd_goal import send_goal
     from testkit.nav_stack import publisher_ready
 
-    motors = stack.node.publisher("cmd_motor_state")
+    motors = stack.node.publisher("cmd_motor_state", reliable=True)  # one-shot commands: never dropped
     state = stack.node.subscribe("motor_state", MotorState)
     publisher_ready(motors)
     motors.publish(MotorState(Header(0.0, "base_link"), False))

@@ -76,7 +76,7 @@ def test_node_publishes_the_simulators_topics_and_drives_the_device(bus, fake, t
         wait_until(lambda: (x := odom.latest()) and x.pose2d.x > 0.02 and x.twist.linear.x > 0.1, 10,
                    "odom following the device")
         wait_until(lambda: robot.vel_mm_s == 0, 5, "stop after the cmd_vel timeout")
-        node.publisher("cmd_motor_state").publish(MotorState(enabled=False))
+        node.publisher("cmd_motor_state", reliable=True).publish(MotorState(enabled=False))
         wait_until(lambda: (x := motor.latest()) is not None and not x.enabled, 10, "motors disabled")
     finally:
         assert proc.stop() == 0, proc.log()

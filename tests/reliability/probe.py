@@ -79,7 +79,7 @@ def main() -> None:
             say("ACK", gid, st.status)
         except DeliveryFailed as e:
             say("NOACK", gid, str(e).replace("\n", " "))
-    box = node.publisher("sim/spawn_box")
+    box = node.publisher("sim/spawn_box", reliable=True)  # a one-shot command: never dropped
     say("READY")
     for line in sys.stdin:
         w = line.split()

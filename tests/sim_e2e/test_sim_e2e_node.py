@@ -91,7 +91,7 @@ def test_disabled_motors_ignore_cmd_vel(bus, sim, tmp_path):
     rig = Rig(node, proc)
     motors = Recorder(node, "motor_state", MotorState)
     wait_until(lambda: motors.last() is not None and motors.last().enabled, 30, "motor_state enabled")
-    pub = node.publisher("cmd_motor_state")
+    pub = node.publisher("cmd_motor_state", reliable=True)  # a one-shot command: never dropped
     publisher_matched(pub)
     pub.publish(MotorState(enabled=False))
     wait_until(lambda: not motors.last().enabled, 30, "motor_state disabled")
