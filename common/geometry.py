@@ -225,7 +225,6 @@ class Transform:
 Pose = Transform
 
 
-
 class TurnCounter:
     """How far a heading has turned, all turns counted (|wrap(yaw_k - yaw_k-1)| summed), since ``reset``.
     The in-place spin checks of move_base (max_in_place_rotation) and of the trajectory planner (a full
@@ -244,6 +243,7 @@ class TurnCounter:
             self.turned += abs(normalize_angle(yaw - self._yaw))
         self._yaw = float(yaw)
         return self.turned
+
 
 # REP-103's camera convention: a camera's link frame (x forward, y left, z up) <- its optical frame
 # (z forward, x right, y down). The Kinect driver and the simulated depth camera both publish it.

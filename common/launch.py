@@ -98,13 +98,21 @@ class Launch:
     def entry(self, name: str) -> Entry:
         return next(e for e in self.entries if e.name == name)
 
+    def node_params(self, e: Entry) -> tuple[dict, str]:
+        """A node's parameter mapping and the file it comes from (paths in it are relative to that file):
+        its ``params:`` in this launch file, its ``config:`` file (``section:`` of it), or none."""
+        if e.params is not None:
+            return e.params, str(Path(self.source).resolve())
+        if e.opts.config:
+            from common.runner import node_config
+            return node_config(self._path(e.opts.config), e.opts.section or None)
+        return {}, "<defaults>"
+
     def override(self, name: str, **values: Any) -> None:
         """Change parameters of one node (CLI options); its mapping is then generated."""
         e = self.entry(name)
         if e.params is None and e.opts.config:
-            from common.runner import node_config
-            e.params, _ = node_config(self._path(e.opts.config), e.opts.section or None)
-            e.params = copy.deepcopy(e.params)
+            e.params = copy.deepcopy(self.node_params(e)[0])
         e.params = {**(e.params or {}), **values}
         e.params_key = ""
 

@@ -36,8 +36,6 @@ def check_nodes(launch: Launch) -> dict[str, list[str]]:
 
 
 def _check_entry(launch: Launch, e: Entry) -> list[str]:
-    from common.runner import node_config
-
     try:
         module = importlib.import_module(e.opts.module)
     except Exception as err:  # noqa: BLE001 - ImportError or an error while importing: the node cannot start
@@ -45,12 +43,7 @@ def _check_entry(launch: Launch, e: Entry) -> list[str]:
     check = getattr(module, "check", None)
     if check is None:
         return []
-    if e.params is not None:
-        cfg, source = e.params, _in_file(launch)
-    elif e.opts.config:
-        cfg, source = node_config(launch._path(e.opts.config), e.opts.section or None)
-    else:
-        cfg, source = {}, "<defaults>"
+    cfg, source = launch.node_params(e)
     try:
         found = check(cfg, source)
     except ConfigError as err:

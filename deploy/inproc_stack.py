@@ -27,9 +27,8 @@ import numpy as np
 
 from common.config import strip_frame
 from common.geometry import Pose2D
-from common.launch import Entry, Launch
+from common.launch import Launch
 from common.messages import LaserScan, Twist
-from common.runner import node_config
 from master_side import agent as master_agent
 from master_side.costmap.layered import LayeredCostmap
 from master_side.costmap.observation import scan_to_points
@@ -106,17 +105,6 @@ class _Costmap:
         return m.data, m.resolution, (m.origin_x, m.origin_y)
 
 
-def node_params(entry: Entry, launch_source: str) -> tuple[dict, str]:
-    """A launch entry's parameter mapping and the file relative paths in it are read against: its own
-    ``params:`` (the launch file) or its ``config:`` file (``section:`` of it), as the node gets them."""
-    if entry.params is not None:
-        return entry.params, launch_source
-    path = entry.opts.config
-    if path and not Path(path).is_absolute():
-        path = str((Path(launch_source).parent / path).resolve())
-    return node_config(path, entry.opts.section or None)
-
-
 class InProcessStack:
     def __init__(self, world_path: str | Path, robot_config: str | Path,
                  master_config: str | Path, plan_hz: float = 5.0, seed: int = 0,
@@ -131,8 +119,9 @@ class InProcessStack:
         self.sources = _scan_sources(self.sim, robot, str(robot_config))
         self.costmaps: dict[str, _Costmap] = {}
         mb_cfg, grid = None, None
-        for entry in master_agent.load(str(master_config)).entries:  # as the master agent reads it
-            params, source = node_params(entry, str(master_config))
+        master = master_agent.load(str(master_config))  # as the master agent reads it
+        for entry in master.entries:
+            params, source = master.node_params(entry)
             if entry.opts.module == "master_side.costmap.node":
                 base = Path(source).parent
                 cfg = load_costmap_files(base / params["common"], base / params["specific"], name=params.get("name"))

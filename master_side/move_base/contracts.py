@@ -16,14 +16,12 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from common.geometry import Pose2D
+from master_side.planning.local.base import Velocity
 
 if TYPE_CHECKING:
     from master_side.move_base.params import MoveBaseParams
     from master_side.move_base.planner_thread import PlanOutcome
     from master_side.move_base.state_machine import ControlResult
-
-Velocity = tuple[float, float, float]  # vx, vy, wz of the base
-
 
 class GlobalPlanner(Protocol):
     def start(self, goal: Pose2D) -> None:

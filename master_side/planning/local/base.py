@@ -30,7 +30,10 @@ LAG_CYCLES = 3.0
 ROTATION_HOLD_M = 0.05
 
 
-def velocity3(v) -> tuple[float, float, float]:
+Velocity = tuple[float, float, float]  # vx, vy, wz of the base
+
+
+def velocity3(v) -> Velocity:
     """(vx, vy, wz) as three floats, from any 3-sequence (an array row, a tuple)."""
     return float(v[0]), float(v[1]), float(v[2])
 
@@ -78,9 +81,9 @@ class LocalPlannerPlugin(Protocol):
     def set_plan(self, path: np.ndarray) -> None:
         """A new global plan, (N, 3) rows of (x, y, theta)."""
 
-    def is_goal_reached(self, pose: Pose2D, velocity: tuple[float, float, float]) -> bool: ...
+    def is_goal_reached(self, pose: Pose2D, velocity: Velocity) -> bool: ...
 
-    def compute_velocity(self, pose: Pose2D, velocity: tuple[float, float, float], grid: np.ndarray,
+    def compute_velocity(self, pose: Pose2D, velocity: Velocity, grid: np.ndarray,
                          resolution: float, origin: tuple[float, float], footprint: np.ndarray) -> LocalResult:
         """The command for this cycle (``LocalResult.ok`` False with a reason when there is none)."""
 
