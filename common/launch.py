@@ -109,12 +109,33 @@ class Launch:
         return {}, "<defaults>"
 
     def override(self, name: str, **values: Any) -> None:
-        """Change parameters of one node (CLI options); its mapping is then generated."""
+        """Change parameters of one node (CLI options); its mapping is then generated. The generated file
+        lives elsewhere, so the node's other values that name a file relative to its source (``move_base:
+        p3at/move_base.yaml``) are made absolute first."""
         e = self.entry(name)
-        if e.params is None and e.opts.config:
-            e.params = copy.deepcopy(self.node_params(e)[0])
+        if e.params_key or (e.params is None and e.opts.config):
+            mapping, source = self.node_params(e)
+            e.params = absolute_paths(copy.deepcopy(mapping), Path(source).parent)
         e.params = {**(e.params or {}), **values}
         e.params_key = ""
+
+    def set(self, assignment: str) -> None:
+        """Apply one ``NODE.KEY=VALUE`` (``zenav master --set``); VALUE is read as YAML (``3``, ``true``,
+        ``[1, 2]``), a path to an existing file is made absolute."""
+        target, sep, text = assignment.partition("=")
+        name, dot, key = target.strip().partition(".")
+        if not sep or not dot or not name or not key:
+            raise ConfigError("--set", assignment, "expected NODE.KEY=VALUE, e.g. map_server.map=office.yaml")
+        if name not in {e.name for e in self.entries}:
+            raise ConfigError("--set", assignment,
+                              f"no node {name!r} in {self.source} (nodes: {', '.join(e.name for e in self.entries)})")
+        try:
+            value = yaml.safe_load(text) if text.strip() else ""
+        except yaml.YAMLError as err:
+            raise ConfigError("--set", assignment, f"value is not valid YAML: {err}") from None
+        if isinstance(value, str) and os.path.exists(value):
+            value = os.path.abspath(value)
+        self.override(name, **{key: value})
 
     def _path(self, p: str) -> str:
         return str((Path(self.source).parent / p).resolve()) if p and not os.path.isabs(p) else p
@@ -146,6 +167,14 @@ class Launch:
                 wait_for=_words(o.wait_for), wait_timeout=o.wait_timeout, after=_words(o.after),
                 stop_first=e.stop_first))
         return out
+
+
+def absolute_paths(params: dict, base: Path) -> dict:
+    """``params`` with every string value that names an existing file relative to ``base`` made absolute."""
+    for k, v in params.items():
+        if isinstance(v, str) and v and not os.path.isabs(v) and (base / v).exists():
+            params[k] = str((base / v).resolve())
+    return params
 
 
 def _words(v: tuple | str) -> tuple[str, ...]:

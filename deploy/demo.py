@@ -34,12 +34,12 @@ ROBOT_CONFIG = ROOT / "robot_side" / "config" / "p3at_sim.yaml"
 # Kinect's 57-degree scan leaves it lost along plain walls (see the file's header)
 HECTOR_ROBOT_CONFIG = ROOT / "robot_side" / "config" / "p3at_sim_laser.yaml"
 MASTER_DIR = ROOT / "master_side" / "config"
-PLANNERS = {
-    "dwa": (MASTER_DIR / "p3at" / "move_base.yaml", MASTER_DIR / "p3at" / "dwa_planner_ros.yaml"),
-    "trajectory": (MASTER_DIR / "move_base_trajectory_rollout.yaml",
-                   MASTER_DIR / "p3at" / "base_local_planner_params.yaml"),
-}
-
+# the shipped master files, one per mode (the agents run them as a user would: `zenav master --config`)
+KNOWN_MAP = {"dwa": MASTER_DIR / "p3at_known_map.yaml", "trajectory": MASTER_DIR / "p3at_known_map_trajectory.yaml"}
+AMCL, GMAPPING, HECTOR = (MASTER_DIR / f for f in ("p3at_amcl.yaml", "p3at_slam.yaml", "p3at_hector.yaml"))
+# trajectory rollout instead of the files' DWA (move_base's two files, as in p3at_known_map_trajectory.yaml)
+TRAJECTORY = {"move_base": MASTER_DIR / "move_base_trajectory_rollout.yaml",
+              "local_planner": MASTER_DIR / "p3at" / "base_local_planner_params.yaml"}
 
 @dataclass
 class GoalResult:
@@ -69,14 +69,6 @@ class DemoOptions:
 
 
 
-def amcl_node(world: str) -> dict:
-    """The amcl node of p3at_amcl.yaml with its initial pose at ``world``'s start."""
-    node = yaml.safe_load((MASTER_DIR / "p3at_amcl.yaml").read_text())["nodes"]["localization"]
-    start = parse_pose(yaml.safe_load(world_path(world).read_text()).get("start", [0.0, 0.0, 0.0]))
-    node["params"].update(initial_pose_x=start.x, initial_pose_y=start.y, initial_pose_a=start.theta)
-    return node
-
-
 def slam_method(slam: bool | str) -> str:
     """``DemoOptions.slam`` as a method name: "" (no SLAM), "gmapping" (also True) or "hector"."""
     return "gmapping" if slam is True else (slam or "")
@@ -87,46 +79,30 @@ def robot_config(slam: bool | str = False) -> Path:
     return HECTOR_ROBOT_CONFIG if slam_method(slam) == "hector" else ROBOT_CONFIG
 
 
-def master_config(world: str, planner: str, out_dir: Path, slam: bool | str = False, amcl: bool = False) -> Path:
-    """A master YAML for ``world``: on its known map (map server + fake localisation, or AMCL), or
-    mapping it with SLAM (gmapping as in the tutorial's section 3.6, or hector_mapping);
-    absolute paths into the package."""
-    mb, lp = PLANNERS[planner]
-    common = str(MASTER_DIR / "p3at" / "costmap_common_params.yaml")
-    local = str(MASTER_DIR / "local_costmap_padded.yaml")
-    if slam_method(slam) == "hector":
-        first = {"hector_mapping": {"module": "master_side.hector.node", "respawn": True,
-                                    "params": {"hector": str(MASTER_DIR / "hector_p3at.yaml")}}}
-        global_specific = str(MASTER_DIR / "p3at" / "global_costmap_params.yaml")
-    elif slam:
-        first = {"slam_gmapping": {"module": "master_side.slam.node", "respawn": True,
-                                   "params": {"gmapping": str(MASTER_DIR / "p3at" / "gmapping.yaml"),
-                                              "particles": 30}}}
-        global_specific = str(MASTER_DIR / "p3at" / "global_costmap_params.yaml")
+def master_args(world: str, planner: str, out_dir: Path, slam: bool | str = False, amcl: bool = False) -> list[str]:
+    """``zenav master`` arguments for ``world``: the shipped file of the mode — on the world's known map
+    (fake localisation, or AMCL started at the world's start pose), or mapping it with SLAM (gmapping as
+    in the tutorial's section 3.6, or hector_mapping) — with ``--map`` / ``--set`` for what the world and
+    the planner change."""
+    method = slam_method(slam)
+    sets: list[str] = []
+    if method:
+        config = HECTOR if method == "hector" else GMAPPING
+    elif amcl:
+        config = AMCL
+        start = parse_pose(yaml.safe_load(world_path(world).read_text()).get("start", [0.0, 0.0, 0.0]))
+        sets += [f"localization.initial_pose_{k}={v!r}" for k, v in (("x", start.x), ("y", start.y),
+                                                                    ("a", start.theta))]
     else:
-        fake = {"module": "robot_side.sim.fake_localization", "respawn": True}
-        first = {"localization": amcl_node(world) if amcl else fake,
-                 "map_server": {"module": "master_side.mapping.map_server_node",
-                                "params": {"map": str(export_world_map(world, out_dir))}}}
-        global_specific = str(MASTER_DIR / "global_costmap_known_map.yaml")
-    cfg = {
-        "use_sim_time": True,
-        "nodes": {
-            **first,
-            "global_costmap": {"module": "master_side.costmap.node", "respawn": True,
-                               "params": {"name": "global_costmap", "common": common,
-                                          "specific": global_specific}},
-            "local_costmap": {"module": "master_side.costmap.node", "respawn": True,
-                              "params": {"name": "local_costmap", "common": common, "specific": local}},
-            "move_base": {"module": "master_side.move_base.node", "respawn": True,
-                          "params": {"move_base": str(mb), "local_planner": str(lp),
-                                     "costmap_common": common, "local_costmap": local,
-                                     "global_costmap": global_specific}},
-        },
-    }
-    path = out_dir / f"master_{world}.yaml"
-    path.write_text(yaml.safe_dump(cfg, sort_keys=False))
-    return path
+        config = KNOWN_MAP[planner]
+    if planner == "trajectory" and config != KNOWN_MAP[planner]:
+        sets += [f"move_base.{k}={v}" for k, v in TRAJECTORY.items()]
+    args = ["--config", str(config)]
+    if not method:
+        args += ["--map", str(export_world_map(world, out_dir))]
+    for s in sets:
+        args += ["--set", s]
+    return args
 
 
 class Demo:
@@ -172,8 +148,8 @@ class Demo:
             n_maps = [c.received for c in self.costmaps]
             self.spawn(f"robot_{world}", ["robot", "--config", str(robot_config(self.o.slam)), "--world", world,
                                           "--speed", str(self.o.speed), "--engine", self.o.engine])
-            self.spawn(f"master_{world}", ["master", "--config", str(master_config(
-                world, self.o.planner, self.work, self.o.slam, self.o.amcl))])
+            self.spawn(f"master_{world}", ["master", *master_args(
+                world, self.o.planner, self.work, self.o.slam, self.o.amcl)])
             self._wait("the simulator", lambda n=n_truth: self.truth.received > n, 60)
             self._wait("move_base", lambda n=n_status: self.status.received > n, 90)
             self._wait("the costmaps", lambda n=n_maps: all(c.received > k for c, k in zip(self.costmaps, n)), 60)

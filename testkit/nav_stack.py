@@ -19,6 +19,7 @@ from pathlib import Path
 import psutil
 import yaml
 
+from common.launch import absolute_paths
 from testkit.wait import free_port, wait_until
 
 REPO = Path(__file__).resolve().parents[1]
@@ -36,12 +37,9 @@ def world_goals(world: str) -> dict[str, tuple[float, float, float]]:
 
 def absolute_param_paths(cfg: dict, base: Path) -> None:
     """Node parameters naming a file relative to the config's folder ``base`` made absolute (the
-    generated config is written elsewhere)."""
+    generated config is written elsewhere), as the agents do for ``--set``."""
     for spec in cfg["nodes"].values():
-        params = spec.get("params") or {}
-        for k, v in list(params.items()):
-            if isinstance(v, str) and (base / v).exists():
-                params[k] = str((base / v).resolve())
+        absolute_paths(spec.get("params") or {}, base)
 
 
 def master_config_for(planner: str, world: str, tmp: Path, move_base: dict | None = None,

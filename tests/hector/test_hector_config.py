@@ -6,11 +6,11 @@ import argparse
 from pathlib import Path
 
 import pytest
-import yaml
 
 from common.config import ConfigError, read_yaml
 from deploy import cmd_demo
-from deploy.demo import master_config
+from deploy.demo import master_args
+from master_side import agent
 from master_side.hector import node
 
 CONFIG = Path(__file__).resolve().parents[2] / "master_side" / "config"
@@ -37,10 +37,11 @@ def test_demo_slam_flag_defaults_to_gmapping_and_accepts_hector(tmp_path):
     assert p.parse_args(["demo", "--slam"]).slam == "gmapping"
     assert p.parse_args(["demo", "--slam", "hector"]).slam == "hector"
     assert p.parse_args(["demo"]).slam is None
-    nodes = yaml.safe_load(master_config("room", "dwa", tmp_path, slam="hector").read_text())["nodes"]
+    args = master_args("room", "dwa", tmp_path, slam="hector")
+    assert args == ["--config", str(CONFIG / "p3at_hector.yaml")]  # the shipped file, as it is
+    nodes = {e.name for e in agent.load(args[1]).entries}
     assert "hector_mapping" in nodes and "slam_gmapping" not in nodes and "map_server" not in nodes
-    nodes = yaml.safe_load(master_config("room", "dwa", tmp_path, slam=True).read_text())["nodes"]
-    assert "slam_gmapping" in nodes
+    assert master_args("room", "dwa", tmp_path, slam=True) == ["--config", str(CONFIG / "p3at_slam.yaml")]
 
 
 def test_demo_runs_hector_on_the_planar_laser_and_gmapping_on_the_kinect():

@@ -1,0 +1,76 @@
+"""`zenav master --map FILE --set NODE.KEY=VALUE`: one shipped file serves every world and start (the demo
+runs the shipped files this way); the generated parameters keep the file's relative paths valid."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pytest
+
+from common.config import ConfigError, read_yaml
+from common.node_check import check_nodes
+from deploy.demo import master_args
+from master_side import agent
+
+CONFIG = Path(__file__).resolve().parents[2] / "master_side" / "config"
+
+
+def _params(launch, name: str, tmp_path: Path) -> dict:
+    spec = next(s for s in launch.specs(str(tmp_path / "gen")) if s.name == name)
+    data = read_yaml(spec.config)
+    for part in spec.section.split("."):
+        data = data[part]
+    return data
+
+
+def test_map_and_set_override_a_shipped_file_and_keep_its_relative_paths(tmp_path):
+    other_map = CONFIG / "maps" / "corridor.yaml"  # the file's own map is the room
+    launch = agent.load(str(CONFIG / "p3at_amcl.yaml"), str(other_map),
+                        ["localization.initial_pose_x=1.5",
+                         f"move_base.local_planner={CONFIG / 'p3at' / 'dwa_planner_ros.yaml'}"])
+    assert _params(launch, "map_server", tmp_path)["map"] == str(other_map)
+    loc = _params(launch, "localization", tmp_path)
+    assert loc["initial_pose_x"] == 1.5 and loc["max_particles"] == 3000  # the rest of the node's mapping kept
+    mb = _params(launch, "move_base", tmp_path)
+    assert mb["local_planner"] == str(CONFIG / "p3at" / "dwa_planner_ros.yaml")
+    assert mb["move_base"] == str(CONFIG / "p3at" / "move_base.yaml")  # was p3at/move_base.yaml, relative
+    check_nodes(launch)  # every node's check passes on the generated parameters
+    wrong = agent.load(str(CONFIG / "p3at_amcl.yaml"), sets=["move_base.controller_frequency=4"])
+    with pytest.raises(ConfigError, match="controller_frequency: unknown key"):  # it is move_base.yaml's
+        check_nodes(wrong)
+
+
+@pytest.mark.parametrize(("sets", "match"), [
+    (["initial_pose_x=1"], "NODE.KEY=VALUE"),
+    (["localization.initial_pose_x"], "NODE.KEY=VALUE"),
+    (["amcl.initial_pose_x=1"], "no node 'amcl'"),
+    (["localization.initial_pose_x=[1"], "not valid YAML"),
+])
+def test_a_bad_set_is_refused_with_the_reason(sets, match):
+    with pytest.raises(ConfigError, match=match):
+        agent.load(str(CONFIG / "p3at_amcl.yaml"), sets=sets)
+
+
+def test_map_needs_a_map_server_and_an_existing_file(tmp_path):
+    with pytest.raises(ConfigError, match="needs a map server"):
+        agent.load(str(CONFIG / "p3at_slam.yaml"), str(CONFIG / "maps" / "room.yaml"))
+    with pytest.raises(ConfigError, match="file not found"):
+        agent.load(str(CONFIG / "p3at_known_map.yaml"), str(tmp_path / "missing.yaml"))
+
+
+@pytest.mark.parametrize(("planner", "slam", "amcl"), [
+    ("dwa", False, False), ("trajectory", False, False), ("dwa", False, True), ("trajectory", False, True),
+    ("dwa", "gmapping", False), ("trajectory", "hector", False)])
+def test_every_demo_mode_runs_a_shipped_file_that_passes_the_agents_check(tmp_path, planner, slam, amcl):
+    p = argparse.ArgumentParser()
+    agent.add_arguments(p)
+    args = p.parse_args(master_args("corridor", planner, tmp_path, slam, amcl))
+    assert Path(args.config).parent == CONFIG  # no generated master file
+    launch = agent.load(args.config, args.map, args.set)
+    check_nodes(launch)
+    mb = _params(launch, "move_base", tmp_path)
+    assert Path(mb["local_planner"]).name == ("dwa_planner_ros.yaml" if planner == "dwa"
+                                              else "base_local_planner_params.yaml")
+    if amcl:
+        assert _params(launch, "localization", tmp_path)["initial_pose_x"] == pytest.approx(-4.0, abs=6)
