@@ -19,7 +19,7 @@ import numpy as np
 import yaml
 
 from common.bus import Node
-from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, Scalar
+from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, Scalar, Twist
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy import barn
@@ -33,16 +33,18 @@ STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
 
 
 class _Recorder:
-    """ground_truth / collision / move_base loop times, recorded by bus callbacks."""
+    """ground_truth / collision / move_base's commands and loop times, recorded by bus callbacks."""
 
     def __init__(self, node: Node):
         self.lock = threading.Lock()
         self.trace: list[tuple[float, float, float]] = []
         self.collisions: list = []
         self.loop_ms: list[float] = []
+        self.cmds: list[tuple[float, float, float]] = []  # (simulated time of the last truth, v, w)
         node.subscribe("ground_truth", Odometry, callback=self._truth, mode="queue")
         node.subscribe("collision", Collision, callback=self._collision, mode="queue")
         node.subscribe("move_base/loop_time", Scalar, callback=self._loop, mode="queue")
+        node.subscribe("cmd_vel", Twist, callback=self._cmd, mode="queue")
         self.status = node.subscribe("move_base/status", MoveBaseStatus)
         self.costmaps = [node.subscribe(f"{n}/costmap", Costmap) for n in ("global_costmap", "local_costmap")]
 
@@ -55,6 +57,10 @@ class _Recorder:
         with self.lock:
             self.collisions.append(m)
 
+    def _cmd(self, m: Twist) -> None:
+        with self.lock:
+            self.cmds.append((self.trace[-1][0] if self.trace else 0.0, m.linear.x, m.angular.z))
+
     def _loop(self, m: Scalar) -> None:
         with self.lock:
             self.loop_ms.append(m.value * 1e3)
@@ -64,11 +70,15 @@ class _Recorder:
             return np.array(self.trace, float).reshape(-1, 3), barn.collision_times(self.collisions)
 
 
-def _with_friction(robot_config: Path, friction: float, work: Path) -> Path:
+def _robot_variant(robot_config: Path, work: Path, friction: float | None, seed: int | None) -> Path:
+    """A copy of the robot YAML with the simulator's physics.friction and/or sim.seed set."""
     cfg = yaml.safe_load(robot_config.read_text())
     params = cfg["platform"]["sim"]["params"]
-    params["physics"] = {**(params.get("physics") or {}), "friction": float(friction)}
-    out = work / f"robot_friction_{friction:g}.yaml"
+    if friction is not None:
+        params["physics"] = {**(params.get("physics") or {}), "friction": float(friction)}
+    if seed is not None:
+        params["sim"] = {**(params.get("sim") or {}), "seed": int(seed)}
+    out = work / f"robot_{friction}_{seed}.yaml"
     out.write_text(yaml.safe_dump(cfg, sort_keys=False))
     return out
 
@@ -87,14 +97,15 @@ def _verdict_due(trace: np.ndarray, hits: list[float]) -> bool:
 
 def run_world_bus(world: int, workdir: str | Path = "", master_config: str | Path = MASTER_CONFIG,
                   robot_config: str | Path = ROBOT_CONFIG, speed: float = 1.0, echo=None, engine: str | None = None,
-                  friction: float | None = None) -> dict:
-    """Run world ``world`` over the bus; returns {"run": barn.Run, "cycle_ms": loop times, "note": str}."""
+                  friction: float | None = None, seed: int | None = None) -> dict:
+    """Run world ``world`` over the bus; returns {"run": barn.Run, "cycle_ms": loop times, "note": str,
+    "trace": ground truth rows (t, x, y), "cmds": move_base's commands rows (t, v, w)}."""
     master_config, robot_config = Path(master_config).resolve(), Path(robot_config).resolve()
     work = Path(workdir or tempfile.mkdtemp(prefix="zenav-barn-")).resolve() / f"world_{world}"
     work.mkdir(parents=True, exist_ok=True)
     world_file = barn.write_world(world, work)
-    if friction is not None:  # a copy of the robot YAML with the simulator's physics.friction set
-        robot_config = _with_friction(robot_config, friction, work)
+    if friction is not None or seed is not None:  # a copy of the robot YAML with these set
+        robot_config = _robot_variant(robot_config, work, friction, seed)
     robot = f"barn{world}x{uuid.uuid4().hex[:6]}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     group = ProcessGroup(robot, endpoint, work)
@@ -130,7 +141,10 @@ def run_world_bus(world: int, workdir: str | Path = "", master_config: str | Pat
         group.stop()
         trace, hits = rec.snapshot()
         loop_ms = np.array(rec.loop_ms)
+        with rec.lock:
+            cmds = np.array(rec.cmds, float).reshape(-1, 3)
         node.close()
+    raw_trace = trace
     if len(trace) == 0:
         trace = np.array([[0.0, *START[:2]]])
     if not _verdict_due(trace, hits):  # the robot stays where it is until the time limit
@@ -140,4 +154,5 @@ def run_world_bus(world: int, workdir: str | Path = "", master_config: str | Pat
     run = barn.judge(world, trace, hits)
     if echo:
         echo(f"world {world}: {run.status} {run.time_s:.1f} s {note}")
-    return {"run": run, "cycle_ms": loop_ms, "note": note if not run.success else ""}
+    return {"run": run, "cycle_ms": loop_ms, "note": note if not run.success else "", "trace": raw_trace,
+            "cmds": cmds}

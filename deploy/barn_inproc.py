@@ -30,6 +30,8 @@ class Outcome:
     sim_s: float
     final_state: str
     events: list[str] = field(default_factory=list)
+    trace: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # ground truth rows (t, x, y)
+    cmds: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # move_base's commands rows (t, v, w)
 
 
 
@@ -47,13 +49,15 @@ class BarnStack(InProcessStack):
         sim, wall0 = self.sim, time.perf_counter()
         goal = self.frame_from_world(self.global_frame).compose(Pose2D(goal_world[0], goal_world[1], goal_yaw))
         self.machine.set_goal("barn", goal, sim.time)
-        trace, hits = [], []
+        trace, hits, cmds = [], [], []
         collisions = sim.base.collisions
         start = sim.base.pose
         t_moved = None
         while True:
-            self.step()
+            d = self.step()
             t = sim.time
+            if d is not None:
+                cmds.append((t, d.cmd[0], d.cmd[2]))
             if sim.base.collisions != collisions:
                 collisions = sim.base.collisions
                 hits.append(t)
@@ -66,6 +70,7 @@ class BarnStack(InProcessStack):
             gave_up = self.machine.state is State.IDLE
             if hits or near or over or gave_up or (t_moved is None and t > start_limit):
                 break
+        raw = np.array(trace, float).reshape(-1, 3)
         if not (hits or near or over):
             # move_base gave up or the robot never started: it stays where it is until the time limit
             end = (t_moved if t_moved is not None else trace[0][0]) + barn.TIME_LIMIT_S
@@ -73,4 +78,4 @@ class BarnStack(InProcessStack):
         run = barn.judge(world, np.array(trace), hits)
         return Outcome(run, np.array(self.cycle_ms), np.array(self.plan_ms), time.perf_counter() - wall0, sim.time,
                        self.machine.state.value + (f" ({self.machine.reason})" if self.machine.reason else ""),
-                       list(self.events))
+                       list(self.events), raw, np.array(cmds, float).reshape(-1, 3))
