@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 
 from common.geometry import Pose2D  # noqa: E402
 from common.messages import Twist  # noqa: E402
-from deploy.world_maps import export_world_map  # noqa: E402
+from deploy.stack.world_maps import export_world_map  # noqa: E402
 from master_side.localization.amcl import Amcl  # noqa: E402
 from master_side.localization.params import load_amcl_params  # noqa: E402
 from master_side.mapping.map_io import load_map  # noqa: E402

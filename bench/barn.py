@@ -2,12 +2,12 @@
 
 Two modes:
   --mode fast  simulator, costmaps and move_base stepped in one process on the simulated clock, no bus
-               (deploy/barn_inproc.py): faster than real time, for iterating on planners and parameters.
+               (deploy/barn/inproc.py): faster than real time, for iterating on planners and parameters.
   --mode bus   the real thing: `zenav robot` (jackal_sim.yaml) and `zenav master` as separate processes
                over a private loopback Zenoh network, the goal sent as the challenge does (0, 10) in odom,
-               the verdict from the simulator's ground_truth and collision topics (deploy/barn_bus.py).
+               the verdict from the simulator's ground_truth and collision topics (deploy/barn/bus.py).
 
-Each run is judged by BARN's rule (deploy/barn.py): success within 1 m of the goal without a collision
+Each run is judged by BARN's rule (deploy/barn/rules.py): success within 1 m of the goal without a collision
 within 100 s of simulated time from the start of motion; score = success x OT / clip(AT, 2 OT, 8 OT).
 
   python bench/barn.py --mode fast --worlds 50                  # the challenge's own files (jackal_barn.yaml)
@@ -33,8 +33,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from deploy import barn  # noqa: E402
-from deploy.barn_inproc import MASTER_CONFIG, ROBOT_CONFIG  # noqa: E402
+from deploy.barn import rules as barn  # noqa: E402
+from deploy.barn.inproc import MASTER_CONFIG, ROBOT_CONFIG  # noqa: E402
 
 
 def select_worlds(n: int, listed: str) -> list[int]:
@@ -47,7 +47,7 @@ def select_worlds(n: int, listed: str) -> list[int]:
 
 def _fast(args: tuple) -> dict:
     world, workdir, master, robot, plan_hz, engine, friction = args
-    from deploy.barn_inproc import BarnStack
+    from deploy.barn.inproc import BarnStack
     from robot_side.worlds.barn import GOAL
 
     path = barn.write_world(world, workdir)
@@ -60,7 +60,7 @@ def _fast(args: tuple) -> dict:
 
 def _bus(args: tuple) -> dict:
     world, workdir, master, robot, speed, engine, friction = args
-    from deploy.barn_bus import run_world_bus
+    from deploy.barn.bus import run_world_bus
 
     return run_world_bus(world, workdir, master_config=master, robot_config=robot, speed=speed, engine=engine,
                          friction=friction)
@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None) -> int:
         with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
             results = list(_progress(ex.map(_fast, jobs), len(jobs), t0))
     else:
-        from deploy.process_group import terminate_as_interrupt
+        from deploy.stack.process_group import terminate_as_interrupt
 
         jobs = [(w, str(work), a.master, a.robot, a.speed, a.engine, a.friction) for w in worlds]
         with terminate_as_interrupt():  # a killed bench stops each world's robot and master agents too

@@ -27,7 +27,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from deploy.cmd_monitor import HISTORY_LIMIT  # noqa: E402
+from deploy.cli.monitor import HISTORY_LIMIT  # noqa: E402
 from testkit.nav_stack import ROBOT_CONFIG, NavProc, world_goals  # noqa: E402
 from testkit.wait import free_port, wait_until  # noqa: E402
 from testkit.webrig import ZENAV, Page, master_yaml  # noqa: E402
@@ -110,7 +110,7 @@ class Stack:
 
     def drive(self) -> None:
         """The room's goals in a loop until stopped (a goal that fails is just the next one's start)."""
-        from deploy.cmd_goal import send_goal
+        from deploy.stack.goals import send_goal
 
         goals = list(world_goals("room").values())
         i = 0

@@ -30,8 +30,8 @@ from common.bus import Node  # noqa: E402
 from common.messages import DepthImage, Header  # noqa: E402
 from common.ports import free_port  # noqa: E402
 from common.zenoh_config import BusConfig  # noqa: E402
-from deploy import checkout_env  # noqa: E402
 from deploy.logs.mcap_io import read_records  # noqa: E402
+from deploy.stack.process_group import checkout_env  # noqa: E402
 
 TOPIC = "camera/depth/image"
 

@@ -205,3 +205,13 @@ def list_live(session: zenoh.Session, robot: str = "*", kind: str = "node", time
         if reply.ok is not None:
             out.append(str(reply.ok.key_expr).removeprefix(f"{LIVE_PREFIX}/"))
     return sorted(set(out))
+
+
+def close_quietly(*objs) -> None:
+    """Undeclare / close each of ``objs`` (Zenoh handles, sessions, nodes; None skipped), ignoring errors:
+    for the way out, where a dead link must not stop the rest from closing."""
+    for o in objs:
+        if o is None:
+            continue
+        with contextlib.suppress(Exception):  # best effort on the way out
+            o.undeclare() if hasattr(o, "undeclare") else o.close()

@@ -1,96 +1,13 @@
-"""zenav deployment: the ``zenav`` command (``deploy.cli``) and its subcommands (``deploy.cmd_*``).
+"""zenav deployment: everything that runs whole systems on real machines, by part.
 
-Small helpers shared by the subcommands live here (zenoh is imported lazily so ``zenav --help``
-stays fast).
+- ``deploy.cli``: the ``zenav`` command, one thin module per subcommand (argument parsing and printing).
+- ``deploy.stack``: a robot and its master on this machine — the agents as processes (``process_group``),
+  the same nodes in one process (``inproc``), the demo, world maps and the SLAM map check.
+- ``deploy.barn``: the BARN challenge harness (rules and verdict, bus and in-process runners).
+- ``deploy.monitor``: the Rerun monitor (our rviz). ``deploy.logs``: record and play.
+- ``deploy.fleet``: several hosts from one inventory. ``deploy.doctor``: the checks of ``zenav doctor``.
+- ``deploy.zenohconf``: Zenoh configuration files (auth, TLS, ACL). ``deploy.hosts``: data files only
+  (systemd units, udev rule, install script, example inventory).
 """
 
-from __future__ import annotations
-
-import contextlib
-import os
-import threading
-import time
-
 import common  # noqa: F401  (first: one BLAS thread per process, see common/__init__.py)
-
-
-def robot_pattern(args, all_by_default: bool) -> str:
-    """The robot (or ``*`` pattern) a command looks at: --robot, else $ZENAV_ROBOT, else all/'robot'."""
-    robot = getattr(args, "robot", None) or os.environ.get("ZENAV_ROBOT")
-    if not robot:
-        robot = "*" if all_by_default else "robot"
-    if "/" in robot:
-        raise ValueError(f"robot name {robot!r} must not contain '/'")
-    return robot
-
-
-def one_robot(args, wait_s: float = 1.5) -> str:
-    """The one robot a command acts on: --robot, else $ZENAV_ROBOT, else the only robot on the network
-    (said on stderr); several robots and none chosen is an error listing them; none at all keeps the
-    default name 'robot'. The choice is exported as ZENAV_ROBOT for this process and its children."""
-    import sys
-
-    robot = getattr(args, "robot", None) or os.environ.get("ZENAV_ROBOT")
-    if robot:
-        if "/" in robot or "*" in robot:
-            raise ValueError(f"this command needs one robot name, not {robot!r}")
-        return robot
-    from common.bus import list_live
-
-    session = open_session()
-    try:
-        robots = sorted({key.split("/")[0] for key in list_live(session, "*", "node", timeout=wait_s)})
-    finally:
-        close_quietly(session)
-    if len(robots) > 1:
-        raise ValueError(f"several robots on the network ({', '.join(robots)}): choose one with --robot")
-    robot = robots[0] if robots else "robot"
-    if robots:
-        print(f"zenav: using robot '{robot}', the only one on the network (--robot to choose)", file=sys.stderr)
-    os.environ["ZENAV_ROBOT"] = robot
-    return robot
-
-
-def checkout_env(base: dict[str, str] | None = None, drop_zenav: bool = False) -> dict[str, str]:
-    """Environment for a child process that runs this checkout's code (first on PYTHONPATH, whatever
-    ``pip install -e`` last pointed at), unbuffered; ``drop_zenav``: without inherited ZENAV_* settings."""
-    from pathlib import Path
-
-    env = {k: v for k, v in (os.environ if base is None else base).items()
-           if not (drop_zenav and k.startswith("ZENAV_"))}
-    root = str(Path(__file__).resolve().parents[1])
-    env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH", "")]))
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
-
-
-def open_session():
-    """A raw Zenoh session with the bus config from the environment (no liveliness token of its own,
-    so inspecting the system does not change what ``zenav nodes`` shows)."""
-    import zenoh
-
-    from common.zenoh_config import BusConfig
-
-    env = dict(os.environ)
-    if "*" in env.get("ZENAV_ROBOT", ""):
-        env.pop("ZENAV_ROBOT")
-    return zenoh.open(BusConfig.from_env(env).to_zenoh())
-
-
-def wait(stop: threading.Event, duration: float | None) -> None:
-    """Block until ``stop`` is set, ``duration`` seconds pass (None = forever) or Ctrl-C."""
-    end = None if duration is None else time.monotonic() + duration
-    while not stop.is_set():
-        left = 0.2 if end is None else min(0.2, end - time.monotonic())
-        if left <= 0:
-            return
-        stop.wait(left)
-
-
-def close_quietly(*objs) -> None:
-    for o in objs:
-        if o is None:
-            continue
-        with contextlib.suppress(Exception):  # best effort on the way out
-            o.undeclare() if hasattr(o, "undeclare") else o.close()
-

@@ -46,11 +46,11 @@ def master_config_for(planner: str, world: str, tmp: Path, move_base: dict | Non
                       navfn: dict | None = None) -> Path:
     """The shipped master YAML for ``planner``. For another world than the room, or with ``move_base`` /
     ``navfn`` parameter overrides, a copy in ``tmp``: relative paths made absolute, ``map:`` pointing at a
-    map exported from the world (deploy.world_maps), the overrides merged into move_base's files."""
+    map exported from the world (deploy.stack.world_maps), the overrides merged into move_base's files."""
     src = PLANNERS[planner]
     if world == "room" and not move_base and not navfn:
         return src
-    from deploy.world_maps import export_world_map
+    from deploy.stack.world_maps import export_world_map
 
     cfg = yaml.safe_load(src.read_text())
     absolute_param_paths(cfg, src.parent)
@@ -294,7 +294,7 @@ class NavStack:
 
     def goal(self, x: float, y: float, yaw: float, frame: str = "map", timeout: float = 150.0):
         """send_goal (zenav goal's function); returns (exit code, final status, wall t0, wall t1)."""
-        from deploy.cmd_goal import send_goal
+        from deploy.stack.goals import send_goal
 
         t0 = time.monotonic()
         code, st = send_goal(self.node, x, y, yaw, frame, timeout, echo=lambda *_: None)

@@ -1,6 +1,6 @@
 """Rig for the web page tests: simulated P3-AT + master (AMCL, move_base) + `zenav monitor --serve-web`
 on a private loopback bus (``WebRig``), and headless Chromium driven over the DevTools protocol on the page
-(``Page``, deploy.monitor.cdp)."""
+(``Page``, testkit.cdp)."""
 
 from __future__ import annotations
 
@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from deploy.check_web_viewer import find_chromium
-from deploy.monitor.cdp import CDP
+from testkit.cdp import CDP
+from testkit.check_web_viewer import find_chromium
 from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, absolute_param_paths
 from testkit.wait import free_port, wait_until
 
@@ -29,7 +29,7 @@ ZENAV = [sys.executable, "-m", "deploy.cli"]  # this checkout's code, whatever `
 def master_yaml(tmp: Path, initial: tuple[float, float, float]) -> Path:
     """p3at_amcl.yaml (map server, AMCL, costmaps, move_base) with absolute paths, the room's map and
     AMCL's initial pose set to ``initial`` (the test starts it wrong on purpose)."""
-    from deploy.world_maps import export_world_map
+    from deploy.stack.world_maps import export_world_map
 
     src = MASTER_DIR / "p3at_amcl.yaml"
     cfg = yaml.safe_load(src.read_text())

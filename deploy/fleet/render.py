@@ -18,9 +18,9 @@ import json
 import secrets
 from pathlib import Path
 
+from deploy import zenohconf
 from deploy.fleet import secured
 from deploy.fleet.inventory import Host, Inventory
-from deploy.hosts import zenohconf
 
 HOSTS_DIR = Path(__file__).resolve().parents[1] / "hosts"
 ZENOH_PORT = 7447

@@ -16,8 +16,8 @@ whose identity counts, and the cmd_vel check happens at one place per robot.
 
 from __future__ import annotations
 
+from deploy import zenohconf
 from deploy.fleet.inventory import Host, Inventory
-from deploy.hosts import zenohconf
 
 PORT = 7447
 RETRY = {"period_init_ms": 250, "period_max_ms": 2000, "period_increase_factor": 2}  # link back quickly

@@ -17,11 +17,11 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
+from deploy.doctor.host_checks import OK_STATES, Check
 from deploy.fleet import FleetError, services
 from deploy.fleet.inventory import Host, Inventory
 from deploy.fleet.render import paths
 from deploy.fleet.ssh import CHECKOUT, Remote, ssh_argv
-from deploy.hosts.doctor_checks import OK_STATES, Check
 
 MAX_OFFSET = 0.05  # s, as `zenav doctor --max-skew`
 MIN_RATE = 0.5  # Hz: below this an expected topic counts as silent

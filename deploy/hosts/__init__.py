@@ -1,2 +1,2 @@
-"""Two-machine deployment: Zenoh config generation (``zenohconf``), host templates (systemd units,
-udev rule, env file) and ``install-robot.sh``. Used by ``zenav zenoh`` and ``zenav doctor``."""
+"""Data files for a robot or master PC: systemd units, the udev rule, the environment file, the example
+fleet inventory and ``install-robot.sh`` (read as package data; no code here)."""

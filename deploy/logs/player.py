@@ -7,7 +7,7 @@ gets every static transform), paced by wall time at ``rate`` log seconds per wal
 every ``clock_step`` of log time and once before each message, so every node runs on the log's time;
 after the last message it ticks ``end_tick`` further (a node waiting for a transform past the end of
 the log times out instead of waiting forever). ``loop`` replays with every stamp shifted by the
-played span, so the clock never goes backwards. Usable in-process (tests) and by deploy.cmd_play.
+played span, so the clock never goes backwards. Usable in-process (tests) and by deploy.cli.play.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Zenoh subscriptions (and latched fetches, asked of each latched publisher as its token appears) feed one
 queue; one writer thread decodes, stamps (log time = the message stamp, the bus clock when it has none),
 throttles per topic and writes. The queue is bounded in bytes: a writer behind by ``MAX_QUEUED_BYTES``
-drops new messages, counted. The command module (deploy/cmd_record.py) parses options and prints.
+drops new messages, counted. The command module (deploy/cli/record.py) parses options and prints.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import logging
 import threading
 import time
 
+from common.bus import close_quietly
 from common.live_keys import LiveKey, live_key
-from deploy import close_quietly
 
 log = logging.getLogger(__name__)
 

@@ -10,7 +10,7 @@ import pytest
 
 from common.config import ConfigError, read_yaml
 from common.node_check import check_nodes
-from deploy.demo import master_args
+from deploy.stack.demo import master_args
 from master_side import agent
 
 CONFIG = Path(__file__).resolve().parents[2] / "master_side" / "config"

@@ -33,7 +33,7 @@ PERIOD = 0.1 / SPEED
 
 
 def master_yaml(tmp) -> str:
-    from deploy.world_maps import export_world_map
+    from deploy.stack.world_maps import export_world_map
 
     cfg = yaml.safe_load((MASTER_DIR / "p3at_amcl.yaml").read_text())
     nodes = cfg["nodes"]

@@ -18,7 +18,7 @@ from common.bus import Node
 from common.messages import CostmapSensors, MoveBaseStatus, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy.process_group import ProcessGroup
+from deploy.stack.process_group import ProcessGroup
 from tests.support import wait_until
 
 REPO = Path(__file__).resolve().parents[2]

@@ -1,5 +1,5 @@
 """One BARN world with the simulated Jackal and zenav's BARN configuration, judged from the simulator's
-ground truth by BARN's rule, in the fast mode of ``bench/barn.py`` (deploy/barn_inproc.py: the same nodes'
+ground truth by BARN's rule, in the fast mode of ``bench/barn.py`` (deploy/barn/inproc.py: the same nodes'
 pieces from the same YAML files, stepped in one process). The way a user runs it over the bus — `zenav
 robot`, `zenav master` and `zenav goal` as separate processes — is tested on the same world and
 configuration with the MuJoCo engine (tests/sim_mujoco/test_mujoco_barn_bus.py)."""
@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from deploy import barn
-from deploy.barn_inproc import ROBOT_CONFIG, BarnStack
+from deploy.barn import rules as barn
+from deploy.barn.inproc import ROBOT_CONFIG, BarnStack
 from robot_side.worlds.barn import GOAL
 
 REPO = Path(__file__).resolve().parents[2]

@@ -1,5 +1,5 @@
 """The fast mode stands for the real stack: one BARN world, the same seed, run in one process
-(``deploy.barn_inproc``: the nodes' pieces built from the YAML by the agents' loaders, stepped on one
+(``deploy.barn.inproc``: the nodes' pieces built from the YAML by the agents' loaders, stepped on one
 clock) and over the bus (``zenav robot`` + ``zenav master`` + ``zenav goal``, separate processes), gives the
 same path and the same commands along it.
 
@@ -18,9 +18,9 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from deploy import barn
-from deploy.barn_bus import run_world_bus
-from deploy.barn_inproc import ROBOT_CONFIG, BarnStack
+from deploy.barn import rules as barn
+from deploy.barn.bus import run_world_bus
+from deploy.barn.inproc import ROBOT_CONFIG, BarnStack
 from robot_side.worlds.barn import GOAL
 
 MASTER = Path(__file__).resolve().parents[2] / "master_side" / "config" / "jackal_barn_zenav.yaml"

@@ -7,7 +7,7 @@ import pytest
 
 from common.geometry import Pose2D
 from common.messages import Collision, Header, Odometry, Twist
-from deploy import barn as bench
+from deploy.barn import rules as bench
 from robot_side.worlds import barn
 
 SX, SY = barn.START[:2]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from common.geometry import Pose2D
-from deploy import barn as bench
+from deploy.barn import rules as bench
 from robot_side.sim.base import DiffDriveBase, base_preset
 from robot_side.sim.laser import Laser
 from robot_side.sim.simulator import WORLDS_DIR

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from common.zenoh_config import BusConfig
-from deploy import checkout_env
+from deploy.stack.process_group import checkout_env
 from tests.support import free_port  # noqa: F401
 
 REPO = Path(__file__).resolve().parents[2]

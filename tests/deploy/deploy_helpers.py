@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from deploy import checkout_env
+from deploy.stack.process_group import checkout_env
 from tests.support import free_port  # noqa: F401
 
 REPO = Path(__file__).resolve().parents[2]

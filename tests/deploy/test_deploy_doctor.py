@@ -10,7 +10,7 @@ import sys
 import pytest
 from deploy_helpers import HELPER, env_for, free_port, start, stop, wait_line, zenav
 
-from deploy.hosts.doctor_checks import serial_check, skew_check
+from deploy.doctor.host_checks import serial_check, skew_check
 from tests.support import two_netns
 
 

@@ -13,7 +13,7 @@ import yaml
 from deploy_helpers import HELPER, REPO, env_for, free_port, start, stop, wait_line, zenav
 
 from common.messages import CostmapSensors, Header, ObservationSourceStatus
-from deploy.hosts.doctor_checks import sensor_checks
+from deploy.doctor.host_checks import sensor_checks
 from tests.support import wait_until
 
 

@@ -22,7 +22,7 @@ from deploy.cli import build_parser
 def gen(tmp_path, name: str, *argv: str) -> str:
     """Run `zenav zenoh config ARGV -o tmp/NAME.json5` (in-process, without exporting bus env)."""
     out = str(tmp_path / f"{name}.json5")
-    args = build_parser(["deploy.cmd_zenoh"]).parse_args(["zenoh", "config", *argv, "--no-multicast",
+    args = build_parser(["deploy.cli.zenoh"]).parse_args(["zenoh", "config", *argv, "--no-multicast",
                                                            "-o", out])
     assert args.func(args) == 0
     return out
@@ -121,7 +121,7 @@ def test_send_queue_holds_16_stream_messages_unless_a_config_file_says_otherwise
 
 
 def test_bad_options_are_refused_with_the_option_to_fix(tmp_path, capsys):
-    ap = build_parser(["deploy.cmd_zenoh"])
+    ap = build_parser(["deploy.cli.zenoh"])
     args = ap.parse_args(["zenoh", "config", "client", "-o", str(tmp_path / "c.json5")])
     assert args.func(args) == 2
     assert "--connect" in capsys.readouterr().err

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from common.config import ConfigError, read_yaml
-from deploy import cmd_demo
-from deploy.demo import master_args
+from deploy.cli import demo as cmd_demo
+from deploy.stack.demo import master_args
 from master_side import agent
 from master_side.hector import node
 
@@ -45,7 +45,7 @@ def test_demo_slam_flag_defaults_to_gmapping_and_accepts_hector(tmp_path):
 
 
 def test_demo_runs_hector_on_the_planar_laser_and_gmapping_on_the_kinect():
-    from deploy.demo import ROBOT_CONFIG, robot_config
+    from deploy.stack.demo import ROBOT_CONFIG, robot_config
 
     assert robot_config("hector").name == "p3at_sim_laser.yaml"
     assert robot_config(True) == robot_config("gmapping") == robot_config(False) == ROBOT_CONFIG

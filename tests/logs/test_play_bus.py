@@ -15,9 +15,9 @@ from common.bus import Node
 from common.geometry import Pose2D
 from common.messages import Clock, Header, LaserScan, Odometry, TFMessage, TransformStamped
 from common.zenoh_config import BusConfig
-from deploy import checkout_env
 from deploy.logs import LogRecord
 from deploy.logs.player import Player, PlayOptions
+from deploy.stack.process_group import checkout_env
 from tests.support import free_port, wait_until
 
 T0 = 100.0

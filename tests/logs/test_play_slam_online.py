@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from deploy import checkout_env
+from deploy.stack.process_group import checkout_env
 from master_side.slam import evaluate
 from master_side.slam.gridslam import GridSlam
 from master_side.slam.logs import read_bag

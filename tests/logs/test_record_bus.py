@@ -19,8 +19,8 @@ from common import messages as m
 from common.bus import Node
 from common.geometry import Pose2D, Quaternion, Transform, Vector3
 from common.zenoh_config import BusConfig
-from deploy import checkout_env
 from deploy.logs.mcap_io import read_records
+from deploy.stack.process_group import checkout_env
 from tests.support import free_port, wait_until
 
 STREAMS = ("scan", "odom", "tf", "cmd_vel", "move_base/status", "global_costmap/costmap")

@@ -9,7 +9,7 @@ import pyarrow as pa
 import pytest
 from rerun.chunk import RrdReader
 
-from deploy import checkout_env
+from deploy.stack.process_group import checkout_env
 from tests.support import free_port  # noqa: F401
 
 REPO = Path(__file__).resolve().parents[2]

@@ -13,7 +13,7 @@ from monhelp import child_env, free_port, has_footer, read_rrd, values
 
 from common.bus import Node
 from common.zenoh_config import BusConfig
-from deploy.monitor import synthetic as syn
+from testkit import synthetic_monitor as syn
 
 
 @pytest.fixture

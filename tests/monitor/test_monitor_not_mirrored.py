@@ -20,9 +20,9 @@ import rerun as rr
 from monhelp import asymmetric_grid, read_rrd
 
 from common import messages as m
-from deploy.check_web_viewer import find_chromium
 from deploy.monitor.monitor import Monitor
 from deploy.monitor.webstate import WebState
+from testkit.check_web_viewer import find_chromium
 
 
 def image_cell(x: float, y: float, origin: tuple[float, float], res: float, h: int) -> tuple[int, int]:

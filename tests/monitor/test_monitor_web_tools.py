@@ -20,7 +20,7 @@ import urllib.request
 
 import pytest
 
-from deploy.check_web_viewer import find_chromium
+from testkit.check_web_viewer import find_chromium
 from testkit.webrig import REPO, WebRig, map_extent, map_fraction, rgb
 
 START = (-2.2, 0.0, 0.0)  # robot_side/worlds/room.yaml

@@ -16,9 +16,9 @@ from monhelp import asymmetric_grid
 
 from common import messages as m
 from common.geometry import Pose2D
-from deploy.check_web_viewer import find_chromium
 from deploy.monitor.webserver import WebServer
 from deploy.monitor.webstate import WebState
+from testkit.check_web_viewer import find_chromium
 
 
 def _robot_at(state: WebState, x: float, y: float, yaw: float = 0.0) -> None:

@@ -15,7 +15,7 @@ from monhelp import child_env, free_port, has_footer, read_rrd, values, wait_for
 from common.bus import Node
 from common.geometry import Quaternion, Transform, Vector3
 from common.zenoh_config import BusConfig
-from deploy.monitor import synthetic as syn
+from testkit import synthetic_monitor as syn
 
 U8_L = rr.components.ImageFormat(width=1, height=1, color_model="L", channel_datatype="U8")
 

@@ -1,5 +1,5 @@
-"""deploy/check_web_viewer.py's verdict on a screenshot (the tool is run by hand:
-``python -m deploy.check_web_viewer --out shot.png``). The live render of the monitor's page and the
+"""testkit/check_web_viewer.py's verdict on a screenshot (the tool is run by hand:
+``python -m testkit.check_web_viewer --out shot.png``). The live render of the monitor's page and the
 Rerun viewer in headless Chromium is tests/monitor/test_monitor_web_tools.py (one Chromium session for
 the suite: ~20 s each)."""
 
@@ -10,7 +10,7 @@ import io
 import numpy as np
 from PIL import Image
 
-from deploy.check_web_viewer import judge
+from testkit.check_web_viewer import judge
 
 
 def _png(rgb: np.ndarray) -> bytes:

@@ -77,7 +77,7 @@ def test_nav_e2e_a_robot_held_in_place_says_no_progress_and_zenav_goal_prints_it
     import time
 
     from common.messages import Empty, Header, MotorState
-    from deploy.cmd_goal import send_goal
+    from deploy.stack.goals import send_goal
     from testkit.nav_stack import publisher_ready
 
     motors = stack.node.publisher("cmd_motor_state", reliable=True)  # one-shot commands: never dropped

@@ -1,6 +1,6 @@
 """Issue 6 acceptance in one process: the room and the corridor worlds with both local planners. The
 simulated P3-AT (its Kinect's depth image through depth_to_scan), both costmaps and move_base built from the
-shipped robot and master YAMLs and stepped in lock-step on the simulated clock (deploy/inproc_stack.py).
+shipped robot and master YAMLs and stepped in lock-step on the simulated clock (deploy/stack/inproc.py).
 
 Every goal of the world reached within 0.3 m / 0.1 rad of ground truth, no collision, no goal moved, and the
 final in-place rotation never turns back (in lock-step no control cycle is ever late, so a reversal here is
@@ -16,7 +16,7 @@ import pytest
 
 from common.geometry import Pose2D
 from common.messages import GoalStatus
-from deploy.inproc_stack import GoalOutcome, InProcessStack
+from deploy.stack.inproc import GoalOutcome, InProcessStack
 from testkit.nav_stack import ROBOT_CONFIG, WORLDS, master_config_for, pose_error, world_goals
 from tests.nav_e2e.nav_e2e_checks import RESULTS, XY_TOL, YAW_TOL
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from deploy.barn_bus import run_world_bus
+from deploy.barn.bus import run_world_bus
 
 REPO = Path(__file__).resolve().parents[2]
 pytest.importorskip("mujoco", reason="deploy/install.sh installs it")

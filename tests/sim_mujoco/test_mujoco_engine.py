@@ -76,7 +76,7 @@ def test_the_same_world_files_load_in_both_engines(tmp_path):
             sim = _sim(world, engine, model="p3at")
             assert sim.base.pose.distance(sim.world.start) < 0.01
     # a map_server map (no shapes): its occupied cells become merged boxes
-    from deploy.world_maps import export_world_map
+    from deploy.stack.world_maps import export_world_map
 
     map_yaml = export_world_map("room", tmp_path)
     sim = _sim(map_yaml, "mujoco", model="p3at", laser=LASER)

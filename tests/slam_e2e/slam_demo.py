@@ -8,8 +8,8 @@ from pathlib import Path
 
 import yaml
 
-from deploy.demo import Demo, DemoOptions
-from deploy.world_maps import world_path
+from deploy.stack.demo import Demo, DemoOptions
+from deploy.stack.world_maps import world_path
 
 
 def wall_length(world: str) -> float:

@@ -4,7 +4,7 @@ odometry) while it drives the room's loop, and the map's walls lie within two ce
 
 The demo machinery as the gmapping test (test_slam_e2e_room.py): robot agent + master agent with
 hector_mapping on hector_p3at.yaml, costmaps and move_base, on a private loopback bus; the latched map
-is compared with the simulator's world (``deploy.map_check``).
+is compared with the simulator's world (``deploy.stack.map_check``).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ of the true walls.
 
 Runs the demo machinery (robot agent + master agent with slam_gmapping on the tutorial's
 gmapping.yaml, costmaps and move_base, on a private loopback bus) and compares the latched SLAM map
-with the simulator's world (``deploy.map_check``).
+with the simulator's world (``deploy.stack.map_check``).
 """
 
 from __future__ import annotations

@@ -106,7 +106,7 @@ def robot_publishing(loopback, shared_dir, monkeypatch):
 def _run_cli(argv: list[str]) -> int:
     from deploy.cli import apply_bus_env, build_parser
 
-    args = build_parser(["deploy.cmd_tf"]).parse_args(argv)
+    args = build_parser(["deploy.cli.tf"]).parse_args(argv)
     apply_bus_env(args)
     return args.func(args)
 

@@ -9,7 +9,7 @@ from scipy import ndimage
 
 from common.geometry import Pose2D
 from common.messages import OccupancyGrid
-from deploy.world_maps import world_path
+from deploy.stack.world_maps import world_path
 from robot_side.sim.world import WorldParams, load_world
 
 

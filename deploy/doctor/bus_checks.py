@@ -1,57 +1,21 @@
-"""``zenav doctor`` — can this machine talk to the robot? A PASS/FAIL list with the fix for each failure.
-
-Checks, in order: the Zenoh session opens with the effective config (mode, endpoints, multicast,
-lease); configured endpoints / routers are reached; multicast scouting finds other Zenoh processes;
-zenav nodes alive per robot (liveliness); expected topics flow (rates); TF odom→base_link is fresh;
-clock skew between this machine and the robot's header stamps; every live node answers a query from
-here (its ``node_stats`` service: a node whose token arrives but whose queries do not has a missing
-route — goals to it would not be acknowledged); every costmap observation source
-delivers (``<costmap>/sensors``: a late or silent source fails, naming its topic); optionally the
-serial port (on the robot). Exit 0 only if every check passes (SKIP counts as passed).
-"""
+"""The bus checks of ``zenav doctor``: the session and its endpoints, multicast scouting, per robot the
+live nodes, topic rates, TF age and clock skew, costmap sensor reports, and a route to every node (its
+``node_stats`` service answers). Each check is reported as a ``Check`` (PASS / WARN / FAIL / SKIP, with
+the fix) through the caller's ``report``."""
 
 from __future__ import annotations
 
-import os
-import sys
 import threading
 import time
 from collections import defaultdict
 
-from common.argtypes import positive
 from common.live_keys import LiveKey, live_key
-from deploy import close_quietly, robot_pattern
-from deploy.hosts.doctor_checks import (
-    OK_STATES,
-    Check,
-    describe_config,
-    sensor_checks,
-    serial_check,
-    skew_check,
-)
+from deploy.doctor.host_checks import Check, sensor_checks, skew_check
 
 SCOUT_S = 1.5
 
 
-def add_parser(subparsers):
-    p = subparsers.add_parser(
-        "doctor", help="check connectivity to the robot: PASS/FAIL with fixes",
-        description=__doc__.split("\n\n")[1].replace("\n", " "))
-    p.add_argument("--expect-topics", default="scan,odom,tf", metavar="T1,T2",
-                   help="topics that must be flowing (default scan,odom,tf; '' = none)")
-    p.add_argument("--timeout", type=positive, default=5.0, metavar="S",
-                   help="how long to listen for nodes and topics (default 5 s)")
-    p.add_argument("--serial", default="", metavar="DEV", help="on the robot: check this serial port "
-                   "(e.g. /dev/pioneer) exists and is read/writable")
-    p.add_argument("--max-skew", type=positive, default=0.05, metavar="S",
-                   help="clock offset above which to warn (default 0.05 s)")
-    p.add_argument("--tf-max-age", type=positive, default=1.0, metavar="S",
-                   help="odom→base_link must have arrived within S s (default 1)")
-    p.set_defaults(func=run)
-    return p
-
-
-class _Listener:
+class Listener:
     """Collects liveliness tokens, stamped samples of the expected topics (+ clock) and the costmaps'
     sensor status (``<costmap>/sensors``)."""
 
@@ -114,10 +78,12 @@ class _Listener:
             self.sensors[(robot, msg.costmap or topic.removesuffix("/sensors"))] = msg
 
     def close(self) -> None:
+        from common.bus import close_quietly
+
         close_quietly(*self.ents)
 
 
-def _session_checks(session, conf, desc: dict, report, wait_s: float) -> None:
+def session_checks(session, conf, desc: dict, report, wait_s: float) -> None:
     mc = f"on ({desc['multicast_address']})" if desc["multicast"] else "off"
     extra = f", user {desc['usrpwd_user']}" if desc["usrpwd_user"] else ""
     extra += ", access control on" if desc["access_control"] else ""
@@ -144,7 +110,7 @@ def _session_checks(session, conf, desc: dict, report, wait_s: float) -> None:
                      "firewall: allow tcp 7447; with usrpwd a wrong password looks exactly like this"))
 
 
-def _scout_check(conf, own_zid: str, desc: dict, report) -> None:
+def scout_check(conf, own_zid: str, desc: dict, report) -> None:
     import zenoh
 
     if not desc["multicast"]:
@@ -178,7 +144,7 @@ def _scout_check(conf, own_zid: str, desc: dict, report) -> None:
                      "tcp/0.0.0.0:7447 on the robot"))
 
 
-def _robot_checks(lis: _Listener, robots: list[str], topics: list[str], window: float, args, report) -> None:
+def robot_checks(lis: Listener, robots: list[str], topics: list[str], window: float, args, report) -> None:
     with lis.lock:
         for r in robots:
             nodes = sorted(n for rr, k, n, _ in lis.tokens if rr == r and k == "node")
@@ -220,7 +186,7 @@ def _robot_checks(lis: _Listener, robots: list[str], topics: list[str], window: 
                 report(c)
 
 
-def _route_checks(session, robot: str, nodes: list[str], report, timeout: float = 3.0) -> None:
+def route_checks(session, robot: str, nodes: list[str], report, timeout: float = 3.0) -> None:
     """Ask every live node of ``robot`` for its node_stats at once; a node that does not answer is named."""
     import zenoh
 
@@ -257,74 +223,3 @@ def _route_checks(session, robot: str, nodes: list[str], report, timeout: float 
                      "a missing route: commands to it (goals, cancels) would not be acknowledged;\n"
                      "a node that is busy or hung also shows here (`zenav nodes --stats`); after a network "
                      "change, restarting the node re-forms its routes"))
-
-
-def run(args) -> int:
-    import zenoh
-
-    from common.zenoh_config import BusConfig
-
-    results: list[Check] = []
-
-    def report(c: Check) -> None:
-        results.append(c)
-        print("\n".join(c.lines()), flush=True)
-
-    robot = robot_pattern(args, all_by_default=True)
-    topics = [t.strip().strip("/") for t in args.expect_topics.split(",") if t.strip()]
-    env = dict(os.environ)
-    if "*" in env.get("ZENAV_ROBOT", ""):
-        env.pop("ZENAV_ROBOT")
-    print(f"zenav doctor: robot {robot!r}, expecting {','.join(topics) or 'no topics'}", flush=True)
-    session = lis = None
-    try:
-        try:
-            conf = BusConfig.from_env(env).to_zenoh()
-            desc = describe_config(conf)
-            session = zenoh.open(conf)
-        except Exception as e:  # noqa: BLE001 - bad file, bad endpoint, refused credentials
-            report(Check("zenoh session opens", "FAIL", f"{type(e).__name__}: {e}",
-                         f"check ZENAV_ZENOH_CONFIG={env.get('ZENAV_ZENOH_CONFIG') or '(unset)'} "
-                         "(`zenav zenoh config ...` writes a valid one),\n--connect endpoints, and for "
-                         "a client the router address and user / password"))
-            return _summary(results)
-        t0 = time.monotonic()
-        lis = _Listener(session, robot, topics)
-        _session_checks(session, conf, desc, report, min(3.0, args.timeout))
-        _scout_check(conf, str(session.zid()), desc, report)
-        deadline = t0 + args.timeout
-        while time.monotonic() < deadline:
-            time.sleep(0.05)
-        with lis.lock:
-            robots = sorted({r for r, k, _, _ in lis.tokens if k == "node"})
-        if not robots:
-            report(Check("zenav nodes alive", "FAIL", f"no node tokens zenavlive/{robot}/node/* within "
-                         f"{args.timeout:.0f} s", "start the robot (`zenav robot --config ...` or "
-                         "`systemctl start zenav-robot` on the robot PC);\nif it runs: same robot name "
-                         "(ZENAV_ROBOT)? are the machines connected (checks above)?"))
-            for t in topics:
-                report(Check(f"topic {t}", "FAIL", "no robot", "see 'zenav nodes alive'"))
-        else:
-            _robot_checks(lis, robots, topics, time.monotonic() - t0, args, report)
-            with lis.lock:
-                live = {r: sorted(n for rr, k, n, _ in lis.tokens if rr == r and k == "node") for r in robots}
-            for r in robots:
-                _route_checks(session, r, live[r], report)
-    finally:
-        close_quietly(lis, session)
-    if args.serial:
-        report(serial_check(args.serial))
-    return _summary(results)
-
-
-def _summary(results: list[Check]) -> int:
-    bad = [c for c in results if c.status not in OK_STATES]
-    print(f"zenav doctor: {len(results) - len(bad)} passed, {len(bad)} failed"
-          + (f" ({', '.join(c.name for c in bad)})" if bad else ""), flush=True)
-    return 0 if not bad else 1
-
-
-if __name__ == "__main__":
-    from deploy.cli import main
-
-    sys.exit(main(["doctor", *sys.argv[1:]]))

@@ -1,6 +1,6 @@
 """One BARN run over the bus, as a user runs it: `zenav robot` (the simulated Jackal on the world),
 `zenav master` and `zenav goal 0 10 0 --frame odom` as separate processes on a private loopback Zenoh
-network; the verdict (deploy/barn.py) from the simulator's ``ground_truth`` and ``collision`` topics.
+network; the verdict (deploy/barn/rules.py) from the simulator's ``ground_truth`` and ``collision`` topics.
 
 The run ends as BARN's run.py ends it: within 1 m of the goal, at a collision, or 100 s of simulated
 time after the start of motion (move_base giving up, or the robot never starting, is a timeout).
@@ -22,11 +22,11 @@ from common.bus import Node
 from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, Scalar, Twist
 from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy import barn
-from deploy.process_group import ProcessGroup
+from deploy.barn import rules as barn
+from deploy.stack.process_group import ProcessGroup
 from robot_side.worlds.barn import GOAL, GOAL_IN_ODOM, START
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ROBOT_CONFIG = REPO / "robot_side" / "config" / "jackal_sim.yaml"
 MASTER_CONFIG = REPO / "master_side" / "config" / "jackal_barn.yaml"
 STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine

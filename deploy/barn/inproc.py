@@ -1,6 +1,6 @@
 """BARN in one process, faster than real time (``bench/barn.py --mode fast``): the simulated Jackal
-and the challenge's master files on ``deploy.inproc_stack.InProcessStack``, each run ended by BARN's
-verdict (``deploy.barn``)."""
+and the challenge's master files on ``deploy.stack.inproc.InProcessStack``, each run ended by BARN's
+verdict (``deploy.barn.rules``)."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 
 from common.geometry import Pose2D
-from deploy import barn
-from deploy.inproc_stack import InProcessStack
+from deploy.barn import rules as barn
+from deploy.stack.inproc import InProcessStack
 from master_side.move_base.state_machine import State
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 ROBOT_CONFIG = REPO / "robot_side" / "config" / "jackal_sim.yaml"
 MASTER_CONFIG = REPO / "master_side" / "config" / "jackal_barn.yaml"
 

@@ -11,7 +11,7 @@ from collections import defaultdict, deque
 
 from common.argtypes import nonneg_int, positive, positive_int
 from common.live_keys import LiveKey, live_key
-from deploy import close_quietly, one_robot, open_session, robot_pattern, wait
+from deploy.cli.session import one_robot, open_session, robot_pattern, wait
 
 
 def add_parser(subparsers):
@@ -138,6 +138,8 @@ def _topic_key(args) -> tuple[str, str]:
 def run_list(args) -> int:
     import zenoh
 
+    from common.bus import close_quietly
+
     robot = robot_pattern(args, all_by_default=True)
     pubs: dict[tuple[str, str], set[str]] = defaultdict(set)  # (robot, topic) -> publisher nodes
     types: dict[tuple[str, str], str] = {}
@@ -152,6 +154,7 @@ def run_list(args) -> int:
                 (pubs[k].add if s.kind == zenoh.SampleKind.PUT else pubs[k].discard)(key.node)
 
     def on_data(s: zenoh.Sample) -> None:
+
         parts = str(s.key_expr).split("/", 2)  # zenav/<robot>/<topic>
         if len(parts) == 3 and not parts[2].startswith("srv/"):
             with lock:
@@ -201,6 +204,7 @@ def run_list(args) -> int:
 
 # -- echo ------------------------------------------------------------------------------------------
 def run_echo(args) -> int:
+    from common.bus import close_quietly
     from common.codec import DecodeError, decode
 
     robot, key = _topic_key(args)
@@ -209,6 +213,7 @@ def run_echo(args) -> int:
     state = {"n": 0, "seen_latched": False}
 
     def on_payload(data: bytes, publisher: str) -> None:
+
         with lock:
             if stop.is_set():
                 return
@@ -266,11 +271,13 @@ class RateWindow:
 
 
 def run_hz(args) -> int:
+    from common.bus import close_quietly
     robot, key = _topic_key(args)
     win = RateWindow(args.window)
     lock = threading.Lock()
 
     def on_payload(data: bytes, publisher: str) -> None:
+
         with lock:
             win.add(time.monotonic())
 

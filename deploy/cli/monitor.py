@@ -84,132 +84,6 @@ def parse_rates(items: list[str]) -> dict[str, float]:
         raise SystemExit(f"zenav monitor: {e}") from None
 
 
-def open_recording(args, robot: str):
-    """A Rerun recording stream with the sink the user asked for; returns (rec, description)."""
-    import rerun as rr
-
-    from deploy.monitor.layout import blueprint
-
-    rec = rr.RecordingStream(f"zenav_{robot}".replace("*", "all"))
-    bp = blueprint(follow=getattr(args, "follow", False)) if "*" not in robot else robots_blueprint({})
-    if args.save:
-        parent = os.path.dirname(os.path.abspath(args.save))
-        if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
-            raise ValueError(f"cannot write the recording {args.save}: {parent} is not a writable folder")
-        try:
-            rec.save(args.save, default_blueprint=bp)
-        except RuntimeError as e:  # rerun reports file errors as RuntimeError
-            raise ValueError(f"cannot write the recording {args.save}: {e}") from None
-        return rec, f"saving to {args.save} (open with: rerun {args.save})"
-    if args.serve_web:
-        uri = rec.serve_grpc(grpc_port=args.grpc_port, default_blueprint=bp,
-                             server_memory_limit=getattr(args, "history_limit", HISTORY_LIMIT))
-        host = args.bind if args.bind not in ("0.0.0.0", "::") else "localhost"
-        return rec, f"page at http://{host}:{args.serve_web}/ (recording {uri})"
-    if args.connect_viewer:
-        rec.connect_grpc(args.connect_viewer, default_blueprint=bp)
-        return rec, f"streaming to {args.connect_viewer}"
-    rec.spawn(memory_limit=args.memory_limit, default_blueprint=bp)
-    return rec, "spawned the Rerun viewer"
-
-
-def fit_view_to_map(rec, args):
-    """An observer that sends the blueprint again, the map view fitted to the map, when it first arrives."""
-    from common.messages import OccupancyGrid
-    from deploy.monitor.layout import blueprint, fit_height
-
-    done = []
-
-    def observe(topic: str, msg) -> None:
-        if done or topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
-            return
-        done.append(True)
-        w, h = msg.width * msg.resolution, msg.height * msg.resolution
-        centre = (msg.origin.x + w / 2, msg.origin.y + h / 2)  # (map origins are not rotated in practice)
-        rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre,
-                                     height=fit_height(w, h)), make_active=True)
-
-    return observe
-
-
-def robots_blueprint(maps: dict[str, tuple]) -> object:
-    """Side by side, one column per robot (``maps``: robot -> (centre, eye height) of its map view)."""
-    import rerun.blueprint as rrb
-
-    from deploy.monitor.layout import top_down
-
-    def column(r: str, centre: tuple, height: float):
-        return rrb.Vertical(
-            rrb.Spatial3DView(name=f"{r}: map", origin="/", contents=[f"/{r}/world/**", f"/{r}/tf/**"],
-                              spatial_information=rrb.SpatialInformation(target_frame=f"{r}/map"),
-                              eye_controls=top_down(centre, height, False), line_grid=False),
-            rrb.TimeSeriesView(name=f"{r}: plots", origin=f"/{r}/plots"),
-            rrb.TextLogView(name=f"{r}: events", origin=f"/{r}/log"), row_shares=[3, 2, 2])
-
-    cols = [column(r, *maps[r]) for r in sorted(maps)] or [rrb.TextDocumentView(name="waiting for robots")]
-    return rrb.Blueprint(rrb.Horizontal(*cols), collapse_panels=True)
-
-
-def fit_robots_views(rec):
-    """For a robot pattern: an observer sending the side-by-side blueprint again when a robot first shows
-    up and when its map first arrives (its view fitted to the map)."""
-    from common.messages import OccupancyGrid
-    from deploy.monitor.layout import DEFAULT_HEIGHT, fit_height
-
-    maps: dict[str, tuple] = {}
-    fitted: set[str] = set()
-
-    def observe(topic: str, msg) -> None:
-        robot, _, topic = topic.partition("/")
-        fit = topic == "map" and isinstance(msg, OccupancyGrid) and msg.width > 0 and robot not in fitted
-        if robot in maps and not fit:
-            return
-        maps[robot] = ((0.0, 0.0), DEFAULT_HEIGHT)
-        if fit:
-            fitted.add(robot)
-            w, h = msg.width * msg.resolution, msg.height * msg.resolution
-            maps[robot] = ((msg.origin.x + w / 2, msg.origin.y + h / 2), fit_height(w, h))
-        rec.send_blueprint(robots_blueprint(maps), make_active=True)
-
-    return observe
-
-
-def bus_commands(session, robot: str, deadline: float = 20.0):
-    """``send(what, msg)`` for the page's tools: each command acknowledged by the node that acts on it
-    (common/delivery.py), so the page says "accepted by move_base" or who did not answer — never a
-    silent put into a link that is down."""
-    import uuid
-
-    from common.bus import Node, ServiceError
-    from common.delivery import DeliveryFailed, cancel_goal, send_acknowledged, send_goal
-    from common.messages import GoalStatus, MoveBaseGoal, PoseStamped
-    from deploy.monitor.webserver import CommandNotAcknowledged
-
-    node = Node(f"monitor_web_{uuid.uuid4().hex[:6]}", robot=robot, session=session)
-
-    def send(what: str, msg) -> str:
-        try:
-            if what == "goal":
-                gid = f"web-{uuid.uuid4().hex[:8]}"
-                st = send_goal(node, MoveBaseGoal(gid, msg), deadline)
-                if st.status == GoalStatus.REJECTED:
-                    raise ValueError(f"move_base rejected the goal: {st.reason}")
-                return f"goal {gid} accepted by move_base"
-            if what == "cancel":
-                st = cancel_goal(node, "", deadline)
-                return f"cancel acknowledged by move_base ({st.goal_id or 'no goal'})"
-            pose = send_acknowledged(node, "set_initial_pose", msg, PoseStamped, deadline,
-                                     what=f"AMCL of robot '{robot}'").pose.to_pose2d()
-            return f"AMCL set its pose to ({pose.x:.2f}, {pose.y:.2f})"
-        except DeliveryFailed as e:
-            raise CommandNotAcknowledged(str(e)) from None
-        except ServiceError as e:  # the node answered: no (e.g. AMCL without a map yet)
-            raise ValueError(str(e)) from None
-
-    send.node = node  # closed with the monitor
-    return send
-
-
 def run(args) -> int:
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):  # first thing: a signal during start-up still ends cleanly
@@ -219,8 +93,9 @@ def run(args) -> int:
     import zenoh
 
     from common.zenoh_config import BusConfig
-    from deploy import one_robot
+    from deploy.cli.session import one_robot
     from deploy.monitor.monitor import Monitor
+    from deploy.monitor.viewer import fit_robots_views, fit_view_to_map, open_recording
 
     if not (args.spawn or args.connect_viewer or args.serve_web or args.save):
         if os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"):
@@ -242,7 +117,7 @@ def run(args) -> int:
 
         assets = ensure_assets()  # before any server starts: a clear error when the wheel lacks them
         web_state = WebState(robot)
-    rec, where = open_recording(args, robot)
+    rec, where = open_recording(args, robot, getattr(args, "history_limit", HISTORY_LIMIT))
     session = zenoh.open(cfg.to_zenoh())
     observers = [fit_view_to_map(rec, args) if "*" not in robot else fit_robots_views(rec)]
     if web_state is not None:  # the latched map arrives through the monitor's query, the rest directly
@@ -252,6 +127,7 @@ def run(args) -> int:
     mon = Monitor(session, robot, rec, rates, observers=observers,
                   keyframe_period=KEYFRAME_S if args.serve_web else 0.0)
     if web_state is not None:
+        from deploy.monitor.commands import bus_commands
         from deploy.monitor.webserver import WebServer, subscribe_state
 
         state_subs = subscribe_state(session, robot, web_state)

@@ -1,8 +1,8 @@
 """Check that the web viewer served by ``zenav monitor --serve-web`` renders, in headless Chromium.
 
-    python -m deploy.check_web_viewer --out shot.png
+    python -m testkit.check_web_viewer --out shot.png
 
-Starts a synthetic robot (``deploy.monitor.synthetic``) and ``zenav monitor --serve-web`` on free
+Starts a synthetic robot (``testkit.synthetic_monitor``) and ``zenav monitor --serve-web`` on free
 loopback ports (multicast off), opens the viewer in headless Chromium driven over the DevTools
 protocol, waits for the wasm app to load (~25-30 s on 2 cores) and for data to arrive, saves a
 screenshot and checks it is neither blank nor the loading screen. Exit status 0 when it renders.
@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from common.ports import free_port
-from deploy import checkout_env
-from deploy.monitor.cdp import CDP
+from deploy.stack.process_group import checkout_env
+from testkit.cdp import CDP
 
 REPO = Path(__file__).resolve().parents[1]
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome")
@@ -138,7 +138,7 @@ def check(out: Path, timeout: float = 150.0, settle: float = 10.0, chromium: str
     env = checkout_env(drop_zenav=True)
     env.update(ZENAV_ROBOT="web" + uuid.uuid4().hex[:8], ZENAV_MULTICAST="0")
     try:
-        procs.start("synthetic", [sys.executable, "-m", "deploy.monitor.synthetic"],
+        procs.start("synthetic", [sys.executable, "-m", "testkit.synthetic_monitor"],
                     dict(env, ZENAV_LISTEN=f"tcp/127.0.0.1:{zport}"))
         procs.start("monitor", [sys.executable, "-m", "deploy.cli", "monitor", "--serve-web", str(web),
                                 "--grpc-port", str(grpc)], dict(env, ZENAV_CONNECT=f"tcp/127.0.0.1:{zport}"))

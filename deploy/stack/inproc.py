@@ -1,6 +1,6 @@
 """A robot and its master in one process, faster than real time: the simulator, both costmaps and
 move_base stepped on the simulated clock, no bus (``bench/barn.py --mode fast`` through
-``deploy.barn_inproc``, the in-process navigation tests).
+``deploy.barn.inproc``, the in-process navigation tests).
 
 The pieces are the ones the real nodes run, built from the same files read by the same loaders: the
 robot YAML through ``robot_side.agent.load`` (its simulator node, ``robot_side.sim.node.load``, and its

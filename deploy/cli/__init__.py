@@ -1,6 +1,7 @@
 """The ``zenav`` command: one dispatcher, one module per subcommand.
 
-To add a subcommand ``foo``: write ``deploy/cmd_foo.py`` with
+To add a subcommand ``foo``: write ``deploy/cli/foo.py`` (argument parsing and printing only; the work
+it does belongs to the part of ``deploy`` it concerns, or below) with
 
     def add_parser(subparsers) -> argparse.ArgumentParser:
         p = subparsers.add_parser("foo", help="...", description="...")
@@ -8,7 +9,7 @@ To add a subcommand ``foo``: write ``deploy/cmd_foo.py`` with
         p.set_defaults(func=run)          # run(args) -> int exit status
         return p
 
-and add ``"deploy.cmd_foo"`` to ``COMMANDS`` below. The bus options (``--robot``, ``--connect``,
+and add ``"deploy.cli.foo"`` to ``COMMANDS`` below. The bus options (``--robot``, ``--connect``,
 ``--listen``, ``--mode``, ``--no-multicast``) are added to every subcommand automatically (they are
 accepted before or after the subcommand) and exported as ``ZENAV_*`` environment variables, so
 ``common.zenoh_config.BusConfig.from_env()`` — in this process and in every child it starts — sees them.
@@ -26,21 +27,21 @@ import sys
 
 # One line per subcommand module (order = order in --help).
 COMMANDS = [
-    "deploy.cmd_topic",
-    "deploy.cmd_nodes",
-    "deploy.cmd_tf",
-    "deploy.cmd_robot",
-    "deploy.cmd_master",
-    "deploy.cmd_monitor",
-    "deploy.cmd_goal",
-    "deploy.cmd_demo",
-    "deploy.cmd_slam",
-    "deploy.cmd_play",
-    "deploy.cmd_record",
-    "deploy.cmd_map",
-    "deploy.cmd_zenoh",
-    "deploy.cmd_doctor",
-    "deploy.cmd_fleet",
+    "deploy.cli.topic",
+    "deploy.cli.nodes",
+    "deploy.cli.tf",
+    "deploy.cli.robot",
+    "deploy.cli.master",
+    "deploy.cli.monitor",
+    "deploy.cli.goal",
+    "deploy.cli.demo",
+    "deploy.cli.slam",
+    "deploy.cli.play",
+    "deploy.cli.record",
+    "deploy.cli.map",
+    "deploy.cli.zenoh",
+    "deploy.cli.doctor",
+    "deploy.cli.fleet",
 ]
 
 EPILOG = """\

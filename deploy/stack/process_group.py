@@ -15,8 +15,6 @@ import sys
 import time
 from pathlib import Path
 
-from deploy import checkout_env
-
 _deferral = {"depth": 0, "pending": 0}  # a signal that came inside _deferred_interrupts()
 
 
@@ -54,6 +52,19 @@ def terminate_as_interrupt():
         for s, h in old.items():
             signal.signal(s, h)
 
+
+
+def checkout_env(base: dict[str, str] | None = None, drop_zenav: bool = False) -> dict[str, str]:
+    """Environment for a child process that runs this checkout's code (first on PYTHONPATH, whatever
+    ``pip install -e`` last pointed at), unbuffered; ``drop_zenav``: without inherited ZENAV_* settings."""
+    from pathlib import Path
+
+    env = {k: v for k, v in (os.environ if base is None else base).items()
+           if not (drop_zenav and k.startswith("ZENAV_"))}
+    root = str(Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH", "")]))
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
 
 class ProcessGroup:
     def __init__(self, robot: str, endpoint: str, workdir: Path):

@@ -1,6 +1,6 @@
 """Known maps of the simulator's worlds, for navigation on a known map (map_server + static layer).
 
-``python -m deploy.world_maps room corridor --out master_side/config/maps`` writes ROS map_server
+``python -m deploy.stack.world_maps room corridor --out master_side/config/maps`` writes ROS map_server
 files (PGM + YAML) rasterised from the world's shapes at the given resolution.
 """
 
@@ -12,7 +12,7 @@ from pathlib import Path
 from master_side.mapping.map_io import save_map
 from robot_side.sim.world import WorldParams, load_world
 
-WORLDS_DIR = Path(__file__).resolve().parents[1] / "robot_side" / "worlds"
+WORLDS_DIR = Path(__file__).resolve().parents[2] / "robot_side" / "worlds"
 
 
 def world_path(name: str) -> Path:

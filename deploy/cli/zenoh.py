@@ -1,5 +1,5 @@
 """``zenav zenoh config peer|client|router ...`` and ``zenav zenoh router --config F`` — Zenoh configs
-for two machines (auth, access control, TLS) and a Zenoh router in Python (deploy.hosts.zenohconf)."""
+for two machines (auth, access control, TLS) and a Zenoh router in Python (deploy.zenohconf)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import sys
 import threading
 
 from common.argtypes import positive, positive_int
-from deploy.hosts import zenohconf
+from deploy import zenohconf
 
 
 def add_parser(subparsers):

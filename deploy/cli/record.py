@@ -7,10 +7,13 @@ import signal
 import sys
 import threading
 import time
+from typing import TYPE_CHECKING
 
 from common.argtypes import nonneg, positive
-from deploy import close_quietly, one_robot, open_session
-from deploy.logs.recorder import Recorder
+from deploy.cli.session import one_robot, open_session
+
+if TYPE_CHECKING:  # zenoh only when the command runs: `zenav --help` stays fast
+    from deploy.logs.recorder import Recorder
 
 DEFAULT_TOPICS = (
     "scan", "odom", "tf", "tf_static", "map", "cmd_vel", "move_base/global_plan", "move_base/local_plan",
@@ -82,6 +85,7 @@ def _rates(items: list[str]) -> dict[str, float]:
 
 
 def run(args) -> int:
+    from common.bus import close_quietly
     from deploy.logs.mcap_io import McapLogWriter
 
     rates = _rates(args.rate)
@@ -106,6 +110,8 @@ def run(args) -> int:
     t0 = time.monotonic()
     try:
         session = open_session()
+        from deploy.logs.recorder import Recorder
+
         rec = Recorder(session, robot, writer, topics, rates)
         rec.start()
         what = "every topic" if topics is None else f"{len(topics)} topics"

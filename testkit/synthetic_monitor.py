@@ -1,6 +1,6 @@
 """A synthetic robot on the bus: every topic the monitor displays, with a known, consistent geometry.
 
-    python -m deploy.monitor.synthetic [--duration S] [--sim-time]     # then: zenav monitor
+    python -m testkit.synthetic_monitor [--duration S] [--sim-time]     # then: zenav monitor
 
 A 10 x 8 m room with a box, a robot driving a circle in it, TF ``map -> odom -> base_link -> laser``
 (the laser mounted backwards, yaw pi) and ``base_link -> camera_link``, a ray-cast laser scan, map,

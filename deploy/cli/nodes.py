@@ -9,7 +9,7 @@ from collections import defaultdict
 
 from common.argtypes import positive
 from common.live_keys import LiveKey, live_key
-from deploy import close_quietly, open_session, robot_pattern, wait
+from deploy.cli.session import open_session, robot_pattern, wait
 
 
 def add_parser(subparsers):
@@ -47,12 +47,15 @@ def add_parser(subparsers):
 def run(args) -> int:
     import zenoh
 
+    from common.bus import close_quietly
+
     robot = robot_pattern(args, all_by_default=True)
     lock = threading.Lock()
     live: set[tuple[str, str, str, str]] = set()
     ready = threading.Event()  # --watch: history is printed as the initial list, then events
 
     def on_token(s: zenoh.Sample) -> None:
+
         item = LiveKey.parse(s.key_expr)
         if item is None:
             return

@@ -22,13 +22,13 @@ from common.geometry import Pose2D, normalize_angle
 from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy.map_check import map_accuracy
-from deploy.process_group import ProcessGroup
-from deploy.world_maps import export_world_map, world_path
+from deploy.stack.map_check import map_accuracy
+from deploy.stack.process_group import ProcessGroup
+from deploy.stack.world_maps import export_world_map, world_path
 from master_side.mapping.map_io import save_map
 from robot_side.sim.world import parse_pose
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 ROBOT_CONFIG = ROOT / "robot_side" / "config" / "p3at_sim.yaml"
 # hector_mapping matches the scan alone (no odometry): the P3-AT carries a planar laser for it, the
 # Kinect's 57-degree scan leaves it lost along plain walls (see the file's header)
@@ -131,7 +131,7 @@ class Demo:
 
     # -- the scenario --------------------------------------------------------------------------------
     def run(self) -> bool:
-        from deploy.cmd_goal import send_goal
+        from deploy.stack.goals import send_goal
 
         if self.o.monitor_args:
             self.spawn("monitor", ["monitor", *self.o.monitor_args])

@@ -127,7 +127,7 @@ def format_transform(ts) -> str:
 # -- commands ------------------------------------------------------------------------------------
 
 def _open(args, what: str):
-    from deploy import one_robot
+    from deploy.cli.session import one_robot
 
     robot = one_robot(args)
     from common.bus import Node

@@ -11,8 +11,8 @@ and ``collision`` topics, and judges the run here, with the rules of the challen
 - score = success x OT / clip(AT, 2 OT, 8 OT), AT the run's time, OT = L / 2.0 m/s, L the reference
   path length.
 
-    python -m deploy.barn write 1 --out /tmp/barn          # /tmp/barn/barn_1.yaml
-    python -m deploy.barn lengths                          # L of every training world
+    python -m deploy.barn.rules write 1 --out /tmp/barn          # /tmp/barn/barn_1.yaml
+    python -m deploy.barn.rules lengths                          # L of every training world
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ __all__ = ["TIME_LIMIT_S", "GOAL_RADIUS_M", "MOTION_START_M", "MAX_SPEED", "shar
            "training_worlds", "load_cylinders", "load_path", "reference_length", "optimal_time", "write_world",
            "score", "Run", "judge", "Summary", "summarize", "trace_from_odometry", "collision_times"]
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 TIME_LIMIT_S = 100.0    # s of simulated time from the start of motion
 GOAL_RADIUS_M = 1.0     # success: within this distance of the goal
 MOTION_START_M = 0.1    # the run's clock starts when the robot is this far from its start
@@ -103,7 +103,7 @@ def write_world(i: int, directory: str | Path, name: str | None = None, resoluti
     comment = comment or (
         f"BARN training world {int(i)} (../shared/datasets/barn/cylinders_train.npz, key world_{int(i)}: "
         f"{len(spec['cylinders'])} cylinders,\nthe 96 of the box included), reference path length "
-        f"L = {reference_length(i):.3f} m. Made with\n  python -m deploy.barn write {int(i)} --out DIR"
+        f"L = {reference_length(i):.3f} m. Made with\n  python -m deploy.barn.rules write {int(i)} --out DIR"
         f"{'' if name == f'barn_{int(i)}' else f' --name {name}'}\n(robot_side/worlds/barn.py: "
         f"barn_world_spec + write_world_yaml; start and goal as the BARN challenge).")
     return write_world_yaml(spec, Path(directory) / f"{name}.yaml", comment)
@@ -229,7 +229,7 @@ def summarize(runs: Sequence[Run]) -> Summary:
 
 # ---------------------------------------------------------------------- command line
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m deploy.barn", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m deploy.barn.rules", description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
     w = sub.add_parser("write", help="write training worlds as simulator world YAMLs")
     w.add_argument("worlds", nargs="*", type=int, help="world indices (default: all training worlds)")

@@ -70,8 +70,8 @@ def monitor_args(args) -> tuple[str, ...]:
 
 
 def run(args) -> int:
-    from deploy.demo import Demo, DemoOptions
-    from deploy.process_group import terminate_as_interrupt
+    from deploy.stack.demo import Demo, DemoOptions
+    from deploy.stack.process_group import terminate_as_interrupt
 
     given = [o for o, v in (("--connect", getattr(args, "connect", None)), ("--listen", getattr(args, "listen", None)),
                             ("--mode", getattr(args, "mode", None)),

@@ -1,0 +1,96 @@
+"""The viewer side of ``zenav monitor``: where the recording goes (a file, a served page, a viewer) and the
+blueprint it shows, refitted when a map first arrives (one robot, or one column per robot)."""
+
+from __future__ import annotations
+
+import os
+
+
+def open_recording(args, robot: str, history_limit: str):
+    """A Rerun recording stream with the sink the user asked for; returns (rec, description)."""
+    import rerun as rr
+
+    from deploy.monitor.layout import blueprint
+
+    rec = rr.RecordingStream(f"zenav_{robot}".replace("*", "all"))
+    bp = blueprint(follow=getattr(args, "follow", False)) if "*" not in robot else robots_blueprint({})
+    if args.save:
+        parent = os.path.dirname(os.path.abspath(args.save))
+        if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
+            raise ValueError(f"cannot write the recording {args.save}: {parent} is not a writable folder")
+        try:
+            rec.save(args.save, default_blueprint=bp)
+        except RuntimeError as e:  # rerun reports file errors as RuntimeError
+            raise ValueError(f"cannot write the recording {args.save}: {e}") from None
+        return rec, f"saving to {args.save} (open with: rerun {args.save})"
+    if args.serve_web:
+        uri = rec.serve_grpc(grpc_port=args.grpc_port, default_blueprint=bp,
+                             server_memory_limit=history_limit)
+        host = args.bind if args.bind not in ("0.0.0.0", "::") else "localhost"
+        return rec, f"page at http://{host}:{args.serve_web}/ (recording {uri})"
+    if args.connect_viewer:
+        rec.connect_grpc(args.connect_viewer, default_blueprint=bp)
+        return rec, f"streaming to {args.connect_viewer}"
+    rec.spawn(memory_limit=args.memory_limit, default_blueprint=bp)
+    return rec, "spawned the Rerun viewer"
+
+
+def fit_view_to_map(rec, args):
+    """An observer that sends the blueprint again, the map view fitted to the map, when it first arrives."""
+    from common.messages import OccupancyGrid
+    from deploy.monitor.layout import blueprint, fit_height
+
+    done = []
+
+    def observe(topic: str, msg) -> None:
+        if done or topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
+            return
+        done.append(True)
+        w, h = msg.width * msg.resolution, msg.height * msg.resolution
+        centre = (msg.origin.x + w / 2, msg.origin.y + h / 2)  # (map origins are not rotated in practice)
+        rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre,
+                                     height=fit_height(w, h)), make_active=True)
+
+    return observe
+
+
+def robots_blueprint(maps: dict[str, tuple]) -> object:
+    """Side by side, one column per robot (``maps``: robot -> (centre, eye height) of its map view)."""
+    import rerun.blueprint as rrb
+
+    from deploy.monitor.layout import top_down
+
+    def column(r: str, centre: tuple, height: float):
+        return rrb.Vertical(
+            rrb.Spatial3DView(name=f"{r}: map", origin="/", contents=[f"/{r}/world/**", f"/{r}/tf/**"],
+                              spatial_information=rrb.SpatialInformation(target_frame=f"{r}/map"),
+                              eye_controls=top_down(centre, height, False), line_grid=False),
+            rrb.TimeSeriesView(name=f"{r}: plots", origin=f"/{r}/plots"),
+            rrb.TextLogView(name=f"{r}: events", origin=f"/{r}/log"), row_shares=[3, 2, 2])
+
+    cols = [column(r, *maps[r]) for r in sorted(maps)] or [rrb.TextDocumentView(name="waiting for robots")]
+    return rrb.Blueprint(rrb.Horizontal(*cols), collapse_panels=True)
+
+
+def fit_robots_views(rec):
+    """For a robot pattern: an observer sending the side-by-side blueprint again when a robot first shows
+    up and when its map first arrives (its view fitted to the map)."""
+    from common.messages import OccupancyGrid
+    from deploy.monitor.layout import DEFAULT_HEIGHT, fit_height
+
+    maps: dict[str, tuple] = {}
+    fitted: set[str] = set()
+
+    def observe(topic: str, msg) -> None:
+        robot, _, topic = topic.partition("/")
+        fit = topic == "map" and isinstance(msg, OccupancyGrid) and msg.width > 0 and robot not in fitted
+        if robot in maps and not fit:
+            return
+        maps[robot] = ((0.0, 0.0), DEFAULT_HEIGHT)
+        if fit:
+            fitted.add(robot)
+            w, h = msg.width * msg.resolution, msg.height * msg.resolution
+            maps[robot] = ((msg.origin.x + w / 2, msg.origin.y + h / 2), fit_height(w, h))
+        rec.send_blueprint(robots_blueprint(maps), make_active=True)
+
+    return observe
