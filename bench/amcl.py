@@ -93,10 +93,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="override an amcl param, e.g. --set laser_model_type=likelihood_field (repeatable)")
     ap.add_argument("--engine", choices=("kinematic", "mujoco"), help="simulator engine (default kinematic)")
     a = ap.parse_args(argv)
-    amcl_cfg = dict(yaml.safe_load(Path(a.config).read_text())["nodes"]["localization"]["params"])
-    for kv in a.set:
-        k, v = kv.split("=", 1)
-        amcl_cfg[k] = yaml.safe_load(v)
+    from master_side import agent as master_agent
+
+    launch = master_agent.load(a.config, sets=[f"localization.{kv}" for kv in a.set])  # as `zenav master` reads it
+    amcl_cfg = dict(launch.node_params(launch.entry("localization"))[0])
     import tempfile
     with tempfile.TemporaryDirectory() as tmp:
         grid = load_map(export_world_map("room", tmp))

@@ -283,10 +283,11 @@ class NavStack:
 
     def local_planner_params(self):
         """The local planner's parameters as move_base loads them from the master's YAML."""
+        from master_side import agent as master_agent
         from master_side.move_base.config import load_move_base_config
 
-        cfg = yaml.safe_load(Path(self.master_cfg).read_text())
-        return load_move_base_config(cfg["nodes"]["move_base"]["params"], str(self.master_cfg)).local_params
+        launch = master_agent.load(str(self.master_cfg))
+        return load_move_base_config(*launch.node_params(launch.entry("move_base"))).local_params
 
     def collision_count(self) -> int:
         last = self.collisions.last()
