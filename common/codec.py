@@ -291,3 +291,17 @@ def decode(data: bytes | bytearray | memoryview, expected: type | None = None) -
         raise DecodeError(f"{name}{e}") from None
     except (RecursionError, MemoryError, TypeError, ValueError, KeyError) as e:
         raise DecodeError(f"{name}: {type(e).__name__}: {e}") from e
+
+
+def peek_type(data: bytes) -> str:
+    """The message type name of a payload without decoding its body ('?' if not a zenav payload;
+    for listing topics without paying for a decode)."""
+    try:
+        u = msgpack.Unpacker(raw=False, max_buffer_size=max(len(data), 1))
+        u.feed(data)
+        if u.read_array_header() != 4 or u.unpack() != MAGIC:
+            return "?"
+        name = u.unpack()
+        return name if isinstance(name, str) else "?"
+    except Exception:  # noqa: BLE001 - anything odd is simply not a zenav payload
+        return "?"

@@ -29,8 +29,9 @@ import argparse
 import os
 import sys
 
+from common.agent_run import run_agent
 from common.config import ConfigError
-from common.launch import Launch, Section, load_launch, run_agent
+from common.launch import Launch, Section, load_launch
 from common.node_check import format_config_error
 
 SECTIONS = [Section("nodes")]

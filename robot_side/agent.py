@@ -24,9 +24,10 @@ import argparse
 import os
 import sys
 
+from common.agent_run import run_agent
 from common.argtypes import finite, positive
 from common.config import ConfigError
-from common.launch import Launch, Section, load_launch, run_agent
+from common.launch import Launch, Section, load_launch
 from common.node_check import format_config_error
 from robot_side.sim.physics_params import ENGINES
 

@@ -55,21 +55,6 @@ def add_parser(subparsers):
 
 
 # -- helpers ---------------------------------------------------------------------------------------
-def peek_type(data: bytes) -> str:
-    """The message type name of a payload without decoding its body ('?' if not a zenav payload)."""
-    import msgpack
-
-    try:
-        u = msgpack.Unpacker(raw=False, max_buffer_size=max(len(data), 1))
-        u.feed(data)
-        if u.read_array_header() != 4 or u.unpack() != "zenav":
-            return "?"
-        name = u.unpack()
-        return name if isinstance(name, str) else "?"
-    except Exception:  # noqa: BLE001 - anything odd is simply not a zenav payload
-        return "?"
-
-
 def _fmt_float(v: float) -> str:
     if not math.isfinite(v):
         return str(v)
@@ -139,6 +124,7 @@ def run_list(args) -> int:
     import zenoh
 
     from common.bus import close_quietly
+    from common.codec import peek_type
 
     robot = robot_pattern(args, all_by_default=True)
     pubs: dict[tuple[str, str], set[str]] = defaultdict(set)  # (robot, topic) -> publisher nodes
