@@ -108,9 +108,12 @@ class _Costmap:
 class InProcessStack:
     def __init__(self, world_path: str | Path, robot_config: str | Path,
                  master_config: str | Path, plan_hz: float = 5.0, seed: int = 0,
-                 engine: str | None = None, friction: float | None = None):
+                 engine: str | None = None, friction: float | None = None,
+                 start: tuple[float, float, float] | None = None, map_file: str | Path | None = None):
+        """``start`` and ``map_file`` as ``zenav robot --start`` and ``zenav master --map``."""
         robot_config, master_config = Path(robot_config), Path(master_config)
-        robot = robot_agent.load(str(robot_config), world=str(world_path), engine=engine)  # as the agent reads it
+        robot = robot_agent.load(str(robot_config), world=str(world_path), engine=engine,  # as the agent reads it
+                                 start=list(start) if start is not None else None)
         sim_cfg = dict(next(e.params for e in robot.entries if e.opts.module == robot_agent.SIM_MODULE) or {})
         sim_cfg["sim"] = {**(sim_cfg.get("sim") or {}), "seed": seed}
         if friction is not None:
@@ -119,7 +122,7 @@ class InProcessStack:
         self.sources = _scan_sources(self.sim, robot, str(robot_config))
         self.costmaps: dict[str, _Costmap] = {}
         mb_cfg, grid = None, None
-        master = master_agent.load(str(master_config))  # as the master agent reads it
+        master = master_agent.load(str(master_config), str(map_file) if map_file else None)  # as the agent does
         for entry in master.entries:
             params, source = master.node_params(entry)
             if entry.opts.module == "master_side.costmap.node":
