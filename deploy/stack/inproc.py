@@ -222,6 +222,10 @@ class InProcessStack:
         for cm in self.costmaps.values():
             if t + 1e-9 >= cm.next:
                 cm.next = t + cm.period
+                if cm.lcm.rolling_window:  # static layers follow map -> this frame, as the node does
+                    for layer in cm.lcm.layers:
+                        if isinstance(layer, StaticLayer):
+                            layer.place(self.frame_from_world(cm.frame))
                 cm.lcm.update_map(self.pose_in(cm.frame))
         if t + 1e-9 < self._next_control:
             return None

@@ -68,6 +68,7 @@ class CostmapNode:
         self.subs = []
         self.timers: list = []  # set below; _on_observation may run before that (it kicks the update timer)
         self.source_subs = {}  # (layer, source) -> Subscription
+        self._map_frames: dict[int, str] = {}  # id(static layer) -> frame of its map
         for layer in self.lcm.layers:
             if isinstance(layer, ObstacleLayer):
                 for src, buf in layer.buffers.items():
@@ -146,6 +147,22 @@ class CostmapNode:
                 return
         with self.lock:
             layer.set_map(msg, to_global)
+            self._map_frames[id(layer)] = (msg.header.frame_id or "").lstrip("/")
+
+    def _place_maps(self) -> None:
+        """A rolling costmap's static layers follow their map frame (map -> odom changes with localisation)."""
+        if not self.lcm.rolling_window:
+            return
+        for layer in self.lcm.layers:
+            frame = self._map_frames.get(id(layer), "")
+            if isinstance(layer, StaticLayer) and frame and frame != self.frame:
+                try:
+                    pose = self.tf.buffer.lookup_pose2d(self.frame, frame, 0.0, self.tol)
+                except Exception as e:  # noqa: BLE001 - keep the last placement, say why
+                    self._say(f"map: no transform {self.frame} <- {frame}: {e}")
+                    continue
+                with self.lock:
+                    layer.place(pose)
 
     def _missing_maps(self) -> list[str]:
         """Map topics of enabled static layers that have no map yet. ROS's StaticLayer blocks the
@@ -170,6 +187,7 @@ class CostmapNode:
                       f"(transform_tolerance {self.tol} s)")
             return
         self.pose = tf.transform.to_pose2d()
+        self._place_maps()
         with self.lock:
             self.lcm.update_map(self.pose)
             stale = self.lcm.stale_sources(now)

@@ -3,7 +3,9 @@
 Values: unknown_cost_value -> NO_INFORMATION (track_unknown_space) or FREE; >= lethal_cost_threshold ->
 LETHAL; otherwise FREE (trinary_costmap) or occupancy scaled to 0..LETHAL.
 Fixed-window costmaps take the map's size, resolution and origin; a rolling costmap copies the part of
-the map under its window (the map may be in another frame: give ``map_to_global``).
+the map under its window (the map may be in another frame: give ``map_to_global``, and ``place`` the map
+again whenever that transform changes — every update, as ROS's StaticLayer looks it up in updateCosts:
+a local costmap in ``odom`` moves against ``map`` as localisation corrects the odometry's drift).
 """
 
 from __future__ import annotations
@@ -53,6 +55,10 @@ class StaticLayer(Layer):
         lc = self.layered
         if lc is not None and not lc.rolling_window and not lc.master.same_geometry(cm):
             lc.resize_map(cm.size_x, cm.size_y, cm.resolution, cm.origin_x, cm.origin_y)
+
+    def place(self, map_to_global: Pose2D) -> None:
+        """The map frame's pose in the costmap's frame now (rolling costmaps)."""
+        self.map_to_global = map_to_global
 
     def update_bounds(self, robot_pose: Pose2D, bounds: Bounds) -> Bounds:
         if self.map is None:

@@ -93,3 +93,20 @@ def test_static_layer_in_a_rolling_window_copies_the_map_under_the_window():
     assert lc.master.data.shape == (20, 20)
     assert lc.master.get_cost(3.55, 2.05) == LETHAL  # map cell (25, 20) = (2.55, 2.05) in map frame
     assert lc.master.get_cost(3.3, 2.0) == FREE
+
+
+def test_a_rolling_static_layer_follows_its_map_frame_when_placed_again():
+    """Localisation moves map against odom: the walls in a local costmap move with it (ROS's StaticLayer
+    looks map -> global_frame up in every update; the node and the in-process stack call ``place``)."""
+    data = np.zeros((40, 40), np.int8)
+    data[20, 25] = 100  # (2.55, 2.05) in the map frame
+    grid = OccupancyGrid(Header(0.0, "map"), 0.1, Pose2D(0.0, 0.0, 0.0), data)
+    lc = layered(1.0, 0.05, rolling=True)
+    st = lc.add_layer(StaticLayer("static", StaticLayerParams()))
+    st.set_map(grid, map_to_global=Pose2D(1.0, 0.0, 0.0))
+    lc.update_map(Pose2D(3.3, 2.0, 0.0))
+    assert lc.master.get_cost(3.55, 2.05) == LETHAL
+    st.place(Pose2D(0.8, 0.0, 0.0))  # odometry drifted 0.2 m: map is now 0.8 m ahead in odom
+    lc.update_map(Pose2D(3.3, 2.0, 0.0))
+    assert lc.master.get_cost(3.35, 2.05) == LETHAL
+    assert lc.master.get_cost(3.55, 2.05) == FREE
