@@ -35,6 +35,7 @@ from common.config import ConfigError, load_params, param, read_yaml
 from common.node_spec import NodeSpec, validate_launch
 
 NAME_RE = re.compile(r"^[A-Za-z0-9_-]+$")
+_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)[eE][+-]?\d+$")
 TOP_KEYS = ("robot", "use_sim_time", "env", "supervisor")
 
 
@@ -120,8 +121,9 @@ class Launch:
         e.params_key = ""
 
     def set(self, assignment: str) -> None:
-        """Apply one ``NODE.KEY=VALUE`` (``zenav master --set``); VALUE is read as YAML (``3``, ``true``,
-        ``[1, 2]``), a path to an existing file is made absolute."""
+        """Apply one ``NODE.KEY=VALUE`` (``zenav master --set``); VALUE is read as YAML (``3``, ``1e-3``,
+        ``true``, ``[1, 2]``); a file named relative to this directory, or else to the node's own parameter
+        file, is made absolute (the node reads a generated copy elsewhere)."""
         target, sep, text = assignment.partition("=")
         name, dot, key = target.strip().partition(".")
         if not sep or not dot or not name or not key:
@@ -129,12 +131,22 @@ class Launch:
         if name not in {e.name for e in self.entries}:
             raise ConfigError("--set", assignment,
                               f"no node {name!r} in {self.source} (nodes: {', '.join(e.name for e in self.entries)})")
+        e = self.entry(name)
+        if e.opts.cmd:
+            raise ConfigError("--set", assignment, f"node {name!r} is a cmd: node; parameters only apply to "
+                              "module nodes")
         try:
             value = yaml.safe_load(text) if text.strip() else ""
         except yaml.YAMLError as err:
             raise ConfigError("--set", assignment, f"value is not valid YAML: {err}") from None
-        if isinstance(value, str) and os.path.exists(value):
-            value = os.path.abspath(value)
+        if isinstance(value, str) and _NUMBER_RE.match(value):  # YAML 1.1 reads 1e-3 as a string
+            value = float(value)
+        if isinstance(value, str) and value:
+            base = Path(self.node_params(e)[1]).parent
+            if os.path.isfile(value):
+                value = os.path.abspath(value)
+            elif not os.path.isabs(value) and (base / value).is_file():
+                value = str((base / value).resolve())
         self.override(name, **{key: value})
 
     def _path(self, p: str) -> str:
@@ -172,7 +184,7 @@ class Launch:
 def absolute_paths(params: dict, base: Path) -> dict:
     """``params`` with every string value that names an existing file relative to ``base`` made absolute."""
     for k, v in params.items():
-        if isinstance(v, str) and v and not os.path.isabs(v) and (base / v).exists():
+        if isinstance(v, str) and v and not os.path.isabs(v) and os.path.isfile(base / v):
             params[k] = str((base / v).resolve())
     return params
 

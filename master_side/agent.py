@@ -48,7 +48,7 @@ def load(path: str, map_file: str | None = None, sets: list[str] | tuple[str, ..
         servers = [e for e in launch.entries if e.opts.module == MAP_SERVER_MODULE]
         if not servers:
             raise ConfigError(path, "nodes", f"--map needs a map server node (module {MAP_SERVER_MODULE})")
-        if not os.path.exists(map_file):
+        if not os.path.isfile(map_file):
             raise ConfigError("--map", "map", f"file not found: {map_file}")
         for e in servers:
             launch.override(e.name, map=os.path.abspath(map_file))

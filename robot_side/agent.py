@@ -47,7 +47,7 @@ def load(path: str, world: str | None = None, start: list[float] | None = None,
     launch = load_launch(path, SECTIONS)
     overrides: dict = {}
     if world is not None:
-        overrides["world"] = os.path.abspath(world) if os.path.exists(world) else world
+        overrides["world"] = os.path.abspath(world) if os.path.isfile(world) else world
     if start is not None:
         overrides["start"] = [float(v) for v in start]
     if speed is not None:

@@ -91,7 +91,7 @@ def master_args(world: str, planner: str, out_dir: Path, slam: bool | str = Fals
     elif amcl:
         config = AMCL
         start = parse_pose(yaml.safe_load(world_path(world).read_text()).get("start", [0.0, 0.0, 0.0]))
-        sets += [f"localization.initial_pose_{k}={v!r}" for k, v in (("x", start.x), ("y", start.y),
+        sets += [f"localization.initial_pose_{k}={v:.6f}" for k, v in (("x", start.x), ("y", start.y),
                                                                     ("a", start.theta))]
     else:
         config = KNOWN_MAP[planner]

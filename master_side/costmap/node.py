@@ -68,7 +68,8 @@ class CostmapNode:
         self.subs = []
         self.timers: list = []  # set below; _on_observation may run before that (it kicks the update timer)
         self.source_subs = {}  # (layer, source) -> Subscription
-        self._map_frames: dict[int, str] = {}  # id(static layer) -> frame of its map
+        self._map_frames: dict[int, str] = {}  # id(static layer) -> its map's frame (rolling, another frame)
+        self._unplaced: set[int] = set()  # those not yet placed by a transform
         for layer in self.lcm.layers:
             if isinstance(layer, ObstacleLayer):
                 for src, buf in layer.buffers.items():
@@ -138,31 +139,33 @@ class CostmapNode:
             self.sensors_pub.publish(msg)
 
     def _on_map(self, layer: StaticLayer, msg: OccupancyGrid) -> None:
-        to_global = None
-        if self.lcm.rolling_window and msg.header.frame_id and msg.header.frame_id.lstrip("/") != self.frame:
-            try:
-                to_global = self.tf.buffer.lookup_pose2d(self.frame, msg.header.frame_id, 0.0, self.tol)
-            except Exception as e:  # noqa: BLE001
-                self._say(f"map: no transform {self.frame} <- {msg.header.frame_id}: {e}")
-                return
+        """Keep the map (it is latched and comes once); a rolling costmap in another frame places it by
+        the current transform in ``_place_maps``, before every update."""
+        frame = (msg.header.frame_id or "").lstrip("/")
         with self.lock:
-            layer.set_map(msg, to_global)
-            self._map_frames[id(layer)] = (msg.header.frame_id or "").lstrip("/")
+            if layer.map is not None and layer.params.first_map_only:
+                return
+            layer.set_map(msg)
+            if self.lcm.rolling_window and frame and frame != self.frame:
+                self._map_frames[id(layer)] = frame
+                self._unplaced.add(id(layer))
+        self._place_maps()
 
     def _place_maps(self) -> None:
-        """A rolling costmap's static layers follow their map frame (map -> odom changes with localisation)."""
-        if not self.lcm.rolling_window:
-            return
+        """A rolling costmap's static layers follow their map frame (map -> odom changes with localisation),
+        as ROS's StaticLayer looks the transform up in every update. No wait: a missing transform keeps the
+        last placement (and, before the first one, holds the update: see ``update``)."""
         for layer in self.lcm.layers:
             frame = self._map_frames.get(id(layer), "")
-            if isinstance(layer, StaticLayer) and frame and frame != self.frame:
-                try:
-                    pose = self.tf.buffer.lookup_pose2d(self.frame, frame, 0.0, self.tol)
-                except Exception as e:  # noqa: BLE001 - keep the last placement, say why
-                    self._say(f"map: no transform {self.frame} <- {frame}: {e}")
-                    continue
-                with self.lock:
-                    layer.place(pose)
+            if not (isinstance(layer, StaticLayer) and frame):
+                continue
+            try:
+                pose = self.tf.buffer.lookup_pose2d(self.frame, frame, 0.0, 0.0)
+            except Exception:  # noqa: BLE001 - said by update() while it matters (never placed)
+                continue
+            with self.lock:
+                layer.place(pose)
+                self._unplaced.discard(id(layer))
 
     def _missing_maps(self) -> list[str]:
         """Map topics of enabled static layers that have no map yet. ROS's StaticLayer blocks the
@@ -176,6 +179,11 @@ class CostmapNode:
         if missing := self._missing_maps():
             self._say(f"not updating: waiting for the map on {', '.join(missing)}")
             return
+        self._place_maps()
+        if self._unplaced:
+            frames = sorted({self._map_frames[i] for i in self._unplaced})
+            self._say(f"not updating: no transform {self.frame} <- {', '.join(frames)} to place the map yet")
+            return
         base = self.cfg.costmap.robot_base_frame
         try:
             tf = self.tf.buffer.lookup(self.frame, base, 0.0, self.tol)
@@ -187,7 +195,6 @@ class CostmapNode:
                       f"(transform_tolerance {self.tol} s)")
             return
         self.pose = tf.transform.to_pose2d()
-        self._place_maps()
         with self.lock:
             self.lcm.update_map(self.pose)
             stale = self.lcm.stale_sources(now)

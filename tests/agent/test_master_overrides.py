@@ -74,3 +74,17 @@ def test_every_demo_mode_runs_a_shipped_file_that_passes_the_agents_check(tmp_pa
                                               else "base_local_planner_params.yaml")
     if amcl:
         assert _params(launch, "localization", tmp_path)["initial_pose_x"] == pytest.approx(-4.0, abs=6)
+
+
+def test_set_reads_numbers_and_files_as_the_node_will(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # nothing of the config's folder here
+    launch = agent.load(str(CONFIG / "p3at_known_map.yaml"), str(CONFIG / "maps" / "corridor.yaml"),
+                        ["move_base.local_planner=p3at_zenav/dwa_planner_ros.yaml"])
+    mb = _params(launch, "move_base", tmp_path)
+    assert mb["local_planner"] == str(CONFIG / "p3at_zenav" / "dwa_planner_ros.yaml")  # beside the config
+    check_nodes(launch)
+    amcl = agent.load(str(CONFIG / "p3at_amcl.yaml"), sets=["localization.initial_pose_a=1e-3",
+                                                            "localization.odom_frame_id=p3at"])
+    loc = _params(amcl, "localization", tmp_path)
+    assert loc["initial_pose_a"] == 0.001  # YAML 1.1 alone would give the string '1e-3'
+    assert loc["odom_frame_id"] == "p3at"  # a folder of that name beside the config is not a file

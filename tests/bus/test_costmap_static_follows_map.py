@@ -1,6 +1,7 @@
 """A rolling local costmap with a static layer places the map by the *current* map -> odom transform on
 every update, as ROS's StaticLayer does: when localisation corrects the odometry's drift, the walls in the
-local costmap move with it (they used to stay where the first map message put them)."""
+local costmap move with it (they used to stay where the first map message put them). A map that comes
+before map -> odom exists (AMCL publishes it after its first update) is kept and placed once it does."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import yaml
 from bushelp import wait_for
 
 from common.geometry import Pose2D, Transform
-from common.messages import Costmap, Header, OccupancyGrid, TransformStamped
+from common.messages import Costmap, Header, OccupancyGrid, Text, TransformStamped
 from common.tf import TFBroadcaster
 
 CONFIG = Path(__file__).resolve().parents[2] / "master_side" / "config"
@@ -44,8 +45,9 @@ def test_the_walls_of_a_rolling_static_layer_move_with_map_to_odom(node_pair, tm
                      TransformStamped(Header(now, "odom"), "base_link", Transform())])
             stop.wait(0.05)
 
+    said: list[str] = []
+    tester.subscribe("local_costmap/status", Text, callback=lambda m: said.append(m.data), mode="queue")
     feeder = threading.Thread(target=feed, daemon=True)
-    feeder.start()
     data = np.zeros((100, 100), np.int8)
     data[:, 60] = 100  # a wall along y at x = 0.5 m in the map frame (0.05 m cells from -2.5)
     tester.publisher("map", latched=True).publish(
@@ -53,11 +55,14 @@ def test_the_walls_of_a_rolling_static_layer_move_with_map_to_odom(node_pair, tm
     costmap = start(cm_node, {"name": "local_costmap", "common": str(CONFIG / "p3at/costmap_common_params.yaml"),
                               "specific": str(tmp_path / "local.yaml")}, str(tmp_path / "master.yaml"))
     try:
+        wait_for(lambda: any("not updating" in t for t in said), 30, "a costmap without transforms saying so")
+        feeder.start()  # the map came first; now the transforms
         wait_for(lambda: grids.latest() is not None and (grids.latest().data == 254).any(), 30, "the wall")
         assert abs(_wall_x(grids.latest()) - 0.525) < 0.03
         offset[0] = -0.3  # localisation moved odom 0.3 m back in the map: the wall is 0.3 m further ahead in odom
         wait_for(lambda: abs(_wall_x(grids.latest()) - 0.825) < 0.03, 30, "the wall 0.3 m further in odom")
     finally:
         stop.set()
-        feeder.join(2.0)
+        if feeder.is_alive():
+            feeder.join(2.0)
         costmap.close()
