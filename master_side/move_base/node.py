@@ -301,8 +301,10 @@ class MoveBaseNode:
         override = safety_override(self.safety)
         if override and m.state is not State.IDLE:
             reason = f"{reason}; {override}" if reason else override
-        if reason.startswith("no progress") and (hit := collision_hint(self.collision, self.node.clock.now())):
-            reason = f"{reason}; {hit}"
+        if reason.startswith("no progress"):  # a collision since (just before) the robot stopped progressing
+            now = self.node.clock.now()
+            if hit := collision_hint(self.collision, now, max(120.0, m.stalled_for(now) + 10.0)):
+                reason = f"{reason}; {hit}"
         if m.state is not State.IDLE and not self.cmd.matching:  # a route watched, not trusted
             reason = f"{reason}; {NO_CMD_ROUTE}" if reason else NO_CMD_ROUTE
         self._publish_status(m.status, reason, terminal, dist)

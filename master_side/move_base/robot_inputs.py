@@ -49,7 +49,8 @@ def safety_override(sub) -> str:
 
 
 def collision_hint(sub, now: float, within: float = 120.0) -> str:
-    """The robot's last reported collision (the simulator's ``collision`` topic) if it is recent, in words."""
+    """The robot's last reported collision (the simulator's ``collision`` topic) if it came within ``within``
+    seconds, in words."""
     c = sub.latest()
     if c is None or c.count <= 0 or not 0.0 <= now - c.header.stamp <= within:
         return ""

@@ -223,6 +223,10 @@ class MoveBaseMachine:
             self._enter(State.PLANNING, f"no valid command ({res.reason}); replanning")
         return self._decide(ZERO, new_plan)
 
+    def stalled_for(self, now: float) -> float:
+        """Seconds since the robot last made progress toward the goal (while controlling)."""
+        return now - self._prog_time
+
     def _no_progress(self, now: float, pose: Pose2D, cmd) -> str:
         """'' or why valid commands got the robot nowhere for ``no_progress_report`` s (ROS is silent)."""
         limit, stalled = self.params.no_progress_report, now - self._prog_time

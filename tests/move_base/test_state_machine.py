@@ -187,8 +187,28 @@ def test_a_robot_held_in_place_while_controlling_gets_a_no_progress_reason_and_k
     assert 3.0 <= first <= 3.2
     assert reasons[-1][1].startswith("no progress for 6 s: moved 0.00 m and turned 0.00 rad while commanding "
                                      "v=0.30 m/s, w=0.10 rad/s")
+    assert m.stalled_for(t) == pytest.approx(6.0, abs=0.1)  # how far back a collision still explains it
     d = m.tick(t + 0.05, Pose2D(0.2, 0.0, 0.0), (0.3, 0.0, 0.0))  # it moves again: the reason clears
     assert d.reason == ""
+
+
+def test_the_collision_that_stopped_the_robot_is_named_however_long_ago():
+    """The hint names the robot's last collision when it came since (or just before) the robot stopped
+    progressing: a robot wedged for ten minutes was hit ten minutes ago (issue 32)."""
+    from common.messages import Collision, Header
+    from master_side.move_base.robot_inputs import collision_hint
+
+    class Latest:  # what the node's subscription hands the hint: its latest message
+        def __init__(self, msg):
+            self.msg = msg
+
+        def latest(self):
+            return self.msg
+
+    hit = Latest(Collision(Header(100.0, "map"), 1, -9.40, 4.31))
+    assert collision_hint(hit, 860.0) == ""  # 760 s ago: beyond the default 120 s
+    assert collision_hint(hit, 860.0, within=758.0 + 10.0) == "collision #1 at (-9.40, 4.31) in map 760 s ago"
+    assert collision_hint(Latest(None), 860.0, within=1e9) == ""
 
 
 def test_slow_progress_is_progress():
