@@ -210,12 +210,28 @@ def test_b_a_partition_stops_the_robot_and_the_goal_completes_after_it(stack):
              and float(w[0]) < t_cut + 2.9 and _moving(w)]
     if moved:  # who told the base to move: the commands, the monitor's output and state around it, from
         t_m = float(moved[0][0])  # the last command before the cut to the motion
-        trace = [" ".join(w) for w in list(probe.lines) if len(w) > 1 and w[1] in ("CMD", "SAFE", "MON", "GT")
-                 and t_last - 0.1 <= float(w[0]) <= t_m + 0.1]
+        trace = _trace(probe, t_last - 0.1, t_m + 0.1, ("CMD", "SAFE", "MON", "GT"))
         raise AssertionError(f"moved again while partitioned ({t_m - t_cut:.2f} s after the cut; stopped "
                              f"{float(stopped[0][0]) - t_cut:.2f} s after it):\n" + "\n".join(trace[:120]))
     _reached(probe, g, what="the same goal after the link healed", stack=stack)
     assert not probe.events("COLL", t0)
+
+
+def _trace(probe, since: float, until: float = math.inf, kinds: tuple[str, ...] = ()) -> list[str]:
+    """The probe's lines stamped within [since, until] (of ``kinds``, if given), in order, with the unstamped
+    lines among them (its log: a warning, a traceback), which say most when something went wrong."""
+    out, inside = [], False
+    for w in list(probe.lines):
+        try:
+            t = float(w[0])
+        except (ValueError, IndexError):  # a log line of the probe's node ("[netem_probe] ...")
+            if inside:
+                out.append(" ".join(w))
+            continue
+        inside = since <= t <= until
+        if inside and len(w) > 1 and (not kinds or w[1] in kinds):
+            out.append(" ".join(w))
+    return out
 
 
 def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(stack):
@@ -243,7 +259,7 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
         try:
             sent = wait_until(lambda: probe.events("SENT", t_cut), 30, "box spawned")  # a loaded machine
         except AssertionError:  # seen twice: say what the probe printed after the cut, for the next look
-            after = [" ".join(w) for w in probe.lines if len(w) > 1 and float(w[0]) >= t_cut - 0.2]
+            after = _trace(probe, t_cut - 0.2)
             raise AssertionError(f"box never spawned; probe after the cut ({len(after)} lines):\n"
                                  + "\n".join(after[:20] + ["..."] + after[-20:])) from None
         t_box = float(sent[0][0])
@@ -257,7 +273,7 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
         try:
             wait_until(lambda: [w for w in probe.events("GT", t_box + 0.1) if abs(float(w[5])) < 1e-3], 10, "stop")
         except AssertionError:
-            trace = [" ".join(w) for w in probe.lines if len(w) > 1 and float(w[0]) >= t_cut - 0.2][:60]
+            trace = _trace(probe, t_cut - 0.2)[:80]
             raise AssertionError("never stopped:\n" + "\n".join(trace)) from None
         stop = [w for w in probe.events("GT", t_box + 0.1) if abs(float(w[5])) < 1e-3][0]
         travelled = ((float(stop[2]) - start[0]) * math.cos(heading)
@@ -271,8 +287,7 @@ def test_c_a_box_in_front_as_the_link_is_cut_is_stopped_for_by_the_robot_alone(s
         coll = probe.events("COLL", t0)
         if coll:  # when (sim time) and where it touched, against the motion and the monitor around it
             t_c = float(coll[0][0])
-            trace = [" ".join(w) for w in probe.lines if len(w) > 1 and w[1] in ("GT", "SAFE", "MON", "COLL", "SENT")
-                     and t_cut - 0.2 <= float(w[0]) <= t_c + 0.3]
+            trace = _trace(probe, t_cut - 0.2, t_c + 0.3, ("GT", "SAFE", "MON", "COLL", "SENT"))
             raise AssertionError(f"collision {coll[0][1:]} (count, sim stamp, contact x y); box line {spawned}, "
                                  f"start {start}, stop {stop}:\n" + "\n".join(trace[:150]))
     finally:
