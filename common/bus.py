@@ -88,14 +88,17 @@ class Node:
         return topic_key(self.robot, topic)
 
     # -- pub / sub -----------------------------------------------------------------------------
-    def publisher(self, topic: str, latched: bool = False, reliable: bool | None = None) -> Publisher:
+    def publisher(self, topic: str, latched: bool = False, reliable: bool | None = None,
+                  background: bool = False) -> Publisher:
         """``reliable``: block the caller while Zenoh's send queue toward a peer is full (True) or drop
         the message then (False). Default: block only for latched topics (maps, static TF), like
         rmw_zenoh's default: a stream publisher must never stall its node — a base driver whose odom
-        publish waited on a cut Wi-Fi link stopped running its own command timeout."""
+        publish waited on a cut Wi-Fi link stopped running its own command timeout. ``background``: a
+        reliable state published from a control loop — put by a sender thread, the newest superseding
+        unsent ones, so the loop never waits on the network (common/bus_sender.py)."""
         if reliable is None:
             reliable = latched
-        pub = Publisher(self, topic, latched, reliable)
+        pub = Publisher(self, topic, latched, reliable, background)
         self._entities.append(pub)
         return pub
 

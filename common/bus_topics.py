@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Callable
 
 import zenoh
 
+from common.bus_sender import LatestSender
 from common.codec import DecodeError, decode, encode
 from common.live_keys import LiveKey, live_key
 from common.log_util import RateLimitedLog
@@ -78,7 +79,7 @@ def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sampl
 
 
 class Publisher:
-    def __init__(self, node: Node, topic: str, latched: bool, reliable: bool) -> None:
+    def __init__(self, node: Node, topic: str, latched: bool, reliable: bool, background: bool = False) -> None:
         self.topic, self.key, self._node, self.latched = topic, topic_key(node.robot, topic), node, latched
         cc = zenoh.CongestionControl.BLOCK if reliable else zenoh.CongestionControl.DROP
         self._pub = node.session.declare_publisher(self.key, congestion_control=cc, express=True)
@@ -92,6 +93,12 @@ class Publisher:
             self._queryable = node.queryables.declare(self.key, self._on_query, complete=False)
             self._latched_token = node._declare_token("latched", topic)
         self._token = node._declare_token("pub", topic)
+        # background: put from a sender thread, never blocking the caller (common/bus_sender.py)
+        self._sender = LatestSender(self._put, topic) if background else None
+
+    def _put(self, data: bytes) -> None:
+        with contextlib.suppress(zenoh.ZError):  # undeclared while the sender thread was putting
+            self._pub.put(data, attachment=self._attachment_z)
 
     def _on_query(self, query: zenoh.Query) -> None:
         last = self._last
@@ -112,10 +119,15 @@ class Publisher:
         data = encode(msg)
         if self.latched:
             self._last = data
-        self._pub.put(data, attachment=self._attachment_z)
+        if self._sender is not None:
+            self._sender.send(data)
+        else:
+            self._pub.put(data, attachment=self._attachment_z)
         self.count += 1
 
     def close(self) -> None:
+        if self._sender is not None:
+            self._sender.close()
         for obj in (self._pub, self._queryable, self._latched_token, self._token):
             if obj is not None:
                 with contextlib.suppress(zenoh.ZError):

@@ -46,7 +46,7 @@ class P2OSNode(DeviceNode):
         self.p = p
         self.pub_odom = node.publisher("odom")
         self.tf = TFBroadcaster(node)
-        self.pub_motor = node.publisher("motor_state", latched=True)
+        self.pub_motor = node.publisher("motor_state", latched=True, background=True)  # never waits on the link
         self.pub_battery = node.publisher("battery_state")
         self._lock = threading.Lock()
         self._motors_sent: bool | None = None

@@ -64,7 +64,7 @@ class MonitorNode:
         self.verdict = Verdict(0.0, 0.0, "none", reason="idle: no command yet")
         self.started: float | None = None  # first valid clock reading (sim time is 0 until the clock runs)
         self.out = node.publisher(self.p.cmd_vel_out_topic)
-        self.state_pub = node.publisher(self.p.state_topic, latched=True)
+        self.state_pub = node.publisher(self.p.state_topic, latched=True, background=True)  # never waits on the link
         self._last_state: tuple = ()  # before the subscriptions: their callbacks publish the state
         self._last_state_time = 0.0
         self.subs = [node.subscribe(self.p.cmd_vel_in_topic, Twist, callback=self._on_cmd)]

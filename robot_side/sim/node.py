@@ -110,8 +110,9 @@ class SimNode:
         self.tf = TFBroadcaster(node)
         self.static = StaticTFBroadcaster(node)
         self.pub_gt = pub("ground_truth")
-        self.pub_collision = pub("collision", latched=True)
-        self.pub_motor = pub("motor_state", latched=True)
+        # states from the loop: never wait on a cut link to the master (common/bus_sender.py)
+        self.pub_collision = pub("collision", latched=True, background=True)
+        self.pub_motor = pub("motor_state", latched=True, background=True)
         self.pub_battery = pub("battery_state")
         self.pub_scan = pub(sim.laser.p.topic) if sim.laser else None
         self.pub_depth = pub("camera/depth/image") if sim.camera else None
