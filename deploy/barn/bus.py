@@ -147,11 +147,7 @@ def run_world_bus(world: int, workdir: str | Path = "", master_config: str | Pat
     raw_trace = trace
     if len(trace) == 0:
         trace = np.array([[0.0, *START[:2]]])
-    if not _verdict_due(trace, hits):  # the robot stays where it is until the time limit
-        moved = np.flatnonzero(np.hypot(trace[:, 1] - START[0], trace[:, 2] - START[1]) >= barn.MOTION_START_M)
-        end = (trace[moved[0], 0] if len(moved) else trace[0, 0]) + barn.TIME_LIMIT_S
-        trace = np.vstack((trace, [max(end, trace[-1, 0]), trace[-1, 1], trace[-1, 2]]))
-    run = barn.judge(world, trace, hits)
+    run = barn.judge(world, trace if _verdict_due(trace, hits) else barn.held_to_time_limit(trace), hits)
     if echo:
         echo(f"world {world}: {run.status} {run.time_s:.1f} s {note}")
     return {"run": run, "cycle_ms": loop_ms, "note": note if not run.success else "", "trace": raw_trace,

@@ -34,7 +34,6 @@ class Outcome:
     cmds: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # move_base's commands rows (t, v, w)
 
 
-
 class BarnStack(InProcessStack):
     """An InProcessStack with the BARN files by default and BARN's verdict loop (``run``)."""
 
@@ -71,11 +70,9 @@ class BarnStack(InProcessStack):
             if hits or near or over or gave_up or (t_moved is None and t > start_limit):
                 break
         raw = np.array(trace, float).reshape(-1, 3)
-        if not (hits or near or over):
-            # move_base gave up or the robot never started: it stays where it is until the time limit
-            end = (t_moved if t_moved is not None else trace[0][0]) + barn.TIME_LIMIT_S
-            trace.append((max(end, trace[-1][0]), trace[-1][1], trace[-1][2]))
-        run = barn.judge(world, np.array(trace), hits)
+        # move_base gave up or the robot never started: it stays where it is until the time limit
+        judged = raw if (hits or near or over) else barn.held_to_time_limit(raw, (start.x, start.y))
+        run = barn.judge(world, judged, hits)
         return Outcome(run, np.array(self.cycle_ms), np.array(self.plan_ms), time.perf_counter() - wall0, sim.time,
                        self.machine.state.value + (f" ({self.machine.reason})" if self.machine.reason else ""),
                        list(self.events), raw, np.array(cmds, float).reshape(-1, 3))

@@ -31,7 +31,8 @@ from robot_side.worlds.barn import GOAL, RESOLUTION, START, barn_world_spec, ref
 
 __all__ = ["TIME_LIMIT_S", "GOAL_RADIUS_M", "MOTION_START_M", "MAX_SPEED", "shared_dir", "dataset_dir",
            "training_worlds", "load_cylinders", "load_path", "reference_length", "optimal_time", "write_world",
-           "score", "Run", "judge", "Summary", "summarize", "trace_from_odometry", "collision_times"]
+           "score", "Run", "judge", "held_to_time_limit", "Summary", "summarize", "trace_from_odometry",
+           "collision_times"]
 
 REPO = Path(__file__).resolve().parents[2]
 TIME_LIMIT_S = 100.0    # s of simulated time from the start of motion
@@ -181,6 +182,16 @@ def judge(world: int, trace: np.ndarray | Sequence, collisions: Iterable[float] 
         raise ValueError(f"the trace ends {elapsed[-1]:.1f} s after the start of motion without a verdict")
     j = int(np.argmax(done))
     return run(k0 + j, t0, elapsed[j], bool(n_hits[j] > 0), bool(elapsed[j] >= TIME_LIMIT_S))
+
+
+def held_to_time_limit(trace: np.ndarray, start: tuple[float, float] = START) -> np.ndarray:
+    """A trace that ended without a verdict (move_base gave up, the robot never started), extended as
+    BARN's run.py sees it: the robot stays where it is until the time limit after its start of motion (or
+    after the trace's first sample if it never moved)."""
+    tr = np.asarray(trace, dtype=np.float64).reshape(-1, 3)
+    moved = np.flatnonzero(np.hypot(tr[:, 1] - start[0], tr[:, 2] - start[1]) >= MOTION_START_M)
+    end = (tr[moved[0], 0] if len(moved) else tr[0, 0]) + TIME_LIMIT_S
+    return np.vstack((tr, [max(end, tr[-1, 0]), tr[-1, 1], tr[-1, 2]]))
 
 
 def trace_from_odometry(msgs: Iterable) -> np.ndarray:

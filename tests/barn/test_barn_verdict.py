@@ -152,3 +152,16 @@ def test_traces_and_collision_times_from_simulator_messages():
     cols = [Collision(Header(5.0, "map"), 2, 0.0, 0.0), Collision(Header(1.0, "map"), 1, 0.0, 0.0),
             Collision(Header(6.0, "map"), 2, 0.0, 0.0)]
     assert bench.collision_times(cols) == [1.0, 5.0]
+
+
+def test_a_run_that_stopped_short_is_held_where_it_stopped_until_the_time_limit():
+    """move_base gave up 1 m out: BARN's run.py would wait out the time limit with the robot standing."""
+    t = np.arange(0.0, 12.0, 0.5)
+    y = np.clip(t - 2.0, 0.0, 1.0)  # moves from t = 2 s, stops 1 m out at t = 3 s
+    trace = np.column_stack((t, np.full_like(t, SX), SY + y))
+    held = bench.held_to_time_limit(trace)
+    assert held[-1].tolist() == [2.5 + bench.TIME_LIMIT_S, SX, SY + 1.0]  # from the start of motion (0.5 m at 2.5 s)
+    run = bench.judge(23, held, [])
+    assert run.timeout and not run.success and run.time_s == pytest.approx(bench.TIME_LIMIT_S)
+    still = np.column_stack((t, np.full_like(t, SX), np.full_like(t, SY)))  # never moved: from its first sample
+    assert bench.held_to_time_limit(still)[-1, 0] == bench.TIME_LIMIT_S
