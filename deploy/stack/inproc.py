@@ -135,11 +135,11 @@ class InProcessStack:
                 grid, _ = map_server_node.load(params, source)
         if mb_cfg is None or set(self.costmaps) != {"global_costmap", "local_costmap"}:
             raise ValueError(f"{master_config}: needs global_costmap, local_costmap and move_base nodes")
-        if grid is not None:  # the map frame is the world's (ground truth)
+        if grid is not None:  # the map frame is the world's (ground truth); step() places it in rolling ones
             for cm in self.costmaps.values():
                 for layer in cm.lcm.layers:
                     if isinstance(layer, StaticLayer):
-                        layer.set_map(grid, self.frame_from_world(cm.frame) if cm.lcm.rolling_window else None)
+                        layer.set_map(grid)
         self.mb = mb_cfg
         self.global_frame = strip_frame(mb_cfg.global_frame or "odom")
         self.local_frame = strip_frame(mb_cfg.local_frame)

@@ -143,9 +143,8 @@ class CostmapNode:
         the current transform in ``_place_maps``, before every update."""
         frame = (msg.header.frame_id or "").lstrip("/")
         with self.lock:
-            if layer.map is not None and layer.params.first_map_only:
+            if not layer.set_map(msg):
                 return
-            layer.set_map(msg)
             if self.lcm.rolling_window and frame and frame != self.frame:
                 self._map_frames[id(layer)] = frame
                 self._unplaced.add(id(layer))

@@ -43,10 +43,11 @@ class StaticLayer(Layer):
         self._new_map = False
         self._lut = occupancy_lut(params)
 
-    def set_map(self, grid: OccupancyGrid, map_to_global: Pose2D | None = None) -> None:
-        """A new map (``map_to_global``: pose of the map frame in the costmap's frame, rolling only)."""
+    def set_map(self, grid: OccupancyGrid, map_to_global: Pose2D | None = None) -> bool:
+        """A new map (``map_to_global``: pose of the map frame in the costmap's frame, rolling only);
+        False when the layer keeps its first map instead (first_map_only)."""
         if self.map is not None and self.params.first_map_only:
-            return
+            return False
         cm = Costmap2D(grid.width, grid.height, grid.resolution, grid.origin.x, grid.origin.y, NO_INFORMATION)
         cm.data = self._lut[grid.data.view(np.uint8)]
         self.map = cm
@@ -55,6 +56,7 @@ class StaticLayer(Layer):
         lc = self.layered
         if lc is not None and not lc.rolling_window and not lc.master.same_geometry(cm):
             lc.resize_map(cm.size_x, cm.size_y, cm.resolution, cm.origin_x, cm.origin_y)
+        return True
 
     def place(self, map_to_global: Pose2D) -> None:
         """The map frame's pose in the costmap's frame now (rolling costmaps)."""
