@@ -128,10 +128,10 @@ class Launch:
         name, dot, key = target.strip().partition(".")
         if not sep or not dot or not name or not key:
             raise ConfigError("--set", assignment, "expected NODE.KEY=VALUE, e.g. map_server.map=office.yaml")
-        if name not in {e.name for e in self.entries}:
+        e = next((x for x in self.entries if x.name == name), None)
+        if e is None:
             raise ConfigError("--set", assignment,
-                              f"no node {name!r} in {self.source} (nodes: {', '.join(e.name for e in self.entries)})")
-        e = self.entry(name)
+                              f"no node {name!r} in {self.source} (nodes: {', '.join(x.name for x in self.entries)})")
         if e.opts.cmd:
             raise ConfigError("--set", assignment, f"node {name!r} is a cmd: node; parameters only apply to "
                               "module nodes")
@@ -141,13 +141,10 @@ class Launch:
             raise ConfigError("--set", assignment, f"value is not valid YAML: {err}") from None
         if isinstance(value, str) and _NUMBER_RE.match(value):  # YAML 1.1 reads 1e-3 as a string
             value = float(value)
-        if isinstance(value, str) and value:
-            base = Path(self.node_params(e)[1]).parent
-            if os.path.isfile(value):
-                value = os.path.abspath(value)
-            elif not os.path.isabs(value) and (base / value).is_file():
-                value = str((base / value).resolve())
-        self.override(name, **{key: value})
+        if isinstance(value, str) and os.path.isfile(value):
+            value = os.path.abspath(value)
+        values = absolute_paths({key: value}, Path(self.node_params(e)[1]).parent)  # else beside its file
+        self.override(name, **values)
 
     def _path(self, p: str) -> str:
         return str((Path(self.source).parent / p).resolve()) if p and not os.path.isabs(p) else p

@@ -1,5 +1,5 @@
 """The commands' bus helpers: which robot a command looks at, a raw session for inspecting the system,
-waiting for Ctrl-C and closing quietly (zenoh is imported lazily so ``zenav --help`` stays fast)."""
+and waiting for Ctrl-C (zenoh is imported lazily so ``zenav --help`` stays fast)."""
 
 from __future__ import annotations
 
@@ -24,14 +24,12 @@ def one_robot(args, wait_s: float = 1.5) -> str:
     default name 'robot'. The choice is exported as ZENAV_ROBOT for this process and its children."""
     import sys
 
-    from common.bus import close_quietly
-
     robot = getattr(args, "robot", None) or os.environ.get("ZENAV_ROBOT")
     if robot:
         if "/" in robot or "*" in robot:
             raise ValueError(f"this command needs one robot name, not {robot!r}")
         return robot
-    from common.bus import list_live
+    from common.bus import close_quietly, list_live
 
     session = open_session()
     try:

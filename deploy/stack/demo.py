@@ -41,6 +41,7 @@ AMCL, GMAPPING, HECTOR = (MASTER_DIR / f for f in ("p3at_amcl.yaml", "p3at_slam.
 TRAJECTORY = {"move_base": MASTER_DIR / "move_base_trajectory_rollout.yaml",
               "local_planner": MASTER_DIR / "p3at" / "base_local_planner_params.yaml"}
 
+
 @dataclass
 class GoalResult:
     world: str
