@@ -88,16 +88,21 @@ class Node:
         return topic_key(self.robot, topic)
 
     # -- pub / sub -----------------------------------------------------------------------------
-    def publisher(self, topic: str, latched: bool = False, reliable: bool | None = None,
+    def publisher(self, topic: str, latched: bool = False, reliable: bool = False,
                   background: bool = False) -> Publisher:
         """``reliable``: block the caller while Zenoh's send queue toward a peer is full (True) or drop
-        the message then (False). Default: block only for latched topics (maps, static TF), like
-        rmw_zenoh's default: a stream publisher must never stall its node — a base driver whose odom
-        publish waited on a cut Wi-Fi link stopped running its own command timeout. ``background``: a
-        reliable state published from a control loop — put by a sender thread, the newest superseding
-        unsent ones, so the loop never waits on the network (common/bus_sender.py)."""
-        if reliable is None:
-            reliable = latched
+        the message then (False, the default, latched topics included, as rmw_zenoh does). A blocked put
+        does not stall its caller alone: every process that routes it (the agent, a router) pushes it
+        toward the congested peer holding that link's send lock for up to Zenoh's ``wait_before_close``
+        (5 s), and the lease cannot close the link meanwhile. One robot-side state toward a master behind a
+        just-cut link froze every route of the robot agent for the whole cut: the collision monitor's
+        zero commands and the simulator's ground truth stopped reaching nodes on the robot itself
+        (tests/reliability/test_cut_link_routes.py). A latched message lost to a full queue still reaches
+        its subscribers by the latched query whenever the publisher's token is seen again (a re-formed
+        link), and states are published again at their rate. ``reliable=True`` is for what is worth that
+        risk: a whole map, whose fragments a drop would lose under any brief congestion.
+        ``background``: a state published from a control loop — put by a sender thread, the newest
+        superseding unsent ones, so the loop never waits on the network (common/bus_sender.py)."""
         pub = Publisher(self, topic, latched, reliable, background)
         self._entities.append(pub)
         return pub

@@ -1,11 +1,12 @@
 """A publication sent from its own thread: ``publish`` never waits on the network.
 
-Zenoh blocks a reliable put while the send queue toward a peer is full, up to its ``wait_before_close``
-(5 s) on a link that was just cut. A robot-side node publishing its state from its control loop (the
-simulator's collision and motor state, the collision monitor's state, the base driver's motor state)
-would freeze there exactly when the master is lost. Such a publisher hands each message to this sender:
-the newest message is kept, older unsent ones are superseded (these are states: only the latest counts),
-and one thread puts it. Late and congested subscribers still get the latest by the latched query.
+A robot-side node publishes its state (the simulator's collision and motor state, the collision monitor's
+state, the base driver's motor state) from its control loop, which must keep its period whatever the link
+to the master does. Such a publisher hands each message to this sender: the newest message is kept, older
+unsent ones are superseded (these are states: only the latest counts), and one thread puts it. States
+are not ``reliable`` (common.bus.Node.publisher says why), so a put waits at most Zenoh's
+``wait_before_drop``; the thread keeps even that, and a slow serialisation, off the loop. Late and
+congested subscribers still get the latest by the latched query.
 """
 
 from __future__ import annotations

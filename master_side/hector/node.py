@@ -48,7 +48,7 @@ class HectorNode:
         self.last_map = -float("inf")
         self.tf = TFListener(node)
         self.tf_out = TFBroadcaster(node)
-        self.map_pub = node.publisher("map", latched=True)
+        self.map_pub = node.publisher("map", latched=True, reliable=True)  # a whole map: never dropped in fragments
         self.pose_pub = node.publisher("slam_out_pose")
         self.sub = node.subscribe(p.scan_topic, LaserScan, callback=self._on_scan, mode="queue",
                                   queue_size=p.scan_subscriber_queue_size)

@@ -46,7 +46,7 @@ class MapServer:
     def __init__(self, node, cfg: dict, source: str):
         grid, frame = load(cfg, source)
         self.grid = replace(grid, header=Header(node.clock.now(), frame))
-        self.pub = node.publisher("map", latched=True)
+        self.pub = node.publisher("map", latched=True, reliable=True)  # a whole map: never dropped in fragments
         self.pub.publish(self.grid)
 
     def close(self) -> None:

@@ -89,7 +89,7 @@ class SlamNode:
         # faster than the filter runs) still finds the odometry at its stamp
         self.tf = TFListener(node, cache_time=TF_CACHE_S)
         self.tf_out = TFBroadcaster(node)
-        self.map_pub = node.publisher("map", latched=True)
+        self.map_pub = node.publisher("map", latched=True, reliable=True)  # a whole map: never dropped in fragments
         # bounded queue, as ROS's MessageFilter: every scan is processed unless the filter falls behind
         self.sub = None  # _lookup reads its counters; a scan can come in before subscribe() returns
         self.sub = node.subscribe("scan", LaserScan, callback=self._on_scan, mode="queue",
