@@ -160,7 +160,8 @@ class NavTimeline:
             return self.items[-1][1] if self.items else None
 
 
-def _zenav() -> list[str]:
+def zenav_command() -> list[str]:
+    """The zenav command: the installed entry point, else this checkout's module."""
     exe = shutil.which("zenav")
     return [exe] if exe else [sys.executable, "-m", "deploy.cli"]
 
@@ -194,12 +195,12 @@ class NavStack:
             self.cancel_pub = self.node.publisher("move_base/cancel", reliable=True)  # one-shot: never dropped
             env_r = {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{robot_port}",
                      "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port}"}
-            self.robot_proc = self._start("robot", [*_zenav(), "robot", "--config", str(ROBOT_CONFIG),
+            self.robot_proc = self._start("robot", [*zenav_command(), "robot", "--config", str(ROBOT_CONFIG),
                                                     "--world", world, "--speed", str(speed)], env_r, tmp)
             env_m = {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{master_port}",
                      "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port},tcp/127.0.0.1:{robot_port}"}
             master_cfg = self.master_cfg = master_config_for(planner, world, tmp, move_base, navfn)
-            self.master_proc = self._start("master", [*_zenav(), "master", "--config", str(master_cfg)],
+            self.master_proc = self._start("master", [*zenav_command(), "master", "--config", str(master_cfg)],
                                            env_m, tmp)
             wait_until(lambda: self.gt.latest() is not None and self.status.last() is not None
                      and self.status.last().reason == "no goal" and self._costmaps_up(), 180.0,
@@ -240,7 +241,7 @@ class NavStack:
             if i:
                 time.sleep(every)
             try:
-                r = subprocess.run([*_zenav(), "nodes", "--stats"], env=env, capture_output=True, text=True,
+                r = subprocess.run([*zenav_command(), "nodes", "--stats"], env=env, capture_output=True, text=True,
                                    timeout=60, cwd=REPO)
                 out.append(r.stdout + r.stderr)
             except subprocess.TimeoutExpired:

@@ -6,15 +6,17 @@ import math
 import os
 import re
 import signal
+import subprocess
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from common.geometry import Pose2D
 from common.messages import GoalStatus
 from testkit.nav_goals import cancel_and_measure, send_goal_async, status_of  # noqa: F401 (the tests' imports)
-from testkit.nav_stack import NavStack, pose_error, world_goals
+from testkit.nav_stack import REPO, NavStack, pose_error, world_goals, zenav_command
 from tests.support import wait_until
 
 XY_TOL, YAW_TOL = 0.3, 0.1  # the acceptance's bounds, against the simulator's ground truth
@@ -139,24 +141,6 @@ def check_base_link_goal(stack: NavStack, offset: tuple[float, float, float]) ->
     return run
 
 
-def check_unreachable_goal_aborts(stack: NavStack, goal=(10.0, 10.0, 0.0)) -> GoalRun:
-    """Off the map: status says 'no plan: <planner error>' while it tries, then ABORTED naming it."""
-    t0 = time.monotonic()
-    before = stack.collision_count()
-    run = run_goal(stack, "unreachable goal", goal, timeout=150.0)
-    assert run.code == 1, run.line(stack)
-    assert run.status.status == GoalStatus.ABORTED, run.line(stack)
-    reasons = [m.reason for _, m in stack.status.since(t0) if m.goal_id == run.status.goal_id]
-    no_plan = [r for r in reasons if r.startswith("no plan: ")]
-    assert no_plan, sorted(set(reasons))
-    planner_error = no_plan[0][len("no plan: "):].split(" (for ")[0]
-    assert planner_error, no_plan[0]
-    assert planner_error in run.status.reason, (planner_error, run.status.reason)
-    assert run.status.reason.startswith("aborted: no plan"), run.status.reason
-    assert stack.collision_count() == before
-    return run
-
-
 def check_stale_tf_reason(stack: NavStack, goal: tuple[float, float, float]) -> GoalRun:
     """Pause fake_localization (map -> odom goes stale) while the robot drives: move_base stops and says
     'stale TF: ...' with the edge and its age; resumed, it reaches the goal."""
@@ -197,3 +181,33 @@ def check_stale_tf_reason(stack: NavStack, goal: tuple[float, float, float]) -> 
     assert xy <= XY_TOL, run.line(stack)
     assert yaw <= YAW_TOL, run.line(stack)
     return run
+
+
+def check_mission_with_an_unreachable_leg(stack: NavStack, tmp: Path, near=(-1.2, 0.0, 0.0)) -> str:
+    """`zenav goal --waypoints` (a user's command, as a process) with an unreachable leg first: that leg fails
+    with move_base's reason (status says 'no plan: <planner error>' while it tries, then ABORTED naming
+    it), the mission goes on and reaches the next waypoint, and exits 1 with a summary naming the failed
+    leg. Returns the command's output."""
+    mission = tmp / "mission.yaml"
+    mission.write_text("waypoints:\n  - {x: 10.0, y: 10.0, name: off the map}\n"
+                       f"  - {{x: {near[0]}, y: {near[1]}, yaw: {near[2]}, name: near}}\n")
+    env = {**stack.bus_env, "ZENAV_CONNECT": stack.test_endpoint}
+    t0, before = time.monotonic(), stack.collision_count()
+    r = subprocess.run([*zenav_command(), "goal", "--waypoints", str(mission), "--timeout", "150"], env=env,
+                       capture_output=True, text=True, timeout=400, cwd=REPO)
+    out = r.stdout + r.stderr
+    assert r.returncode == 1, out
+    failed = [ln for ln in out.splitlines() if ln.startswith("leg 1/2: FAILED")]
+    assert failed and "aborted: no plan" in failed[0], out
+    assert any(ln.startswith("leg 2/2: reached") for ln in out.splitlines()), out
+    assert "mission: 1 of 2 legs reached; failed: leg 1 'off the map'" in out, out
+    reasons = [m.reason for _, m in stack.status.since(t0)]
+    no_plan = [x for x in reasons if x.startswith("no plan: ")]
+    assert no_plan, sorted(set(reasons))
+    planner_error = no_plan[0][len("no plan: "):].split(" (for ")[0]
+    assert planner_error and planner_error in failed[0], (planner_error, failed[0])
+    assert stack.collision_count() == before
+    xy, _ = pose_error(wait_still(stack), near)
+    assert xy <= stack.local_planner_params().xy_goal_tolerance + 0.05, out
+    RESULTS.append(f"{stack.world}/{stack.planner} mission: {failed[0]}; leg 2 reached, {xy:.3f} m off")
+    return out

@@ -1,0 +1,178 @@
+"""MRPB 1.0 (Wen et al., ICRA 2021): the simulated Pioneer 3-AT with its planar laser crosses the
+benchmark's offices, mall, maze, narrow graph, room and track (../shared/datasets/mrpb, every start/goal
+test of the static environments, the partially unknown ones included: the robot is given the incomplete
+map, the simulator has the full one).
+
+Two modes:
+  --mode fast  simulator, costmaps and move_base stepped in one process on the simulated clock, TF exact
+               (deploy/mrpb/inproc.py): quick, for iterating.
+  --mode bus   the real thing: `zenav robot` and `zenav master` as separate processes on a private loopback
+               Zenoh network, localised by AMCL on the given map from the case's start, the goal sent as
+               `zenav goal` sends it (deploy/mrpb/bus.py).
+
+Two master configurations (--configs): `tutorial` (the reference tutorial's P3-AT files as printed:
+p3at_amcl.yaml over the bus, p3at_known_map.yaml in the fast mode) and `zenav` (p3at_zenav.yaml).
+
+A run succeeds when move_base reaches the goal (the tutorial's 0.3 m) with no contact; it ends at the first
+contact, when move_base gives up, or after 300 s of simulated time. Metrics as MRPB defines them
+(deploy/mrpb/metrics.py): the least and mean distance from the robot's centre to an obstacle of the true
+world, the share of time within --safe-distance of one, travel time, path length, path smoothness, mean
+|acceleration| (MRPB's velocity smoothness), plus mean |jerk| and |angular acceleration|.
+
+  python bench/mrpb.py --mode bus                       # every case, both configurations (~1 h)
+  python bench/mrpb.py --mode fast --envs office02,maze --configs zenav
+
+Prints a row per case, a table per configuration and environment, and the summary line (zenav's
+configuration; tutorial_* for the tutorial's)
+mrpb_success=… mrpb_collisions=… mrpb_time_mean_s=… mrpb_min_clearance_m=… mrpb_jerk_mean=… …
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from deploy.mrpb import metrics as mm  # noqa: E402
+from deploy.mrpb.cases import STATIC_ENVS, Case, Result, load_cases  # noqa: E402
+
+DATA = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
+ROBOT = ROOT / "robot_side" / "config" / "p3at_sim_laser.yaml"
+CONFIG = ROOT / "master_side" / "config"
+MASTERS = {  # (fast mode, bus mode): the fast mode's TF is exact, so it takes the fake_localization file
+    "tutorial": (CONFIG / "p3at_known_map.yaml", CONFIG / "p3at_amcl.yaml"),
+    "zenav": (CONFIG / "p3at_zenav.yaml", CONFIG / "p3at_zenav.yaml"),
+}
+# MRPB leaves d_safe to the user: the P3-AT's circumscribed radius (0.36 m, the footprint of the tutorial's
+# p3at/costmap_common_params.yaml) + 0.1 m
+SAFE_DISTANCE_M = 0.46
+
+
+def _fast(job: tuple) -> Result:
+    case, robot, master = job
+    from deploy.mrpb.inproc import run_case_fast
+
+    return run_case_fast(case, robot, master)
+
+
+def _bus(job: tuple) -> Result:
+    case, robot, master, work, speed = job
+    from deploy.mrpb.bus import run_case_bus
+
+    return run_case_bus(case, robot, master, work, speed)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
+    ap.add_argument("--mode", choices=("fast", "bus"), default="fast")
+    ap.add_argument("--configs", default="zenav,tutorial", help="comma-separated: zenav, tutorial")
+    ap.add_argument("--envs", default=",".join(STATIC_ENVS), help="comma-separated environments (default: all)")
+    ap.add_argument("--tests", default="", help="comma-separated test numbers (default: every test)")
+    ap.add_argument("--robot", default=str(ROBOT), help="robot YAML (default: the P3-AT with its planar laser)")
+    ap.add_argument("--data", default=str(DATA), help="MRPB's map10cm folder")
+    ap.add_argument("--jobs", type=int, default=2, help="cases run at once (fast mode)")
+    ap.add_argument("--speed", type=float, default=1.0, help="bus mode: simulated time x real time")
+    ap.add_argument("--safe-distance", type=float, default=SAFE_DISTANCE_M, metavar="M",
+                    help=f"MRPB's d_safe (default {SAFE_DISTANCE_M} m)")
+    ap.add_argument("--workdir", default="", help="bus mode: where the agents' logs go (default: a temp folder)")
+    a = ap.parse_args(argv)
+    configs = [c.strip() for c in a.configs.split(",") if c.strip()]
+    bad = [c for c in configs if c not in MASTERS]
+    if bad:
+        ap.error(f"unknown configuration(s) {bad}: choose from {sorted(MASTERS)}")
+    try:
+        cases = load_cases(Path(a.data), tuple(e.strip() for e in a.envs.split(",") if e.strip()),
+                           tuple(int(t) for t in a.tests.split(",") if t.strip()))
+    except (FileNotFoundError, ValueError) as e:
+        print(f"mrpb: {e}", file=sys.stderr)
+        return 2
+    work = Path(a.workdir or tempfile.mkdtemp(prefix="zenav-mrpb-"))
+    print(f"# MRPB {a.mode} mode: {len(cases)} cases x {len(configs)} configurations, robot {a.robot}"
+          f"{f', agents logs in {work}' if a.mode == 'bus' else ''}", flush=True)
+    fields = {}
+    t0 = time.monotonic()
+    results: dict[str, list[Result]] = {}
+    for cfg in configs:
+        master = MASTERS[cfg][0 if a.mode == "fast" else 1]
+        print(f"## {cfg}: {master.relative_to(ROOT)}", flush=True)
+        if a.mode == "fast":
+            with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
+                runs = ex.map(_fast, [(c, a.robot, master) for c in cases])
+                results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
+        else:
+            from deploy.stack.process_group import terminate_as_interrupt
+
+            with terminate_as_interrupt():  # a killed bench stops each case's agents too
+                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed) for c in cases])
+                results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
+    summary = []
+    for cfg, rs in results.items():
+        _table(cfg, rs, fields, a.safe_distance)
+        summary.append(_summary("mrpb" if cfg == "zenav" else cfg, rs, fields, a.safe_distance))
+    print(" ".join(summary) + f" cases={len(cases)} mode={a.mode} wall_s={time.monotonic() - t0:.0f}")
+    return 0
+
+
+def _metrics(r: Result, fields: dict, safe: float) -> mm.RunMetrics:
+    world = r.case.world_file
+    if world not in fields:
+        from master_side.mapping.map_io import load_map
+
+        fields[world] = mm.DistanceField.of(load_map(world))
+    return mm.compute(r.trace, fields[world], safe)
+
+
+def _progress(runs, cases: list[Case], fields: dict, safe: float, t0: float):
+    for i, r in enumerate(runs, 1):
+        m = _metrics(r, fields, safe)
+        note = f"  {r.reason}" if r.reason else ""
+        print(f"[{i:2d}/{len(cases)}] {r.case.name:34s} {r.status:9s} {m.time_s:6.1f} s {m.path_m:5.1f} m  "
+              f"d_min {m.d_min_m:.2f} m  ({time.monotonic() - t0:.0f} s){note}", flush=True)
+        yield r
+
+
+def _table(cfg: str, rs: list[Result], fields: dict, safe: float) -> None:
+    print(f"\n{cfg}: successes' means (time, path, distances, smoothness); d_min is the least of all runs")
+    print("| environment | cases | success | collisions | time (s) | path (m) | d_min (m) | d_mean (m) | "
+          f"time within {safe:g} m (%) | |accel| (m/s²) | |jerk| (m/s³) | |ang. accel| (rad/s²) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    by_env: dict[str, list[Result]] = defaultdict(list)
+    for r in rs:
+        by_env[r.case.env].append(r)
+    for env, group in [*by_env.items(), ("all", rs)]:
+        ok = [_metrics(r, fields, safe) for r in group if r.success]
+        mins = [_metrics(r, fields, safe).d_min_m for r in group if len(r.trace) > 1]
+
+        def mean(attr: str, ok=ok) -> str:
+            return f"{np.mean([getattr(m, attr) for m in ok]):.2f}" if ok else "-"
+        print(f"| {env} | {len(group)} | {sum(r.success for r in group)} | "
+              f"{sum(r.status == 'collision' for r in group)} | {mean('time_s')} | {mean('path_m')} | "
+              f"{min(mins):.2f} | {mean('d_mean_m')} | {mean('danger_pct')} | {mean('accel_mean')} | "
+              f"{mean('jerk_mean')} | {mean('ang_accel_mean')} |" if mins else f"| {env} | {len(group)} | 0 | - |")
+
+
+def _summary(prefix: str, rs: list[Result], fields: dict, safe: float) -> str:
+    ok = [_metrics(r, fields, safe) for r in rs if r.success]
+    mins = [_metrics(r, fields, safe).d_min_m for r in rs if len(r.trace) > 1]
+    nan = math.nan
+    return (f"{prefix}_success={sum(r.success for r in rs) / max(1, len(rs)):.3f} "
+            f"{prefix}_collisions={sum(r.status == 'collision' for r in rs)} "
+            f"{prefix}_time_mean_s={np.mean([m.time_s for m in ok]) if ok else nan:.1f} "
+            f"{prefix}_min_clearance_m={min(mins) if mins else nan:.2f} "
+            f"{prefix}_jerk_mean={np.mean([m.jerk_mean for m in ok]) if ok else nan:.3f} "
+            f"{prefix}_danger_pct={np.mean([m.danger_pct for m in ok]) if ok else nan:.1f}")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

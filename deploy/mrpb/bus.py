@@ -1,0 +1,130 @@
+"""An MRPB case over the bus, as a user runs it: ``zenav robot`` at the case's start in the environment's
+world, ``zenav master`` on the map the robot is given (AMCL started at the case's start through
+``--set localization.initial_pose_*``, when the master localises with AMCL), the goal sent as
+``zenav goal`` sends it; the run judged from the simulator's ``ground_truth`` and ``collision`` topics and
+move_base's status, on a private loopback Zenoh network."""
+
+from __future__ import annotations
+
+import tempfile
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import numpy as np
+
+from common.bus import Node
+from common.messages import Collision, GoalStatus, MoveBaseStatus, Odometry, Scalar, Twist
+from common.ports import free_port
+from common.zenoh_config import BusConfig
+from deploy.mrpb.cases import TIME_LIMIT_S, Case, Result
+from deploy.stack.goals import send_goal
+from deploy.stack.process_group import ProcessGroup
+from master_side import agent as master_agent
+
+STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
+AMCL_MODULE = "master_side.localization.amcl_node"
+
+
+class _Recorder:
+    """Ground truth at each of move_base's commands (a control cycle), contacts, loop times."""
+
+    def __init__(self, node: Node):
+        self.lock = threading.Lock()
+        self.truth = node.subscribe("ground_truth", Odometry)
+        self.rows: list[tuple[float, ...]] = []
+        self.collisions = 0
+        self.contact: tuple[float, float] | None = None
+        self.loop_ms: list[float] = []
+        node.subscribe("collision", Collision, callback=self._collision, mode="queue")
+        node.subscribe("move_base/loop_time", Scalar, mode="queue",
+                       callback=lambda m: self.loop_ms.append(m.value * 1e3))
+        node.subscribe("cmd_vel", Twist, callback=self._cmd, mode="queue")
+        self.status = node.subscribe("move_base/status", MoveBaseStatus)
+
+    def _cmd(self, _m: Twist) -> None:
+        m = self.truth.latest()
+        if m is not None:
+            p = m.pose2d
+            with self.lock:
+                self.rows.append((m.header.stamp, p.x, p.y, p.theta, m.twist.linear.x, m.twist.angular.z))
+
+    def _collision(self, m: Collision) -> None:
+        with self.lock:
+            if m.count > self.collisions:
+                self.collisions, self.contact = m.count, (m.x, m.y)
+
+
+def master_sets(master_config: Path, case: Case) -> list[str]:
+    """``--set`` options starting the master's AMCL at the case's start (none for other localisers)."""
+    launch = master_agent.load(str(master_config))
+    out = []
+    for e in launch.entries:
+        if e.opts.module == AMCL_MODULE:
+            for key, value in zip(("initial_pose_x", "initial_pose_y", "initial_pose_a"), case.start):
+                out += ["--set", f"{e.name}.{key}={value}"]
+    return out
+
+
+def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: str | Path = "",
+                 speed: float = 1.0, time_limit_s: float = TIME_LIMIT_S) -> Result:
+    wall0 = time.perf_counter()
+    work = Path(workdir or tempfile.mkdtemp(prefix="zenav-mrpb-")).resolve() / case.name.replace("/", "_")
+    work.mkdir(parents=True, exist_ok=True)
+    robot = f"mrpb{uuid.uuid4().hex[:6]}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    group = ProcessGroup(robot, endpoint, work)
+    node = Node("mrpb_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)))
+    rec = _Recorder(node)
+    status, reason = "timeout", f"not reached within {time_limit_s:g} s"
+    cancel = threading.Event()
+    try:
+        group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(case.world_file),
+                              "--start", *map(str, case.start), "--speed", str(speed)])
+        group.spawn("master", ["master", "--config", str(master_config), "--map", str(case.map_file),
+                               *master_sets(master_config, case)])
+        group.wait("the simulator", lambda: rec.truth.latest() is not None, STARTUP_S)
+        group.wait("move_base", lambda: rec.status.latest() is not None, STARTUP_S)
+        answer: list = []
+        sender = threading.Thread(target=lambda: answer.append(send_goal(
+            node, *case.goal, "map", time_limit_s / speed + 60.0, echo=lambda _s: None, cancel=cancel)),
+            daemon=True)
+        sender.start()
+        t_wall = time.monotonic()
+        while True:
+            with rec.lock:
+                hit = rec.collisions
+            if hit:
+                c = rec.contact
+                status, reason = "collision", f"contact at ({c[0]:.2f}, {c[1]:.2f})" if c else "contact"
+                break
+            if answer:
+                code, st = answer[0]
+                if st is not None and st.status == GoalStatus.SUCCEEDED:
+                    status, reason = "success", ""
+                elif st is not None and st.status != GoalStatus.ACTIVE:
+                    status, reason = "aborted", st.reason or f"status {st.status}"
+                else:
+                    reason = f"zenav goal ended with exit code {code}"
+                break
+            m = rec.truth.latest()
+            with rec.lock:
+                first = rec.rows[0][0] if rec.rows else None
+            if m is not None and first is not None and m.header.stamp - first > time_limit_s:
+                break
+            group.check_alive()
+            if time.monotonic() - t_wall > time_limit_s / speed * 3 + 120:
+                reason = "no end in wall time"
+                break
+            time.sleep(0.05)
+    except RuntimeError as e:  # an agent died or never came up
+        status, reason = "aborted", str(e)
+    finally:
+        cancel.set()
+        group.stop()
+        node.close()
+    with rec.lock:
+        rows = np.array(rec.rows, float).reshape(-1, 6)
+        loop = np.array(rec.loop_ms)
+    return Result(case, status, reason, rows, loop, time.perf_counter() - wall0)

@@ -1,0 +1,90 @@
+"""MRPB's static environments and their start/goal tests (``../shared/datasets/mrpb/map10cm``).
+
+Each environment's ``config.txt`` gives its tests as launch-file snippets (``initial_pose_x/y/a``,
+``goal_pose_x/y/a``; map frame, metres and radians). The simulated world is the environment's map (walls
+as obstacles at its 0.1 m cells). In the ``*_partially_unknown`` environments the robot is given that map,
+in which some obstacles are unknown (205), while the world is the full map of the same place (its
+occupied cells are a superset: ``world_map``), so the obstacle layer must find what the map lacks.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
+
+# the static environments (the *_dynamic ones and six_people have pedestrians: no static world)
+STATIC_ENVS = ("maze", "narrow_graph", "office01add", "office02", "office02_partially_unknown", "room02",
+               "shopping_mall", "shopping_mall_partially_unknown", "track")
+_ARG = re.compile(r'<arg\s+name="(\w+)"\s+default="([^"]+)"\s*/>')
+
+
+@dataclass(frozen=True)
+class Case:
+    env: str
+    test: int  # 1-based, as config.txt numbers them
+    start: tuple[float, float, float]  # x, y, yaw in the map frame
+    goal: tuple[float, float, float]
+    map_file: Path  # the map the robot is given
+    world_file: Path  # the map the simulator is built from
+
+    @property
+    def name(self) -> str:
+        return f"{self.env}/{self.test}"
+
+
+def world_map(root: Path, env: str) -> Path:
+    """The full map of ``env``'s place: a partially unknown environment's world is its known twin."""
+    return root / env.removesuffix("_partially_unknown") / "map.yaml"
+
+
+def parse_config(text: str, source: str = "config.txt") -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
+    """The tests of one config.txt: [(start (x, y, a), goal (x, y, a)), ...] in the file's order."""
+    tests, cur = [], {}
+    for name, value in _ARG.findall(text):
+        cur[name] = float(value)
+        keys = ("initial_pose_x", "initial_pose_y", "initial_pose_a", "goal_pose_x", "goal_pose_y", "goal_pose_a")
+        if all(k in cur for k in keys):
+            tests.append((tuple(cur[k] for k in keys[:3]), tuple(cur[k] for k in keys[3:])))
+            cur = {}
+    if cur:
+        raise ValueError(f"{source}: an incomplete test (has {sorted(cur)})")
+    if not tests:
+        raise ValueError(f"{source}: no test found")
+    return tests
+
+
+def load_cases(root: Path, envs: tuple[str, ...] = STATIC_ENVS, tests: tuple[int, ...] = ()) -> list[Case]:
+    """Every test of ``envs`` (only those numbered in ``tests``, if given), under ``root`` (map10cm/)."""
+    out = []
+    for env in envs:
+        cfg = root / env / "config.txt"
+        if not cfg.exists():
+            raise FileNotFoundError(f"{cfg}: no such MRPB environment (known: {', '.join(STATIC_ENVS)})")
+        for i, (start, goal) in enumerate(parse_config(cfg.read_text(), str(cfg)), 1):
+            if not tests or i in tests:
+                out.append(Case(env, i, start, goal, root / env / "map.yaml", world_map(root, env)))  # type: ignore[arg-type]
+    return out
+
+
+TIME_LIMIT_S = 300.0  # simulated seconds from the goal: ours (MRPB names none); its longest case is 38 m
+
+
+@dataclass
+class Result:
+    """One case driven to its end: ``status`` success (move_base reached the goal, no contact), collision
+    (the run ends at the first contact), aborted (move_base gave up) or timeout (``TIME_LIMIT_S``)."""
+    case: Case
+    status: str
+    reason: str
+    trace: np.ndarray  # rows (t, x, y, yaw, v, w) of ground truth, one per control cycle, from the goal
+    cycle_ms: np.ndarray  # move_base's control cycles (wall time, ms)
+    wall_s: float
+
+    @property
+    def success(self) -> bool:
+        return self.status == "success"
