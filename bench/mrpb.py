@@ -77,6 +77,8 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--mode", choices=("fast", "bus"), default="fast")
     ap.add_argument("--configs", default="zenav,tutorial", help="comma-separated: zenav, tutorial")
+    ap.add_argument("--master", default="", metavar="FILE",
+                    help="your own master YAML instead of --configs (both modes; named by its file)")
     ap.add_argument("--envs", default=",".join(STATIC_ENVS), help="comma-separated environments (default: all)")
     ap.add_argument("--tests", default="", help="comma-separated test numbers (default: every test)")
     ap.add_argument("--robot", default=str(ROBOT), help="robot YAML (default: the P3-AT with its planar laser)")
@@ -87,8 +89,12 @@ def main(argv: list[str] | None = None) -> int:
                     help=f"MRPB's d_safe (default {SAFE_DISTANCE_M} m)")
     ap.add_argument("--workdir", default="", help="bus mode: where the agents' logs go (default: a temp folder)")
     a = ap.parse_args(argv)
-    configs = [c.strip() for c in a.configs.split(",") if c.strip()]
-    bad = [c for c in configs if c not in MASTERS]
+    masters = dict(MASTERS)
+    if a.master:
+        own = Path(a.master).resolve()
+        masters = {own.stem: (own, own)}
+    configs = list(masters) if a.master else [c.strip() for c in a.configs.split(",") if c.strip()]
+    bad = [c for c in configs if c not in masters]
     if bad:
         ap.error(f"unknown configuration(s) {bad}: choose from {sorted(MASTERS)}")
     try:
@@ -104,8 +110,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.monotonic()
     results: dict[str, list[Result]] = {}
     for cfg in configs:
-        master = MASTERS[cfg][0 if a.mode == "fast" else 1]
-        print(f"## {cfg}: {master.relative_to(ROOT)}", flush=True)
+        master = masters[cfg][0 if a.mode == "fast" else 1]
+        print(f"## {cfg}: {master}", flush=True)
         if a.mode == "fast":
             with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
                 runs = ex.map(_fast, [(c, a.robot, master) for c in cases])
