@@ -143,8 +143,10 @@ def _progress(runs, cases: list[Case], fields: dict, safe: float, t0: float):
     for i, r in enumerate(runs, 1):
         m = _metrics(r, fields, safe)
         note = f"  {r.reason}" if r.reason else ""
+        loc = (f"  AMCL err p95 {np.percentile(r.loc_err, 95):.2f} m" if r.loc_err is not None and len(r.loc_err)
+               else "")
         print(f"[{i:2d}/{len(cases)}] {r.case.name:34s} {r.status:9s} {m.time_s:6.1f} s {m.path_m:5.1f} m  "
-              f"d_min {m.d_min_m:.2f} m  ({time.monotonic() - t0:.0f} s){note}", flush=True)
+              f"d_min {m.d_min_m:.2f} m{loc}  ({time.monotonic() - t0:.0f} s){note}", flush=True)
         yield r
 
 
@@ -172,12 +174,14 @@ def _summary(prefix: str, rs: list[Result], fields: dict, safe: float) -> str:
     ok = [_metrics(r, fields, safe) for r in rs if r.success]
     mins = [_metrics(r, fields, safe).d_min_m for r in rs if len(r.trace) > 1]
     nan = math.nan
+    errs = [r.loc_err for r in rs if r.loc_err is not None and len(r.loc_err)]
+    loc = f" {prefix}_loc_err_p95_m={np.percentile(np.concatenate(errs), 95):.3f}" if errs else ""
     return (f"{prefix}_success={sum(r.success for r in rs) / max(1, len(rs)):.3f} "
             f"{prefix}_collisions={sum(r.status == 'collision' for r in rs)} "
             f"{prefix}_time_mean_s={np.mean([m.time_s for m in ok]) if ok else nan:.1f} "
             f"{prefix}_min_clearance_m={min(mins) if mins else nan:.2f} "
             f"{prefix}_jerk_mean={np.mean([m.jerk_mean for m in ok]) if ok else nan:.3f} "
-            f"{prefix}_danger_pct={np.mean([m.danger_pct for m in ok]) if ok else nan:.1f}")
+            f"{prefix}_danger_pct={np.mean([m.danger_pct for m in ok]) if ok else nan:.1f}{loc}")
 
 
 if __name__ == "__main__":

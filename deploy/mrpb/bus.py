@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from common.bus import Node
-from common.messages import Collision, GoalStatus, MoveBaseStatus, Odometry, Scalar, Twist
+from common.messages import Collision, GoalStatus, MoveBaseStatus, Odometry, PoseStamped, Scalar, Twist
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.mrpb.cases import TIME_LIMIT_S, Case, Result
@@ -28,7 +28,8 @@ AMCL_MODULE = "master_side.localization.amcl_node"
 
 
 class _Recorder:
-    """Ground truth at each of move_base's commands (a control cycle), contacts, loop times."""
+    """Ground truth at each of move_base's commands (a control cycle), contacts, loop times, and the
+    localiser's error: each ``amcl_pose`` against the ground truth of the same moment."""
 
     def __init__(self, node: Node):
         self.lock = threading.Lock()
@@ -37,6 +38,8 @@ class _Recorder:
         self.collisions = 0
         self.contact: tuple[float, float] | None = None
         self.loop_ms: list[float] = []
+        self.loc_err: list[float] = []  # metres, one per amcl_pose
+        node.subscribe("amcl_pose", PoseStamped, callback=self._located, mode="queue")
         node.subscribe("collision", Collision, callback=self._collision, mode="queue")
         node.subscribe("move_base/loop_time", Scalar, mode="queue",
                        callback=lambda m: self.loop_ms.append(m.value * 1e3))
@@ -49,6 +52,13 @@ class _Recorder:
             p = m.pose2d
             with self.lock:
                 self.rows.append((m.header.stamp, p.x, p.y, p.theta, m.twist.linear.x, m.twist.angular.z))
+
+    def _located(self, m: PoseStamped) -> None:
+        g = self.truth.latest()
+        if g is not None:
+            p, q = m.pose.to_pose2d(), g.pose2d
+            with self.lock:
+                self.loc_err.append(float(np.hypot(p.x - q.x, p.y - q.y)))
 
     def _collision(self, m: Collision) -> None:
         with self.lock:
@@ -127,4 +137,5 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
     with rec.lock:
         rows = np.array(rec.rows, float).reshape(-1, 6)
         loop = np.array(rec.loop_ms)
-    return Result(case, status, reason, rows, loop, time.perf_counter() - wall0)
+        loc = np.array(rec.loc_err)
+    return Result(case, status, reason, rows, loop, time.perf_counter() - wall0, loc)

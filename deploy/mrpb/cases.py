@@ -1,10 +1,15 @@
-"""MRPB's static environments and their start/goal tests (``../shared/datasets/mrpb/map10cm``).
+"""MRPB's static environments and their start/goal tests (``../shared/datasets/mrpb``).
 
-Each environment's ``config.txt`` gives its tests as launch-file snippets (``initial_pose_x/y/a``,
-``goal_pose_x/y/a``; map frame, metres and radians). The simulated world is the environment's map (walls
-as obstacles at its 0.1 m cells). In the ``*_partially_unknown`` environments the robot is given that map,
-in which some obstacles are unknown (205), while the world is the full map of the same place (its
-occupied cells are a superset: ``world_map``), so the obstacle layer must find what the map lacks.
+Each environment's ``map10cm/<env>/config.txt`` gives its tests as launch-file snippets
+(``initial_pose_x/y/a``, ``goal_pose_x/y/a``; map frame, metres and radians). MRPB has each map twice, at
+0.1 m (``map10cm/``) and at 0.05 m (``maps/``), in the same frame. The finer set is used, for the world and
+for the robot's map: rasterised from the same Gazebo worlds, the 0.1 m cells thicken every wall by up to
+a cell (an occupied 0.1 m cell holds two occupied 0.05 m cells on average), which narrows the benchmark's
+0.6 m passages to what the P3-AT (0.51 m wide) cannot pass, and they bound AMCL's likelihood field to
+0.1 m steps. The simulated world is the map (walls as obstacles at its cells). In the
+``*_partially_unknown`` environments the robot is given that map, in which some obstacles are unknown,
+while the world is the full map of the same place (its occupied cells are a superset: ``world_map``), so
+the obstacle layer must find what the map lacks.
 """
 
 from __future__ import annotations
@@ -37,9 +42,17 @@ class Case:
         return f"{self.env}/{self.test}"
 
 
+MAPS = "maps"  # the 0.05 m set, beside map10cm/ (which holds the tests)
+
+
 def world_map(root: Path, env: str) -> Path:
     """The full map of ``env``'s place: a partially unknown environment's world is its known twin."""
-    return root / env.removesuffix("_partially_unknown") / "map.yaml"
+    return root.parent / MAPS / env.removesuffix("_partially_unknown") / "map.yaml"
+
+
+def robot_map(root: Path, env: str) -> Path:
+    """The map the robot is given."""
+    return root.parent / MAPS / env / "map.yaml"
 
 
 def parse_config(text: str, source: str = "config.txt") -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
@@ -59,7 +72,7 @@ def parse_config(text: str, source: str = "config.txt") -> list[tuple[tuple[floa
 
 
 def load_cases(root: Path, envs: tuple[str, ...] = STATIC_ENVS, tests: tuple[int, ...] = ()) -> list[Case]:
-    """Every test of ``envs`` (only those numbered in ``tests``, if given), under ``root`` (map10cm/)."""
+    """Every test of ``envs`` (only those numbered in ``tests``, if given); ``root`` is MRPB's map10cm/."""
     out = []
     for env in envs:
         cfg = root / env / "config.txt"
@@ -67,7 +80,7 @@ def load_cases(root: Path, envs: tuple[str, ...] = STATIC_ENVS, tests: tuple[int
             raise FileNotFoundError(f"{cfg}: no such MRPB environment (known: {', '.join(STATIC_ENVS)})")
         for i, (start, goal) in enumerate(parse_config(cfg.read_text(), str(cfg)), 1):
             if not tests or i in tests:
-                out.append(Case(env, i, start, goal, root / env / "map.yaml", world_map(root, env)))  # type: ignore[arg-type]
+                out.append(Case(env, i, start, goal, robot_map(root, env), world_map(root, env)))  # type: ignore[arg-type]
     return out
 
 
@@ -84,6 +97,7 @@ class Result:
     trace: np.ndarray  # rows (t, x, y, yaw, v, w) of ground truth, one per control cycle, from the goal
     cycle_ms: np.ndarray  # move_base's control cycles (wall time, ms)
     wall_s: float
+    loc_err: np.ndarray | None = None  # the localiser's position error (m) over the run; None: exact TF
 
     @property
     def success(self) -> bool:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from deploy.mrpb.cases import STATIC_ENVS, load_cases, parse_config, world_map
+from deploy.mrpb.cases import STATIC_ENVS, load_cases, parse_config, robot_map, world_map
 from master_side.mapping.map_io import load_map
 
 
@@ -34,12 +34,12 @@ def test_every_static_environment_has_its_tests_and_each_start_is_free_in_the_wo
 
 def test_a_partially_unknown_environment_runs_in_its_full_twin_which_holds_every_obstacle_of_its_map(root):
     for env in ("office02_partially_unknown", "shopping_mall_partially_unknown"):
-        full, part = load_map(world_map(root, env)), load_map(root / env / "map.yaml")
+        full, part = load_map(world_map(root, env)), load_map(robot_map(root, env))
         assert world_map(root, env).parent.name == env.removesuffix("_partially_unknown")
         occ_full, occ_part = full.data >= 65, part.data >= 65
         assert np.all(occ_full[occ_part])  # nothing the robot is told of is missing from the world
         assert occ_full.sum() > occ_part.sum()  # and the world has obstacles the map lacks
-    assert world_map(root, "office02") == root / "office02" / "map.yaml"
+    assert world_map(root, "office02") == root.parent / "maps" / "office02" / "map.yaml"
 
 
 def test_a_bad_config_is_refused_with_its_name(root, tmp_path):
