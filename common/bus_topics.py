@@ -39,6 +39,10 @@ def topic_key(robot: str, topic: str) -> str:
 # waits before asking again when a new publisher gave no reply: quickly at first, then every 16 s for
 # about two minutes (a query right after a reconnect can find no route for a while: Zenoh issue #2767)
 LATCHED_RETRY_S = (0.5, 1.0, 2.0, 4.0, 8.0) + (16.0,) * 7
+# a latched publisher asked before its first message answers this (and its name) instead of nothing: the
+# route works, the message will come live, and no one keeps asking (move_base's result, before any goal
+# has ended, was asked for every 16 s with a warning that its queryable had no route)
+NOTHING_YET = "latched: nothing published yet by "
 
 
 def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sample], None],
@@ -61,6 +65,10 @@ def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sampl
             if not expect or att is None or att.to_bytes().decode(errors="replace") == expect:
                 answered[0] = True
             on_ok(reply.ok)
+        elif reply.err is not None:  # reached, and nothing to give yet: as good as an answer
+            why = reply.err.payload.to_string()
+            if why.startswith(NOTHING_YET) and (not expect or why[len(NOTHING_YET):] == expect):
+                answered[0] = True
 
     def on_done() -> None:
         if retry and not answered[0] and attempt < len(LATCHED_RETRY_S) and not closed():
@@ -104,6 +112,8 @@ class Publisher:
         last = self._last
         if last is not None:
             query.reply(self.key, last, attachment=self._attachment)
+        else:
+            query.reply_err(f"{NOTHING_YET}{self._node.name}".encode())
 
     @property
     def matching(self) -> bool:

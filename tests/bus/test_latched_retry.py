@@ -86,3 +86,19 @@ def test_a_second_static_tf_publisher_is_asked_until_it_answers_itself(node_pair
                                      complete=False)
     wait_until(lambda: tf.buffer.can_transform("base_link", "camera"), 5 + sum(LATCHED_RETRY_S),
                "the second static transform")
+
+
+def test_a_latched_publisher_with_nothing_yet_is_asked_once_and_its_first_message_comes_live(node_pair):
+    """move_base's result before any goal has ended: reachable, nothing to give. The subscriber's fetch
+    counts that as an answer: no retries asking the publisher to declare its queryable again (each
+    logged a warning, every 16 s for two minutes); the first message then comes as a live put."""
+    pub_node = node_pair("move_base")
+    pub = pub_node.publisher("move_base/result", latched=True)
+    sub_node = node_pair("goal_sender")
+    sub = sub_node.subscribe("move_base/result", OccupancyGrid)
+    wait_until(lambda: any("move_base" in k for k in _live_pubs(sub_node)), 30, "the publisher's token")
+    threading.Event().wait(sum(LATCHED_RETRY_S[:3]) + 1.0)  # an absence: the retries' first three waits
+    assert pub_node.queryables.redeclared == 0
+    pub.publish(GRID)
+    got = sub.wait_first(timeout=30)
+    assert got is not None and got.header.stamp == 7.0
