@@ -1,0 +1,43 @@
+"""The choice of the next target (master_side/exploration/explorer.py): new targets, progress timeouts
+and move_base failures blacklist, the end when nothing is left."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from master_side.exploration.explorer import ExploreParams, Explorer
+from master_side.exploration.frontiers import Frontier
+
+
+def _f(x: float, y: float, cost: float, dist: float = 2.0) -> Frontier:
+    return Frontier(10, 1.0, (x, y), (x - 0.5, y), dist, cost, np.zeros((0, 2)))
+
+
+def test_a_new_target_is_sent_and_the_same_one_kept_while_it_gets_nearer():
+    ex = Explorer(ExploreParams(progress_timeout=30.0))
+    d = ex.plan([_f(3, 0, -2.0), _f(-3, 0, -1.0)], now=0.0)
+    assert (d.action, d.target) == ("send", (3, 0))
+    assert ex.plan([_f(3, 0, -2.0, dist=1.5)], now=20.0).action == "keep"
+    assert ex.plan([_f(3, 0, -2.0, dist=1.0)], now=45.0).action == "keep"  # nearer at 45 s: progress
+
+
+def test_no_progress_for_progress_timeout_blacklists_the_target_and_takes_the_next():
+    ex = Explorer(ExploreParams(progress_timeout=30.0))
+    fs = [_f(3, 0, -2.0), _f(-3, 0, -1.0)]
+    ex.plan(fs, now=0.0)
+    assert ex.plan(fs, now=29.0).action == "keep"
+    d = ex.plan(fs, now=31.0)  # 31 s at the same distance
+    assert (d.action, d.target) == ("send", (-3, 0))
+    assert ex.blacklisted((3.2, 0.1)) and not ex.blacklisted((3.6, 0.0))  # within blacklist_radius 0.5 m
+
+
+def test_a_failed_goal_is_never_chosen_again_and_all_blacklisted_is_the_end():
+    ex = Explorer()
+    fs = [_f(3, 0, -2.0), _f(-3, 0, -1.0)]
+    assert ex.plan(fs, 0.0).target == (3, 0)
+    ex.goal_failed((3, 0))
+    assert ex.plan(fs, 1.0).target == (-3, 0)
+    ex.goal_failed((-3, 0))
+    d = ex.plan(fs, 2.0)
+    assert d.action == "done" and d.why == "all 2 frontiers blacklisted"
+    assert Explorer().plan([], 0.0).why == "no frontier left"

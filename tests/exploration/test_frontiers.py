@@ -1,0 +1,67 @@
+"""Frontier search (master_side/exploration/frontiers.py) on synthetic costmaps whose frontiers are known."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from master_side.costmap.cost_values import FREE, INSCRIBED, LETHAL, NO_INFORMATION
+from master_side.exploration.frontiers import Grid, reachable, search
+
+RES = 0.1
+
+
+def _room() -> np.ndarray:
+    """20 x 30 cells at 0.1 m, origin (0, 0): unknown everywhere but a known room x in [0.5, 1.5),
+    y in [0.5, 1.5) with walls around it, a door 4 cells wide on its east wall (x = 1.5, y in
+    [0.8, 1.2)), and, behind the west wall, a second known pocket that no free path reaches."""
+    g = np.full((20, 30), NO_INFORMATION, np.uint8)
+    g[5:15, 5:15] = FREE
+    g[4, 4:16] = g[15, 4:16] = LETHAL
+    g[4:16, 4] = g[4:16, 15] = LETHAL
+    g[8:12, 15] = FREE  # the door: 4 cells
+    g[6:10, 1:3] = FREE  # a pocket beyond the west wall, cut off from the robot
+    return g
+
+
+def test_the_door_is_the_one_frontier_and_a_pocket_beyond_a_wall_is_not():
+    grid = Grid(_room(), RES, (0.0, 0.0))
+    fs = search(grid, (1.0, 1.0), min_frontier_size=0.0)
+    assert len(fs) == 1
+    f = fs[0]
+    # the unknown cells touching the door's free cells (4-connected): the 4 east of it, x = 1.6..1.7
+    assert f.size == 4 and f.size_m == pytest.approx(0.4)
+    assert f.centroid == pytest.approx((1.65, 1.0))
+    assert f.min_distance == pytest.approx(np.hypot(0.65, 0.05))
+    assert f.cost == pytest.approx(1e-3 * f.min_distance - 0.4)
+
+
+def test_bigger_frontiers_win_by_gain_and_nearer_ones_by_potential():
+    g = np.full((40, 40), FREE, np.uint8)
+    g[:, 35:] = NO_INFORMATION  # far east: a 40-cell edge at x = 3.5
+    g[:3, :5] = NO_INFORMATION  # near the robot, south-west: a small pocket (edges of 5 and 3 cells, one shared)
+    grid = Grid(g, RES, (0.0, 0.0))
+    robot = (0.6, 0.6)
+    default = search(grid, robot, min_frontier_size=0.0)
+    assert [f.size for f in default] == [40, 7]  # gain_scale 1 per metre of frontier: the long edge first
+    by_distance = search(grid, robot, potential_scale=10.0, gain_scale=0.1, min_frontier_size=0.0)
+    assert [f.size for f in by_distance] == [7, 40]
+    assert [f.size for f in search(grid, robot, min_frontier_size=1.0)] == [40]  # 0.7 m is too small
+
+
+def test_a_robot_on_a_costly_cell_searches_from_the_nearest_free_one_and_outside_the_map_is_refused():
+    g = np.full((10, 10), FREE, np.uint8)
+    g[:, 8:] = NO_INFORMATION
+    g[4:7, 2:5] = INSCRIBED  # the robot stands inside an inflated region
+    grid = Grid(g, RES, (0.0, 0.0))
+    assert reachable(grid, (0.35, 0.55)).sum() == 8 * 10 - 9
+    assert search(grid, (0.35, 0.55), min_frontier_size=0.0)[0].size == 10
+    with pytest.raises(ValueError, match="outside the costmap"):
+        search(grid, (5.0, 5.0))
+
+
+def test_a_map_with_nothing_unknown_next_to_free_space_has_no_frontier():
+    g = np.full((10, 10), FREE, np.uint8)
+    g[0, :] = g[-1, :] = LETHAL
+    g[:, 0] = g[:, -1] = LETHAL
+    assert search(Grid(g, RES, (0.0, 0.0)), (0.5, 0.5)) == []
