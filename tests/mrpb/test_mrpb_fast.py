@@ -1,8 +1,10 @@
 """One MRPB case in one process (deploy/mrpb/inproc.py), measured as bench/mrpb.py measures it.
 
-office01add's test 3 leaves a room through a 0.6-0.7 m corridor. With the local costmap padded by 0.04 m
-(zenav's former P3-AT choice, 0.59 m wide) DWA stood at its mouth rejecting every trajectory while the
-global plan ran through it; with MRPB's own 0.01 m (p3at_zenav/local_costmap_params.yaml) it passes."""
+office01add's test 3 leaves a room through a narrow corridor. With the local costmap padded by 0.04 m
+(zenav's former P3-AT choice, 0.59 m wide) the robot did not get through: on MRPB's 0.1 m map DWA stood at
+the corridor's mouth rejecting every trajectory while the global plan ran through it, on the 0.05 m map
+(used here, deploy/mrpb/cases.py) it had not arrived after 300 s; with MRPB's own 0.01 m
+(p3at_zenav/local_costmap_params.yaml) it passes."""
 
 from __future__ import annotations
 
