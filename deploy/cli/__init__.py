@@ -34,6 +34,7 @@ COMMANDS = [
     "deploy.cli.master",
     "deploy.cli.monitor",
     "deploy.cli.goal",
+    "deploy.cli.explore",
     "deploy.cli.demo",
     "deploy.cli.slam",
     "deploy.cli.play",

@@ -45,3 +45,22 @@ def map_accuracy(grid: OccupancyGrid, world: str, map_in_world: Pose2D, min_heig
     err = np.maximum(d - grid.resolution / 2, 0.0)
     return MapAccuracy(len(err), float(np.mean(err <= 2 * grid.resolution)), float(np.mean(err[np.isfinite(err)])),
                        float(np.percentile(err, 95)))
+
+
+def explored_share(grid: OccupancyGrid, world: str, map_in_world: Pose2D, min_height: float = 0.05,
+                   margin_m: float = 0.1) -> tuple[float, float]:
+    """(the share of ``world``'s free area the robot can reach that ``grid`` knows as free, that area in m²).
+    The true area is sampled at the map's resolution; cells within ``margin_m`` of a true obstacle are left
+    out (a wall's face falls anywhere within a map cell)."""
+    w = load_world(world_path(world), WorldParams(resolution=grid.resolution))
+    truth = w.to_occupancy_grid(min_height, unknown_unreachable=True).data
+    near_wall = ndimage.distance_transform_edt(truth != 100) * w.resolution <= margin_m
+    rows, cols = np.nonzero((truth == 0) & ~near_wall)
+    pts = np.column_stack((w.origin[0] + (cols + 0.5) * w.resolution, w.origin[1] + (rows + 0.5) * w.resolution))
+    xy = map_in_world.inverse().apply(pts)
+    c = np.floor((xy[:, 0] - grid.origin.x) / grid.resolution).astype(int)
+    r = np.floor((xy[:, 1] - grid.origin.y) / grid.resolution).astype(int)
+    inside = (r >= 0) & (c >= 0) & (r < grid.data.shape[0]) & (c < grid.data.shape[1])
+    known_free = np.zeros(len(xy), bool)
+    known_free[inside] = (grid.data[r[inside], c[inside]] >= 0) & (grid.data[r[inside], c[inside]] < 25)
+    return float(np.mean(known_free)) if len(xy) else 0.0, len(xy) * w.resolution**2

@@ -29,6 +29,9 @@ class ExploreParams:
     visualize: bool = param(True, doc="publish the frontiers and the target (explore/frontiers)")
     blacklist_radius: float = param(0.5, lo=0.0, hi=100.0, unit="m",
                                     doc="zenav's: a target this near a blacklisted one is blacklisted too")
+    inscribed_radius: float = param(0.254, lo=0.0, hi=10.0, unit="m",
+                                    doc="zenav's: free space nearer a wall is not free for the search (the "
+                                        "P3-AT's, from the tutorial's footprint)")
 
 
 @dataclass

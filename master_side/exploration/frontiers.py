@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
-from master_side.costmap.cost_values import INSCRIBED, NO_INFORMATION
+from master_side.costmap.cost_values import FREE, INSCRIBED, LETHAL, NO_INFORMATION
 
 _FOUR = ndimage.generate_binary_structure(2, 1)
 _EIGHT = ndimage.generate_binary_structure(2, 2)
@@ -49,6 +49,20 @@ class Grid:
     def centres(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
         return np.column_stack((self.origin[0] + (cols + 0.5) * self.resolution,
                                 self.origin[1] + (rows + 0.5) * self.resolution))
+
+
+def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, float],
+                  inscribed_radius: float, occupied: int = 65) -> Grid:
+    """A SLAM map (OccupancyGrid values: -1 unknown, 0..100) as costs: unknown, LETHAL from ``occupied``,
+    INSCRIBED within ``inscribed_radius`` of a LETHAL cell (where the robot's centre cannot go), else FREE."""
+    data = np.asarray(data)
+    lethal = data >= occupied
+    cost = np.where(data < 0, NO_INFORMATION, FREE).astype(np.uint8)
+    if lethal.any():
+        near = ndimage.distance_transform_edt(~lethal) * resolution <= inscribed_radius
+        cost[near & (data >= 0)] = INSCRIBED
+    cost[lethal] = LETHAL
+    return Grid(cost, resolution, origin)
 
 
 def reachable(grid: Grid, robot: tuple[float, float]) -> np.ndarray:

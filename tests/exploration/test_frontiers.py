@@ -65,3 +65,17 @@ def test_a_map_with_nothing_unknown_next_to_free_space_has_no_frontier():
     g[0, :] = g[-1, :] = LETHAL
     g[:, 0] = g[:, -1] = LETHAL
     assert search(Grid(g, RES, (0.0, 0.0)), (0.5, 0.5)) == []
+
+
+def test_a_slam_map_becomes_costs_with_the_robots_radius_kept_off_the_walls():
+    from master_side.exploration.frontiers import grid_from_map
+
+    m = np.zeros((10, 10), np.int8)
+    m[:, 5] = 100  # a wall at x in [0.5, 0.6)
+    m[:, 8:] = -1
+    g = grid_from_map(m, RES, (0.0, 0.0), inscribed_radius=0.25)
+    assert (g.data[:, 5] == LETHAL).all() and (g.data[:, 8:] == NO_INFORMATION).all()
+    assert (g.data[:, 3:5] == INSCRIBED).all() and (g.data[:, 6:8] == INSCRIBED).all()  # 0.1 and 0.2 m off
+    assert (g.data[:, :3] == FREE).all()  # 0.3 m and more
+    # a gap narrower than the robot leaves the unknown beyond it unreachable: no frontier
+    assert search(g, (0.15, 0.5), min_frontier_size=0.0) == []

@@ -1,0 +1,121 @@
+"""Exploration over the bus (``zenav explore``): the frontiers of SLAM's map while it grows (the map itself,
+as explore_lite with costmap_topic map: the tutorial's SLAM costmaps track no unknown space), a goal to
+move_base for the chosen one, until none is left (master_side/exploration: the search and the choice,
+pure). Progress lines through ``echo``; the end says why and how much is known."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import threading
+import time
+import uuid
+from dataclasses import dataclass
+
+import numpy as np
+
+from master_side.exploration.explorer import ExploreParams, Explorer
+from master_side.exploration.frontiers import Grid, grid_from_map, search
+
+
+@dataclass
+class ExploreReport:
+    code: int  # 0 done (nothing left), 1 stopped (Ctrl-C), 2 no map / costmap / move_base
+    why: str
+    goals: int = 0
+    failed: int = 0
+    known_free_m2: float = 0.0
+    seconds: float = 0.0
+
+    def summary(self) -> str:
+        return (f"exploration {'done' if self.code == 0 else 'stopped'}: {self.why}; {self.goals} goals sent "
+                f"({self.failed} failed), {self.known_free_m2:.1f} m² known free, {self.seconds:.0f} s")
+
+
+def known_free_m2(grid: Grid) -> float:
+    """Free and inscribed cells: the free area the map knows."""
+    return float(np.count_nonzero(grid.data <= 253) * grid.resolution**2)
+
+
+def explore(node, params: ExploreParams, echo=print, stop: threading.Event | None = None, wait: float = 30.0,
+            base_frame: str = "base_link") -> ExploreReport:
+    from common.delivery import DeliveryFailed, last_seen, send_goal
+    from common.geometry import Pose2D
+    from common.messages import GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, OccupancyGrid, PoseStamped
+    from common.tf import TFListener
+
+    stop = stop or threading.Event()
+    t0 = time.monotonic()
+    maps = node.subscribe("map", OccupancyGrid)
+    status = node.subscribe("move_base/status", MoveBaseStatus)
+    results = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
+    tf = TFListener(node)
+    seen = last_seen(status, "move_base's status")
+    deadline = time.monotonic() + wait
+    while maps.latest() is None or status.latest() is None:
+        if stop.is_set():
+            return ExploreReport(1, "stopped before the map came", seconds=time.monotonic() - t0)
+        if time.monotonic() > deadline:
+            what = "no map (is SLAM running? zenav master --config master_side/config/p3at_slam.yaml)" \
+                if maps.latest() is None else "no move_base"
+            return ExploreReport(2, f"{what} on robot '{node.robot}' within {wait:g} s", seconds=wait)
+        time.sleep(0.1)
+    ex, report = Explorer(params), ExploreReport(0, "")
+    goal_id, target = "", None
+    period = 1.0 / params.planner_frequency
+    while not stop.is_set():
+        m = maps.latest()
+        grid = grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), params.inscribed_radius)
+        report.known_free_m2 = known_free_m2(grid)
+        frame = m.header.frame_id or "map"
+        try:
+            pose = tf.buffer.lookup_pose2d(frame, base_frame, 0.0, timeout=1.0)
+        except Exception as e:  # no transform yet: SLAM publishes map -> odom after its first scan
+            echo(f"  waiting for {frame} -> {base_frame}: {e}")
+            stop.wait(period)
+            continue
+        while True:  # move_base's results for our goal: a failure blacklists its target
+            try:
+                r = results.get(timeout=0.0)
+            except TimeoutError:
+                break
+            if r.goal_id == goal_id and r.status != GoalStatus.SUCCEEDED and target is not None:
+                ex.goal_failed(target)
+                report.failed += 1
+                echo(f"  target ({target[0]:.2f}, {target[1]:.2f}) failed: {r.reason}; blacklisted")
+                goal_id, target = "", None
+        try:
+            frontiers = search(grid, (pose.x, pose.y), params.potential_scale, params.gain_scale,
+                               params.min_frontier_size)
+        except ValueError as e:
+            echo(f"  {e}")
+            stop.wait(period)
+            continue
+        d = ex.plan(frontiers, time.monotonic())
+        if d.action == "done":
+            report.why = d.why
+            break
+        if d.action == "send" and d.target is not None:
+            target, goal_id = d.target, f"explore-{uuid.uuid4().hex[:8]}"
+            yaw = math.atan2(d.target[1] - pose.y, d.target[0] - pose.x)
+            goal = MoveBaseGoal(goal_id, PoseStamped(Header(node.clock.now(), frame),
+                                                     Pose2D(d.target[0], d.target[1], yaw).to_transform()))
+            try:
+                send_goal(node, goal, 10.0, seen, cancelled=stop.is_set)
+            except DeliveryFailed as e:
+                report.code, report.why = 2, str(e)
+                break
+            report.goals += 1
+            f = d.frontier
+            echo(f"target {report.goals}: ({d.target[0]:.2f}, {d.target[1]:.2f}), a frontier of {f.size_m:.1f} m "
+                 f"{f.min_distance:.1f} m away; {len(frontiers)} frontiers, {report.known_free_m2:.0f} m² known free")
+        stop.wait(period)
+    if stop.is_set() and report.code == 0 and not report.why:
+        report.code, report.why = 1, "stopped (Ctrl-C)"
+    if goal_id:
+        from common.delivery import cancel_goal
+
+        with contextlib.suppress(DeliveryFailed):  # the way out: a cancel that does not arrive is said by move_base
+            cancel_goal(node, goal_id, 5.0, seen)
+    report.seconds = time.monotonic() - t0
+    return report
