@@ -12,7 +12,7 @@ import time
 import numpy as np
 import yaml
 
-from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
+from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, zenav_command
 from tests.support import free_port, wait_until
 
 WAYPOINTS = [(-1.0, 0.0), (-1.0, 1.3), (1.5, 1.3), (1.5, -1.2)]  # room: start (-2.2, 0, 0), crate at 0, 0
@@ -77,11 +77,11 @@ def test_amcl_e2e_tracks_ground_truth_while_driving_the_room(tmp_path):
         amcl_pose = node.subscribe("amcl_pose", PoseStamped)
         tf = TFListener(node)
         cmd = node.publisher("cmd_vel")
-        procs.append(NavProc(tmp_path / "robot.log", [*_zenav(), "robot", "--config", str(ROBOT_CONFIG),
+        procs.append(NavProc(tmp_path / "robot.log", [*zenav_command(), "robot", "--config", str(ROBOT_CONFIG),
                                                       "--world", "room", "--speed", str(SPEED)],
                              {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{robot_port}",
                               "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port}"}))
-        master = [*_zenav(), "master", "--config", master_yaml(tmp_path)]
+        master = [*zenav_command(), "master", "--config", master_yaml(tmp_path)]
         procs.append(NavProc(tmp_path / "master.log", master,
                              {**base, "ZENAV_LISTEN": f"tcp/127.0.0.1:{master_port}",
                               "ZENAV_CONNECT": f"tcp/127.0.0.1:{test_port},tcp/127.0.0.1:{robot_port}"}))

@@ -29,7 +29,7 @@ def test_waypoints_in_order_with_the_file_frame_as_default(tmp_path):
     assert load_mission(_file(tmp_path, "waypoints: [{x: 1, y: 2}]"))[0].frame == "map"
 
 
-@pytest.mark.parametrize("text, where, why", [
+@pytest.mark.parametrize(("text", "where", "why"), [
     ("waypoints:\n  - {x: 1}\n", "waypoints[0]", "missing y"),
     ("waypoints:\n  - {x: 1, y: 2}\n  - {x: 1, y: 2, yw: 3}\n", "waypoints[1].yw", "did you mean 'yaw'"),
     ("waypoints:\n  - {x: one, y: 2}\n", "waypoints[0].x", "expected a number"),

@@ -17,7 +17,7 @@ from common.bus import Node
 from common.messages import Costmap, MoveBaseStatus
 from common.zenoh_config import BusConfig
 from deploy.logs.mcap_io import read_info
-from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, _zenav
+from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc, zenav_command
 from tests.monitor.monhelp import has_footer, read_rrd
 from tests.support import free_port, wait_until
 
@@ -43,7 +43,7 @@ class Procs:
         self.tmp, self.procs = tmp, {}
 
     def start(self, name: str, args: list[str], env: dict) -> NavProc:
-        p = self.procs[name] = NavProc(self.tmp / f"{name}.log", [*_zenav(), *args], env)
+        p = self.procs[name] = NavProc(self.tmp / f"{name}.log", [*zenav_command(), *args], env)
         return p
 
     def dead(self) -> str:
