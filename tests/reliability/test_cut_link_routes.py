@@ -19,7 +19,6 @@ receives both again.
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import time
 import uuid
@@ -27,7 +26,7 @@ from pathlib import Path
 
 import pytest
 
-from testkit.line_proc import LineProc
+from testkit.netns_link import bus_env, linked_namespaces
 from tests.support import wait_until
 
 pytestmark = [pytest.mark.netns]
@@ -36,10 +35,6 @@ REPO = Path(__file__).resolve().parents[2]
 HERE = Path(__file__).parent
 CUT_S = 3.0
 MAX_GAP_S = 1.0  # a 50 Hz stream on a busy 2-core machine; the stall this guards against lasts the cut
-
-
-def _ip(*args: str) -> None:
-    subprocess.run(["ip", *args], check=True, capture_output=True, timeout=30)
 
 
 def _gaps(times: list[float], since: float, until: float) -> float:
@@ -51,29 +46,14 @@ def _gaps(times: list[float], since: float, until: float) -> float:
 def test_a_cut_link_to_the_master_does_not_stop_robot_side_routes(tmp_path):
     if os.geteuid() != 0:
         pytest.skip("needs root for network namespaces")
-    sfx = uuid.uuid4().hex[:6]
-    ns_m, ns_r = f"zcrm{sfx}", f"zcrr{sfx}"
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
-    env.update(PYTHONPATH=str(REPO), PYTHONUNBUFFERED="1", ZENAV_ROBOT=f"cr{sfx}", ZENAV_SHM="0")
     launch = tmp_path / "robot.yaml"
     node = f"[{sys.executable}, {HERE / 'cut_peer.py'}, robot_node]"
     launch.write_text(f"platform:\n  cut_robot_node:\n    cmd: {node}\n")
-    _ip("netns", "add", ns_m)
-    _ip("netns", "add", ns_r)
-    procs: list[LineProc] = []
-    try:
-        link = LineProc([sys.executable, str(REPO / "testkit/linkem.py"), ns_m, "10.79.0.1/24", ns_r,
-                         "10.79.0.2/24"], env)
-        procs.append(link)
-        wait_until(lambda: link.lines, 30, "the link")
-
-        def start(ns: str, argv: list[str], log: str | None = None) -> LineProc:
-            p = LineProc(["ip", "netns", "exec", ns, *argv], env, tmp_path / log if log else None)
-            procs.append(p)
-            return p
-        start(ns_r, [sys.executable, "-m", "deploy.cli", "robot", "--config", str(launch)], "robot.log")
-        robot_peer = start(ns_r, [sys.executable, str(HERE / "cut_peer.py")])
-        master_peer = start(ns_m, [sys.executable, str(HERE / "cut_peer.py"), "master"])
+    with linked_namespaces("cr", "10.79.0", bus_env(f"cr{uuid.uuid4().hex[:6]}"), tmp_path) as ns:
+        link = ns.link
+        ns.start(ns.robot, [sys.executable, "-m", "deploy.cli", "robot", "--config", str(launch)], "robot.log")
+        robot_peer = ns.start(ns.robot, [sys.executable, str(HERE / "cut_peer.py")])
+        master_peer = ns.start(ns.master, [sys.executable, str(HERE / "cut_peer.py"), "master"])
         for who, p in (("robot side", robot_peer), ("master side", master_peer)):
             wait_until(lambda p=p: p.events("GT") and p.events("STATE"), 120, f"both topics on the {who}")
         assert link.command("partition", 10) is not None
@@ -88,10 +68,3 @@ def test_a_cut_link_to_the_master_does_not_stop_robot_side_routes(tmp_path):
         assert gap < MAX_GAP_S, f"robot-side routes stalled for {gap:.2f} s of a {t_heal - t_cut:.1f} s cut"
         wait_until(lambda: master_peer.events("GT", t_heal) and master_peer.events("STATE", t_heal), 60,
                    "both topics on the master's side after the heal")
-    finally:
-        for p in procs[1:]:
-            p.interrupt()
-        for p in reversed(procs):
-            p.stop()
-        for ns in (ns_m, ns_r):
-            subprocess.run(["ip", "netns", "del", ns], capture_output=True)

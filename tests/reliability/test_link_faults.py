@@ -31,6 +31,7 @@ import pytest
 import yaml
 
 from testkit.line_proc import LineProc
+from testkit.netns_link import bus_env, linked_namespaces
 from tests.support import wait_until
 
 pytestmark = [pytest.mark.netns]
@@ -45,43 +46,23 @@ SUCCEEDED, ACTIVE = 3, 1
 KINDS = {"GT", "CMD", "SAFE", "COLL", "MON", "ST", "SENDING", "SENT", "ACK", "NOACK", "READY"}  # probe.py's lines
 
 
-def _ip(*args: str) -> None:
-    subprocess.run(["ip", *args], check=True, capture_output=True, timeout=30)
-
-
 @pytest.fixture(scope="module")
 def stack(tmp_path_factory):
     if os.geteuid() != 0:
         pytest.skip("needs root for network namespaces")
     tmp = tmp_path_factory.mktemp("link_faults")
-    sfx = uuid.uuid4().hex[:6]
-    ns_m, ns_r = f"zlfm{sfx}", f"zlfr{sfx}"
-    robot = f"lf{sfx}"
-    env = {k: v for k, v in os.environ.items() if not k.startswith("ZENAV_")}
-    env.update(PYTHONPATH=str(REPO), PYTHONUNBUFFERED="1", ZENAV_ROBOT=robot, ZENAV_SHM="0")
-    _ip("netns", "add", ns_m)
-    _ip("netns", "add", ns_r)
-    procs: list[LineProc] = []
-
-    def start(ns: str, argv: list[str], log: str | None = None) -> LineProc:
-        s = LineProc(["ip", "netns", "exec", ns, *argv], env, tmp / log if log else None)
-        procs.append(s)
-        return s
-
-    try:
-        link = LineProc([sys.executable, str(REPO / "testkit/linkem.py"), ns_m, "10.78.0.1/24", ns_r, "10.78.0.2/24"],
-                      env)
-        procs.append(link)
-        wait_until(lambda: link.lines, 30, "the link")
+    robot = f"lf{uuid.uuid4().hex[:6]}"
+    env = bus_env(robot)
+    with linked_namespaces("lf", "10.78.0", env, tmp) as ns:
         zenav = [sys.executable, "-m", "deploy.cli"]
         cfg = yaml.safe_load(ROBOT.read_text())
         cfg["transforms"]["laser_as_camera_link"] = {"args": "0.1 0 0.35 0 0 0 base_link camera_link 100"}
         (tmp / "robot.yaml").write_text(yaml.safe_dump(cfg, sort_keys=False))
-        robot_proc = start(ns_r, [*zenav, "robot", "--config", str(tmp / "robot.yaml"), "--robot", robot],
-                           "robot.log")
-        start(ns_m, [*zenav, "master", "--config", str(MASTER)], "master.log")
-        probe = start(ns_r, [sys.executable, str(HERE / "probe.py")])
-        teleop = start(ns_m, [sys.executable, str(HERE / "probe.py"), "teleop"])
+        robot_proc = ns.start(ns.robot, [*zenav, "robot", "--config", str(tmp / "robot.yaml"), "--robot", robot],
+                              "robot.log")
+        ns.start(ns.master, [*zenav, "master", "--config", str(MASTER)], "master.log")
+        probe = ns.start(ns.robot, [sys.executable, str(HERE / "probe.py")])
+        teleop = ns.start(ns.master, [sys.executable, str(HERE / "probe.py"), "teleop"])
         def ready():
             st = probe.events("ST")
             return st and probe.events("GT") and " ".join(st[-1][5:]).rstrip(";") == "no goal"
@@ -91,17 +72,8 @@ def stack(tmp_path_factory):
             st = probe.events("ST")
             raise AssertionError(f"not ready; last status: {' '.join(st[-1][2:]) if st else 'none'}") from None
         wait_until(lambda: teleop.lines, 120, "the teleop probe on the master's side")
-        yield {"probe": probe, "teleop": teleop, "link": link, "robot_proc": robot_proc, "tmp": tmp, "ns_m": ns_m,
-               "robot": robot, "env": env}
-    finally:
-        # agents and probe first, all at once (each takes its nodes' grace time), the link last: over a
-        # cut link every Zenoh session would wait for its peers before closing
-        for s in procs[1:]:
-            s.interrupt()
-        for s in reversed(procs):
-            s.stop()
-        for ns in (ns_m, ns_r):
-            subprocess.run(["ip", "netns", "del", ns], capture_output=True)
+        yield {"probe": probe, "teleop": teleop, "link": ns.link, "robot_proc": robot_proc, "tmp": tmp,
+               "ns_m": ns.master, "robot": robot, "env": env}
 
 
 def _link(stack, cmd: str) -> None:
