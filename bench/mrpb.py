@@ -108,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{f', agents logs in {work}' if a.mode == 'bus' else ''}", flush=True)
     fields = {}
     t0 = time.monotonic()
-    results: dict[str, list[Result]] = {}
+    results: dict[str, list[tuple[Result, mm.RunMetrics]]] = {}  # each run with its metrics, computed once
     for cfg in configs:
         master = masters[cfg][0 if a.mode == "fast" else 1]
         print(f"## {cfg}: {master}", flush=True)
@@ -123,9 +123,9 @@ def main(argv: list[str] | None = None) -> int:
                 runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed) for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
     summary = []
-    for cfg, rs in results.items():
-        _table(cfg, rs, fields, a.safe_distance)
-        summary.append(_summary("mrpb" if cfg == "zenav" else cfg, rs, fields, a.safe_distance))
+    for cfg, runs_of in results.items():
+        _table(cfg, runs_of, a.safe_distance)
+        summary.append(_summary("mrpb" if cfg == "zenav" else cfg, runs_of))
     print(" ".join(summary) + f" cases={len(cases)} mode={a.mode} wall_s={time.monotonic() - t0:.0f}")
     return 0
 
@@ -140,6 +140,7 @@ def _metrics(r: Result, fields: dict, safe: float) -> mm.RunMetrics:
 
 
 def _progress(runs, cases: list[Case], fields: dict, safe: float, t0: float):
+    """Each run with its metrics, printed as it ends."""
     for i, r in enumerate(runs, 1):
         m = _metrics(r, fields, safe)
         note = f"  {r.reason}" if r.reason else ""
@@ -147,32 +148,33 @@ def _progress(runs, cases: list[Case], fields: dict, safe: float, t0: float):
                else "")
         print(f"[{i:2d}/{len(cases)}] {r.case.name:34s} {r.status:9s} {m.time_s:6.1f} s {m.path_m:5.1f} m  "
               f"d_min {m.d_min_m:.2f} m{loc}  ({time.monotonic() - t0:.0f} s){note}", flush=True)
-        yield r
+        yield r, m
 
 
-def _table(cfg: str, rs: list[Result], fields: dict, safe: float) -> None:
+def _table(cfg: str, rs: list[tuple[Result, mm.RunMetrics]], safe: float) -> None:
     print(f"\n{cfg}: successes' means (time, path, distances, smoothness); d_min is the least of all runs")
     print("| environment | cases | success | collisions | time (s) | path (m) | d_min (m) | d_mean (m) | "
           f"time within {safe:g} m (%) | |accel| (m/s²) | |jerk| (m/s³) | |ang. accel| (rad/s²) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
-    by_env: dict[str, list[Result]] = defaultdict(list)
-    for r in rs:
-        by_env[r.case.env].append(r)
+    by_env: dict[str, list[tuple[Result, mm.RunMetrics]]] = defaultdict(list)
+    for r, m in rs:
+        by_env[r.case.env].append((r, m))
     for env, group in [*by_env.items(), ("all", rs)]:
-        ok = [_metrics(r, fields, safe) for r in group if r.success]
-        mins = [_metrics(r, fields, safe).d_min_m for r in group if len(r.trace) > 1]
+        ok = [m for r, m in group if r.success]
+        mins = [m.d_min_m for r, m in group if len(r.trace) > 1]
 
         def mean(attr: str, ok=ok) -> str:
             return f"{np.mean([getattr(m, attr) for m in ok]):.2f}" if ok else "-"
-        print(f"| {env} | {len(group)} | {sum(r.success for r in group)} | "
-              f"{sum(r.status == 'collision' for r in group)} | {mean('time_s')} | {mean('path_m')} | "
+        print(f"| {env} | {len(group)} | {sum(r.success for r, _ in group)} | "
+              f"{sum(r.status == 'collision' for r, _ in group)} | {mean('time_s')} | {mean('path_m')} | "
               f"{min(mins):.2f} | {mean('d_mean_m')} | {mean('danger_pct')} | {mean('accel_mean')} | "
               f"{mean('jerk_mean')} | {mean('ang_accel_mean')} |" if mins else f"| {env} | {len(group)} | 0 | - |")
 
 
-def _summary(prefix: str, rs: list[Result], fields: dict, safe: float) -> str:
-    ok = [_metrics(r, fields, safe) for r in rs if r.success]
-    mins = [_metrics(r, fields, safe).d_min_m for r in rs if len(r.trace) > 1]
+def _summary(prefix: str, runs_of: list[tuple[Result, mm.RunMetrics]]) -> str:
+    rs = [r for r, _ in runs_of]
+    ok = [m for r, m in runs_of if r.success]
+    mins = [m.d_min_m for r, m in runs_of if len(r.trace) > 1]
     nan = math.nan
     errs = [r.loc_err for r in rs if r.loc_err is not None and len(r.loc_err)]
     loc = f" {prefix}_loc_err_p95_m={np.percentile(np.concatenate(errs), 95):.3f}" if errs else ""
