@@ -26,14 +26,16 @@ if TYPE_CHECKING:
 STATIC_ENVS = ("maze", "narrow_graph", "office01add", "office02", "office02_partially_unknown", "room02",
                "shopping_mall", "shopping_mall_partially_unknown", "track")
 _ARG = re.compile(r'<arg\s+name="(\w+)"\s+default="([^"]+)"\s*/>')
+_KEYS = ("initial_pose_x", "initial_pose_y", "initial_pose_a", "goal_pose_x", "goal_pose_y", "goal_pose_a")
+Pose = tuple[float, float, float]
 
 
 @dataclass(frozen=True)
 class Case:
     env: str
     test: int  # 1-based, as config.txt numbers them
-    start: tuple[float, float, float]  # x, y, yaw in the map frame
-    goal: tuple[float, float, float]
+    start: Pose  # x, y, yaw in the map frame
+    goal: Pose
     map_file: Path  # the map the robot is given
     world_file: Path  # the map the simulator is built from
 
@@ -55,14 +57,15 @@ def robot_map(root: Path, env: str) -> Path:
     return root.parent / MAPS / env / "map.yaml"
 
 
-def parse_config(text: str, source: str = "config.txt") -> list[tuple[tuple[float, ...], tuple[float, ...]]]:
+def parse_config(text: str, source: str = "config.txt") -> list[tuple[Pose, Pose]]:
     """The tests of one config.txt: [(start (x, y, a), goal (x, y, a)), ...] in the file's order."""
-    tests, cur = [], {}
+    tests: list[tuple[Pose, Pose]] = []
+    cur: dict[str, float] = {}
     for name, value in _ARG.findall(text):
         cur[name] = float(value)
-        keys = ("initial_pose_x", "initial_pose_y", "initial_pose_a", "goal_pose_x", "goal_pose_y", "goal_pose_a")
-        if all(k in cur for k in keys):
-            tests.append((tuple(cur[k] for k in keys[:3]), tuple(cur[k] for k in keys[3:])))
+        if all(k in cur for k in _KEYS):
+            x, y, a, gx, gy, ga = (cur[k] for k in _KEYS)
+            tests.append(((x, y, a), (gx, gy, ga)))
             cur = {}
     if cur:
         raise ValueError(f"{source}: an incomplete test (has {sorted(cur)})")
@@ -80,7 +83,7 @@ def load_cases(root: Path, envs: tuple[str, ...] = STATIC_ENVS, tests: tuple[int
             raise FileNotFoundError(f"{cfg}: no such MRPB environment (known: {', '.join(STATIC_ENVS)})")
         for i, (start, goal) in enumerate(parse_config(cfg.read_text(), str(cfg)), 1):
             if not tests or i in tests:
-                out.append(Case(env, i, start, goal, robot_map(root, env), world_map(root, env)))  # type: ignore[arg-type]
+                out.append(Case(env, i, start, goal, robot_map(root, env), world_map(root, env)))
     return out
 
 
