@@ -30,7 +30,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--save", default="explored", metavar="NAME", help="map files written at the end (NAME.pgm/.yaml)")
     p.add_argument("--no-save", action="store_true", help="do not save the map at the end")
     p.add_argument("--wait", type=positive, default=30.0, metavar="S",
-                   help="exit 2 when no map or costmap came within S seconds")
+                   help="exit 2 when no map or no move_base came within S seconds")
     p.set_defaults(func=run)
     return p
 
@@ -59,15 +59,14 @@ def run(args) -> int:
             return 2
         print(report.summary(), flush=True)
         if not args.no_save:
-            _save(node, args.save)
+            _save(report.map, args.save)
     return report.code
 
 
-def _save(node, name: str) -> None:
-    from common.messages import OccupancyGrid
+def _save(grid, name: str) -> None:
+    """The last map the run saw, as map_server files."""
     from master_side.mapping.map_io import save_map
 
-    grid = node.subscribe("map", OccupancyGrid).wait_first(timeout=10.0)
     if grid is None:
         print("zenav explore: no map to save", file=sys.stderr)
         return

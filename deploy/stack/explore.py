@@ -14,14 +14,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from common.messages import OccupancyGrid
 from master_side.exploration.explorer import ExploreParams, Explorer
 from master_side.exploration.frontiers import Grid, grid_from_map, search
 
 
 @dataclass
 class ExploreReport:
-    code: int  # 0 done (nothing left), 1 stopped (Ctrl-C), 2 no map / costmap / move_base
+    code: int  # 0 done (nothing left), 1 stopped (Ctrl-C), 2 no map or no move_base
     why: str
+    map: OccupancyGrid | None = None  # the last map the run saw
     goals: int = 0
     failed: int = 0
     known_free_m2: float = 0.0
@@ -41,7 +43,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             base_frame: str = "base_link") -> ExploreReport:
     from common.delivery import DeliveryFailed, last_seen, send_goal
     from common.geometry import Pose2D
-    from common.messages import GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, OccupancyGrid, PoseStamped
+    from common.messages import GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
     from common.tf import TFListener
 
     stop = stop or threading.Event()
@@ -64,7 +66,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     goal_id, target = "", None
     period = 1.0 / params.planner_frequency
     while not stop.is_set():
-        m = maps.latest()
+        m = report.map = maps.latest()
         grid = grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), params.inscribed_radius)
         report.known_free_m2 = known_free_m2(grid)
         frame = m.header.frame_id or "map"
