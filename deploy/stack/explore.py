@@ -1,7 +1,10 @@
 """Exploration over the bus (``zenav explore``): the frontiers of SLAM's map while it grows (the map itself,
 as explore_lite with costmap_topic map: the tutorial's SLAM costmaps track no unknown space), a goal to
 move_base for the chosen one, until none is left (master_side/exploration: the search and the choice,
-pure). Progress lines through ``echo``; the end says why and how much is known."""
+pure). Progress lines through ``echo``; the end says why and how much is known.
+
+Time (``progress_timeout``, the planner period) is the robot's: the simulator's ``clock`` when it publishes
+one (a simulator slowed by a busy machine must not make a frontier look stuck), else wall time."""
 
 from __future__ import annotations
 
@@ -43,8 +46,9 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             base_frame: str = "base_link") -> ExploreReport:
     from common.delivery import DeliveryFailed, last_seen, send_goal
     from common.geometry import Pose2D
-    from common.messages import GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
+    from common.messages import Clock, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
     from common.tf import TFListener
+    from deploy.stack.goals import send_goal as send_and_wait
 
     stop = stop or threading.Event()
     t0 = time.monotonic()
@@ -52,6 +56,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     status = node.subscribe("move_base/status", MoveBaseStatus)
     results = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
     tf = TFListener(node)
+    clock = node.subscribe("clock", Clock)
     seen = last_seen(status, "move_base's status")
     deadline = time.monotonic() + wait
     while maps.latest() is None or status.latest() is None:
@@ -62,9 +67,16 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                 if maps.latest() is None else "no move_base"
             return ExploreReport(2, f"{what} on robot '{node.robot}' within {wait:g} s", seconds=wait)
         time.sleep(0.1)
+    sim = clock.latest() is not None  # it comes at 100 Hz from a simulator: by now it is there
+
+    def now() -> float:
+        return clock.latest().clock if sim else time.monotonic()
+
     ex, report = Explorer(params), ExploreReport(0, "")
     goal_id, target = "", None
     period = 1.0 / params.planner_frequency
+    if params.look_around:
+        _look_around(node, tf, maps, base_frame, send_and_wait, echo, stop)
     while not stop.is_set():
         m = report.map = maps.latest()
         grid = grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), params.inscribed_radius)
@@ -93,15 +105,15 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             echo(f"  {e}")
             stop.wait(period)
             continue
-        d = ex.plan(frontiers, time.monotonic())
+        d = ex.plan(frontiers, now())
         if d.action == "done":
             report.why = d.why
             break
-        if d.action == "send" and d.target is not None:
-            target, goal_id = d.target, f"explore-{uuid.uuid4().hex[:8]}"
-            yaw = math.atan2(d.target[1] - pose.y, d.target[0] - pose.x)
+        if d.action == "send" and d.target is not None and d.frontier is not None:
+            target, goal_id, (gx, gy) = d.target, f"explore-{uuid.uuid4().hex[:8]}", d.frontier.goal
+            yaw = math.atan2(gy - pose.y, gx - pose.x)
             goal = MoveBaseGoal(goal_id, PoseStamped(Header(node.clock.now(), frame),
-                                                     Pose2D(d.target[0], d.target[1], yaw).to_transform()))
+                                                     Pose2D(gx, gy, yaw).to_transform()))
             try:
                 send_goal(node, goal, 10.0, seen, cancelled=stop.is_set)
             except DeliveryFailed as e:
@@ -109,7 +121,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                 break
             report.goals += 1
             f = d.frontier
-            echo(f"target {report.goals}: ({d.target[0]:.2f}, {d.target[1]:.2f}), a frontier of {f.size_m:.1f} m "
+            echo(f"target {report.goals}: ({gx:.2f}, {gy:.2f}), a frontier of {f.size_m:.1f} m "
                  f"{f.min_distance:.1f} m away; {len(frontiers)} frontiers, {report.known_free_m2:.0f} m² known free")
         stop.wait(period)
     if stop.is_set() and report.code == 0 and not report.why:
@@ -121,3 +133,24 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             cancel_goal(node, goal_id, 5.0, seen)
     report.seconds = time.monotonic() - t0
     return report
+
+
+def _look_around(node, tf, maps, base_frame: str, send_and_wait, echo, stop: threading.Event) -> None:
+    """A full turn in place, a quarter at a time, each a move_base goal at the robot's position (a goal
+    move_base gives up on ends the turn early: the frontiers take over)."""
+    m = maps.latest()
+    frame = m.header.frame_id or "map"
+    try:
+        pose = tf.buffer.lookup_pose2d(frame, base_frame, 0.0, timeout=5.0)
+    except Exception as e:  # noqa: BLE001 - no pose yet: the frontiers' loop waits for it
+        echo(f"  no look around: {e}")
+        return
+    echo(f"looking around at ({pose.x:.2f}, {pose.y:.2f}): four quarter turns")
+    for k in range(1, 5):
+        if stop.is_set():
+            return
+        code, st = send_and_wait(node, pose.x, pose.y, pose.theta + k * math.pi / 2, frame, 60.0,
+                                 echo=lambda _s: None, cancel=stop)
+        if code != 0:
+            echo(f"  look around: quarter turn {k} ended: {st.reason if st is not None else f'exit {code}'}")
+            return

@@ -47,20 +47,84 @@ def map_accuracy(grid: OccupancyGrid, world: str, map_in_world: Pose2D, min_heig
                        float(np.percentile(err, 95)))
 
 
+@dataclass(frozen=True)
+class WorldTruth:
+    """A world's cells at a map's resolution, prepared once to judge many maps of one exploration run:
+    the free cells the robot can reach from its start (4-connected free space, as in
+    World.to_occupancy_grid), each cell's distance to the nearest true obstacle, and where the map's
+    frame lies in the world (SLAM's map frame is the robot's start)."""
+    free_xy: np.ndarray  # (n, 2) world x, y of the reachable free cells beyond ``margin_m`` of an obstacle
+    dist: np.ndarray  # per world cell: m to the nearest true obstacle, or minus the depth inside one
+    origin: tuple[float, float]
+    resolution: float
+    map_in_world: Pose2D
+    margin_m: float
+
+    @staticmethod
+    def of(world: str, map_in_world: Pose2D, resolution: float, min_height: float = 0.05,
+           margin_m: float = 0.1) -> WorldTruth:
+        """``margin_m``: cells this near a true obstacle are not judged free or not (a wall's face falls
+        anywhere within a map cell)."""
+        w = load_world(world_path(world), WorldParams(resolution=resolution), start=map_in_world)
+        truth = w.to_occupancy_grid(min_height, unknown_unreachable=True).data
+        dist = (ndimage.distance_transform_edt(truth != 100) - ndimage.distance_transform_edt(truth == 100)) \
+            * w.resolution
+        rows, cols = np.nonzero((truth == 0) & (dist > margin_m))
+        xy = np.column_stack((w.origin[0] + (cols + 0.5) * w.resolution, w.origin[1] + (rows + 0.5) * w.resolution))
+        return WorldTruth(xy, dist, (float(w.origin[0]), float(w.origin[1])), float(w.resolution), map_in_world,
+                          margin_m)
+
+    @property
+    def free_m2(self) -> float:
+        return len(self.free_xy) * self.resolution**2
+
+    def _map_values(self, grid: OccupancyGrid, world_xy: np.ndarray) -> np.ndarray:
+        """The map's value at world points (-2 off the map)."""
+        xy = self.map_in_world.inverse().apply(world_xy)
+        c = np.floor((xy[:, 0] - grid.origin.x) / grid.resolution).astype(int)
+        r = np.floor((xy[:, 1] - grid.origin.y) / grid.resolution).astype(int)
+        inside = (r >= 0) & (c >= 0) & (r < grid.data.shape[0]) & (c < grid.data.shape[1])
+        out = np.full(len(xy), -2, np.int16)
+        out[inside] = grid.data[r[inside], c[inside]]
+        return out
+
+    def explored(self, grid: OccupancyGrid) -> float:
+        """The share of the reachable free area that ``grid`` knows as free."""
+        v = self._map_values(grid, self.free_xy)
+        return float(np.mean((v >= 0) & (v < 25))) if len(v) else 0.0
+
+    def agreement(self, grid: OccupancyGrid) -> tuple[float, float]:
+        """(the share of the map's occupied cells (from 65) within two map cells of a true obstacle, the
+        share of its free cells (below 25) on true free space). Free cells within ``margin_m`` of an
+        obstacle's face, on either side, are not judged: the face falls anywhere in a cell. Two shares, not
+        one over all cells: free cells outnumber walls so far that a map with every wall half a metre off
+        would still agree at 97 %."""
+        rows, cols = np.nonzero(((grid.data >= 0) & (grid.data < 25)) | (grid.data >= 65))
+        if len(rows) == 0:
+            return 0.0, 0.0
+        pts = np.column_stack((grid.origin.x + (cols + 0.5) * grid.resolution,
+                               grid.origin.y + (rows + 0.5) * grid.resolution))
+        xy = self.map_in_world.apply(pts)
+        c = np.floor((xy[:, 0] - self.origin[0]) / self.resolution).astype(int)
+        r = np.floor((xy[:, 1] - self.origin[1]) / self.resolution).astype(int)
+        inside = (r >= 0) & (c >= 0) & (r < self.dist.shape[0]) & (c < self.dist.shape[1])
+        d = np.full(len(xy), -np.inf)  # off the world: nothing there agrees
+        d[inside] = self.dist[r[inside], c[inside]]
+        occupied = grid.data[rows, cols] >= 65
+        ok_occ = occupied & (d - grid.resolution / 2 <= 2 * grid.resolution) & np.isfinite(d)
+        judged_free = ~occupied & (np.abs(d) > self.margin_m)
+        ok_free = judged_free & (d > self.margin_m)
+
+        def share(ok: np.ndarray, judged: np.ndarray) -> float:
+            n = int(np.count_nonzero(judged))
+            return float(np.count_nonzero(ok) / n) if n else 1.0
+
+        return share(ok_occ, occupied), share(ok_free, judged_free)
+
+
 def explored_share(grid: OccupancyGrid, world: str, map_in_world: Pose2D, min_height: float = 0.05,
                    margin_m: float = 0.1) -> tuple[float, float]:
-    """(the share of ``world``'s free area the robot can reach that ``grid`` knows as free, that area in m²).
-    The true area is sampled at the map's resolution; cells within ``margin_m`` of a true obstacle are left
-    out (a wall's face falls anywhere within a map cell)."""
-    w = load_world(world_path(world), WorldParams(resolution=grid.resolution))
-    truth = w.to_occupancy_grid(min_height, unknown_unreachable=True).data
-    near_wall = ndimage.distance_transform_edt(truth != 100) * w.resolution <= margin_m
-    rows, cols = np.nonzero((truth == 0) & ~near_wall)
-    pts = np.column_stack((w.origin[0] + (cols + 0.5) * w.resolution, w.origin[1] + (rows + 0.5) * w.resolution))
-    xy = map_in_world.inverse().apply(pts)
-    c = np.floor((xy[:, 0] - grid.origin.x) / grid.resolution).astype(int)
-    r = np.floor((xy[:, 1] - grid.origin.y) / grid.resolution).astype(int)
-    inside = (r >= 0) & (c >= 0) & (r < grid.data.shape[0]) & (c < grid.data.shape[1])
-    known_free = np.zeros(len(xy), bool)
-    known_free[inside] = (grid.data[r[inside], c[inside]] >= 0) & (grid.data[r[inside], c[inside]] < 25)
-    return float(np.mean(known_free)) if len(xy) else 0.0, len(xy) * w.resolution**2
+    """(the share of ``world``'s free area the robot can reach from ``map_in_world`` that ``grid`` knows as
+    free, that area in m²)."""
+    truth = WorldTruth.of(world, map_in_world, grid.resolution, min_height, margin_m)
+    return truth.explored(grid), truth.free_m2

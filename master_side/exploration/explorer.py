@@ -30,6 +30,10 @@ class ExploreParams:
                             doc="accepted; no effect yet (the frontiers are not published for the monitor)")
     blacklist_radius: float = param(0.5, lo=0.0, hi=100.0, unit="m",
                                     doc="zenav's: a target this near a blacklisted one is blacklisted too")
+    look_around: bool = param(True, doc="zenav's: a full turn in place (four quarter turns) before the first "
+                                        "search, so the sensor has seen all around the start: a forward laser or "
+                                        "a camera leaves the space behind it unknown, and that frontier, "
+                                        "running under the robot, gets no nearer by driving")
     inscribed_radius: float = param(0.254, lo=0.0, hi=10.0, unit="m",
                                     doc="zenav's: free space nearer a wall is not free for the search (the "
                                         "P3-AT's, from the tutorial's footprint)")
@@ -38,7 +42,7 @@ class ExploreParams:
 @dataclass
 class Decision:
     action: str  # "send" (a new goal), "keep" (the same target), "done" (nothing left)
-    target: tuple[float, float] | None = None
+    target: tuple[float, float] | None = None  # the frontier's centroid: what the blacklist holds
     frontier: Frontier | None = None
     why: str = ""
 

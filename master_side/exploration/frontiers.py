@@ -4,6 +4,9 @@ A frontier cell is an unknown cell (NO_INFORMATION) next to (4-connected) free s
 reach: the cells below INSCRIBED connected (4-connected) to the robot's cell, or to the free cell
 nearest it when the robot stands on a costly one. Frontier cells are grouped 8-connected into frontiers;
 each has its size (cells), centroid, and the cell nearest the robot (``middle``, at ``min_distance``).
+The place to send the robot (``goal``) is the centroid, as explore_lite sends it, unless it falls where
+the robot's centre cannot be (a curved frontier's centroid can lie in a wall or a crate, and move_base
+refuses such a goal): then the reachable cell beside the frontier cell nearest the centroid.
 Frontiers smaller than ``min_frontier_size`` metres are dropped. The cost is explore_lite's:
 ``potential_scale * min_distance - gain_scale * size``, both in metres here (explore_lite multiplies its
 metric distance by the resolution once more), cheapest first.
@@ -31,6 +34,7 @@ class Frontier:
     min_distance: float  # m, from the robot to ``middle``
     cost: float
     cells: np.ndarray  # (n, 2) world x, y of every cell
+    goal: tuple[float, float]  # where to send the robot: the centroid, or the reachable cell nearest it
 
 
 @dataclass(frozen=True)
@@ -81,6 +85,24 @@ def reachable(grid: Grid, robot: tuple[float, float]) -> np.ndarray:
     return labels == labels[at]
 
 
+def _goal(grid: Grid, reach: np.ndarray, rows: np.ndarray, cols: np.ndarray,
+          centroid: tuple[float, float]) -> tuple[float, float]:
+    """The centroid unless its cell is INSCRIBED or LETHAL (unknown is allowed: move_base plans into it),
+    else the reachable neighbour of the frontier cell nearest the centroid (every frontier cell has one)."""
+    at = grid.cell(*centroid)
+    if at is not None and (grid.data[at] < INSCRIBED or grid.data[at] == NO_INFORMATION):
+        return float(centroid[0]), float(centroid[1])
+    xy = grid.centres(rows, cols)
+    k = int(np.argmin(np.hypot(xy[:, 0] - centroid[0], xy[:, 1] - centroid[1])))
+    r, c = int(rows[k]), int(cols[k])
+    h, w = reach.shape
+    for rr, cc in ((r + 1, c), (r - 1, c), (r, c + 1), (r, c - 1)):
+        if 0 <= rr < h and 0 <= cc < w and reach[rr, cc]:
+            x, y = grid.centres(np.array([rr]), np.array([cc]))[0]
+            return float(x), float(y)
+    return float(centroid[0]), float(centroid[1])  # not reached: a frontier cell borders reachable space
+
+
 def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 1e-3, gain_scale: float = 1.0,
            min_frontier_size: float = 0.5) -> list[Frontier]:
     """The frontiers reachable from ``robot`` (x, y in the grid's frame), cheapest first."""
@@ -106,6 +128,6 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 1e-3
         cost = potential_scale * float(d[near]) - gain_scale * size_m
         cx, cy = xy[idx].mean(axis=0)
         out.append(Frontier(len(idx), size_m, (float(cx), float(cy)), (float(xy[near, 0]), float(xy[near, 1])),
-                            float(d[near]), cost, xy[idx]))
+                            float(d[near]), cost, xy[idx], _goal(grid, reach, rows[idx], cols[idx], (cx, cy))))
     out.sort(key=lambda f: f.cost)
     return out

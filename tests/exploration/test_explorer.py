@@ -10,7 +10,7 @@ from master_side.exploration.frontiers import Frontier
 
 
 def _f(x: float, y: float, cost: float, dist: float = 2.0) -> Frontier:
-    return Frontier(10, 1.0, (x, y), (x - 0.5, y), dist, cost, np.zeros((0, 2)))
+    return Frontier(10, 1.0, (x, y), (x - 0.5, y), dist, cost, np.zeros((0, 2)), (x, y))
 
 
 def test_a_new_target_is_sent_and_the_same_one_kept_while_it_gets_nearer():

@@ -79,3 +79,26 @@ def test_a_slam_map_becomes_costs_with_the_robots_radius_kept_off_the_walls():
     assert (g.data[:, :3] == FREE).all()  # 0.3 m and more
     # a gap narrower than the robot leaves the unknown beyond it unreachable: no frontier
     assert search(g, (0.15, 0.5), min_frontier_size=0.0) == []
+
+
+
+def test_a_frontier_whose_centroid_falls_on_an_obstacle_sends_the_robot_beside_it_instead():
+    """A known square (x, y in [0.5, 2.0)) with a crate in its middle, unknown all around: one ring-shaped
+    frontier whose centroid (1.25, 1.25) lies on the crate, where move_base refuses a goal. The goal is then
+    a reachable cell beside the frontier cell nearest the centroid; the door of the room above keeps its
+    centroid (explore_lite's goal), in unknown space as it is."""
+    g = np.full((30, 30), NO_INFORMATION, np.uint8)
+    g[5:20, 5:20] = FREE
+    g[10:15, 10:15] = LETHAL
+    grid = Grid(g, RES, (0.0, 0.0))
+    (f,) = search(grid, (0.7, 0.7), min_frontier_size=0.0)
+    assert f.centroid == pytest.approx((1.25, 1.25))
+    assert g[grid.cell(*f.centroid)] == LETHAL
+    goal = grid.cell(*f.goal)
+    assert reachable(grid, (0.7, 0.7))[goal]
+    gap = np.hypot(f.cells[:, 0] - f.goal[0], f.cells[:, 1] - f.goal[1])
+    assert gap.min() == pytest.approx(RES)  # beside the frontier
+    assert np.hypot(f.goal[0] - 1.25, f.goal[1] - 1.25) == pytest.approx(0.7)  # beside its nearest cell
+
+    (door,) = search(Grid(_room(), RES, (0.0, 0.0)), (1.0, 1.0), min_frontier_size=0.0)
+    assert door.goal == door.centroid

@@ -1,0 +1,96 @@
+"""Exploration benchmark: `zenav explore` maps a building by itself, from an unknown start.
+
+The simulated P3-AT (its planar laser, p3at_sim_laser.yaml, or its Kinect, p3at_sim.yaml) with gmapping
+while navigating (p3at_slam.yaml), `zenav explore` with its defaults, on a private loopback Zenoh network
+(deploy/mrpb/exploration.py). Worlds: `room` (robot_side/worlds/room.yaml, from its start) and MRPB's
+office02 and shopping_mall (../shared/datasets/mrpb/maps, from the start of the environment's first test).
+
+Per run: the share of the free area the robot can reach that the map knows as free, over the simulated
+time, and the time to 95 % of it; the distance driven; contacts; at the end the map's agreement with the
+world (its walls within two cells of a true wall, its free cells on true free space: the lower of the two
+is the figure); how it ended (explore says nothing is left, or the time limit).
+
+  python bench/explore.py                                   # room, office02, mall; laser and Kinect
+  python bench/explore.py --worlds room --sensors laser --runs 3
+
+Ends with explore_runs=… explore_coverage_pct=… (the least over the runs) explore_time_95_s=… (the mean of
+the runs that got there) explore_path_m=… explore_map_agreement_pct=… (the least) explore_collisions=…
+explore_ended_by_itself=…
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from common.geometry import Pose2D  # noqa: E402
+from deploy.mrpb.cases import load_cases, world_map  # noqa: E402
+from deploy.mrpb.exploration import ExploreRun, run_exploration  # noqa: E402
+
+MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
+ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
+MASTER = ROOT / "master_side/config/p3at_slam.yaml"
+WORLDS = ("room", "office02", "shopping_mall")
+
+
+def world_and_start(world: str) -> tuple[str, Pose2D]:
+    if world == "room":
+        return "room", Pose2D(-2.2, 0.0, 0.0)  # robot_side/worlds/room.yaml's start
+    case = load_cases(MRPB, (world,), (1,))[0]
+    return str(world_map(MRPB, world)), Pose2D(*case.start)
+
+
+def row(r: ExploreRun) -> str:
+    t95 = r.time_to(0.95)
+    return (f"{r.name:24} {r.end:10.10} {100 * r.final_share:6.1f} {t95:8.0f} {r.sim_s:7.0f} {r.path_m:7.1f} "
+            f"{100 * r.walls_ok:6.1f} {100 * r.free_ok:6.1f} {r.collisions:4d} {r.free_m2:7.0f} {r.wall_s:7.0f}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--worlds", nargs="+", default=list(WORLDS), help=f"from {', '.join(WORLDS)}")
+    ap.add_argument("--sensors", nargs="+", choices=tuple(ROBOTS), default=list(ROBOTS))
+    ap.add_argument("--runs", type=int, default=1, help="runs of each world and sensor")
+    ap.add_argument("--speed", type=float, default=2.0, help="simulator speed (x real time) when the machine keeps up")
+    ap.add_argument("--time-limit", type=float, default=1800.0, metavar="S", help="simulated seconds per run")
+    ap.add_argument("--out", default="", help="where each run's logs and map go (default: a new temp dir)")
+    a = ap.parse_args(argv)
+    out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
+    runs: list[ExploreRun] = []
+    print(f"logs and maps under {out}", file=sys.stderr)
+    for w in a.worlds:
+        world, start = world_and_start(w)
+        for sensor in a.sensors:
+            for k in range(a.runs):
+                name = f"{w}/{sensor}/{k + 1}"
+                print(f"{name}: exploring from ({start.x:.1f}, {start.y:.1f}) ...", file=sys.stderr, flush=True)
+                t0 = time.monotonic()
+                r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
+                                    echo=lambda s: print(s, file=sys.stderr, flush=True))
+                runs.append(r)
+                print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
+                      f"({time.monotonic() - t0:.0f} s wall)", file=sys.stderr, flush=True)
+    print(f"{'run':24} {'end':10} {'known%':>6} {'t95 s':>8} {'sim s':>7} {'path m':>7} {'walls%':>6} "
+          f"{'free%':>6} {'hits':>4} {'area m2':>7} {'wall s':>7}")
+    for r in runs:
+        print(row(r))
+    reached = [r.time_to(0.95) for r in runs if math.isfinite(r.time_to(0.95))]
+    print(f"explore_runs={len(runs)} explore_coverage_pct={min(100 * r.final_share for r in runs):.1f} "
+          f"explore_time_95_s={sum(reached) / len(reached) if reached else float('inf'):.0f} "
+          f"explore_path_m={sum(r.path_m for r in runs) / len(runs):.1f} "
+          f"explore_map_agreement_pct={min(100 * r.agreement for r in runs):.1f} "
+          f"explore_collisions={sum(r.collisions for r in runs)} "
+          f"explore_ended_by_itself={sum(r.end == 'done' for r in runs)}/{len(runs)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,147 @@
+"""One exploration run over the bus, as a user runs it, measured: ``zenav robot`` at a start in a world
+(a zenav world such as ``room``, or an MRPB map), ``zenav master`` with SLAM while navigating
+(master_side/config/p3at_slam.yaml), then ``zenav explore`` until it ends by itself (or a time limit:
+then it is interrupted as Ctrl-C would, and saves its map). On a private loopback Zenoh network.
+
+Measured from the bus while it runs: every map SLAM publishes is judged against the world
+(deploy.stack.map_check.WorldTruth: the share of the reachable free area known as free) at the
+simulator's time, so the time to a coverage is the robot's, not the machine's; the distance driven from
+the simulator's ground truth; contacts from its ``collision`` topic. At the end, the saved map's coverage
+and agreement with the world (walls within two cells, free cells on free space)."""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from common.bus import Node
+from common.geometry import Pose2D
+from common.messages import Clock, Collision, OccupancyGrid, Odometry
+from common.ports import free_port
+from common.zenoh_config import BusConfig
+from deploy.stack.map_check import WorldTruth
+from deploy.stack.process_group import ProcessGroup
+from master_side.mapping.map_io import load_map
+
+STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
+
+
+@dataclass
+class ExploreRun:
+    name: str
+    end: str  # "done" (explore ended by itself), "time limit", "failed: ..."
+    coverage: list[tuple[float, float]] = field(default_factory=list)  # (sim s from the start, share)
+    final_share: float = 0.0
+    walls_ok: float = 0.0  # agreement: occupied cells within two cells of a true wall
+    free_ok: float = 0.0  # agreement: free cells on true free space
+    free_m2: float = 0.0  # the reachable free area of the world
+    path_m: float = 0.0
+    collisions: int = 0
+    sim_s: float = 0.0
+    wall_s: float = 0.0
+    log_dir: str = ""
+
+    def time_to(self, share: float) -> float:
+        """Simulated seconds until the coverage first reached ``share`` (inf: never)."""
+        return next((t for t, s in self.coverage if s >= share), float("inf"))
+
+    @property
+    def agreement(self) -> float:
+        return min(self.walls_ok, self.free_ok)
+
+
+class _Watch:
+    """Coverage of each map as it comes (judged in this thread, not in Zenoh's), distance, contacts."""
+
+    def __init__(self, node: Node, truth: WorldTruth):
+        self.truth, self.lock = truth, threading.Lock()
+        self.clock = node.subscribe("clock", Clock)
+        self.maps = node.subscribe("map", OccupancyGrid)
+        self.hits = node.subscribe("collision", Collision)
+        self.gt = node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
+        self.t0: float | None = None
+        self.path, self.last = 0.0, None
+        self.coverage: list[tuple[float, float]] = []
+        self._judged: OccupancyGrid | None = None
+
+    def _odom(self, m: Odometry) -> None:
+        p = m.pose2d
+        with self.lock:
+            if self.last is not None:
+                self.path += float(np.hypot(p.x - self.last[0], p.y - self.last[1]))
+            self.last = (p.x, p.y)
+
+    def now(self) -> float:
+        c = self.clock.latest()
+        return c.clock if c is not None else 0.0
+
+    def judge(self) -> None:
+        m = self.maps.latest()
+        if m is None or m is self._judged:
+            return
+        self._judged = m
+        if self.t0 is None:
+            self.t0 = self.now()
+        self.coverage.append((self.now() - self.t0, self.truth.explored(m)))
+
+
+def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, master_config: Path,
+                    workdir: Path, speed: float = 2.0, time_limit_s: float = 1800.0, explore_args=(),
+                    echo=print) -> ExploreRun:
+    """``world``: a zenav world name or a map YAML; ``start``: where the robot starts in it (SLAM's map
+    frame); ``time_limit_s``: simulated seconds from the first map."""
+    wall0 = time.monotonic()
+    work = Path(workdir) / name.replace("/", "_")
+    work.mkdir(parents=True, exist_ok=True)
+    robot, endpoint = f"explore{uuid.uuid4().hex[:6]}", f"tcp/127.0.0.1:{free_port()}"
+    truth = WorldTruth.of(world, start, 0.05)
+    group = ProcessGroup(robot, endpoint, work)
+    node = Node("explore_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)))
+    watch = _Watch(node, truth)
+    out = ExploreRun(name, "failed", free_m2=truth.free_m2, log_dir=str(work))
+    try:
+        group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(world),
+                              "--start", str(start.x), str(start.y), str(start.theta), "--speed", str(speed)])
+        group.spawn("master", ["master", "--config", str(master_config)])
+        explore = group.spawn("explore", ["explore", "--save", str(work / "explored"), "--wait",
+                                          str(STARTUP_S), *explore_args])
+        next_note = time.monotonic() + 30.0
+        while explore.poll() is None:
+            group.check_alive(ignore=("explore",))
+            watch.judge()
+            if watch.t0 is not None and watch.now() - watch.t0 > time_limit_s:
+                explore.send_signal(signal.SIGINT)  # as Ctrl-C: cancels its goal, saves the map
+                explore.wait(60)
+                out.end = "time limit"
+                break
+            if time.monotonic() > next_note and watch.coverage:
+                t, s = watch.coverage[-1]
+                echo(f"  {name}: {t:.0f} s simulated, {100 * s:.1f} % known")
+                next_note = time.monotonic() + 30.0
+            time.sleep(0.5)
+        else:
+            out.end = "done" if explore.returncode == 0 else f"failed: explore exit {explore.returncode}"
+        saved = work / "explored.yaml"
+        if saved.exists():
+            grid = load_map(saved)
+            out.final_share = truth.explored(grid)
+            out.walls_ok, out.free_ok = truth.agreement(grid)
+        hits = watch.hits.latest()
+        out.collisions = hits.count if hits is not None else 0
+        out.sim_s = watch.now() - (watch.t0 or 0.0)
+    except RuntimeError as e:  # an agent died or never came up
+        out.end = f"failed: {e}"
+    finally:
+        group.stop()
+        node.close()
+    with watch.lock:
+        out.path_m = watch.path
+    out.coverage = list(watch.coverage)
+    out.wall_s = time.monotonic() - wall0
+    return out
