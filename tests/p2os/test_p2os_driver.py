@@ -120,8 +120,11 @@ def test_odometry_follows_the_device_through_the_position_wrap(rig):
     assert truth.distance(Pose2D()) > 0.5  # it did move, past the wrap
     assert odom.distance(truth) < 0.005
     assert abs(math.remainder(odom.theta - truth.theta, 2 * math.pi)) < 0.005
+    # no jump at the wrap: mishandled, the pose jumps by the counter's span (32768 x 0.465 mm = 15.2 m).
+    # Not a bound from the speed: a loaded machine delays the simulated device's and the reader's threads,
+    # so one SIP step was 0.117 m (0.04 m at 0.8 m/s and 20 Hz) in a CI run
     poses = [s.pose for s in drv.states]
-    assert max(a.distance(b) for a, b in zip(poses, poses[1:])) < 0.1  # no jump at the wrap
+    assert max(a.distance(b) for a, b in zip(poses, poses[1:])) < 1.0
 
 
 def test_a_lost_echo_mid_handshake_restarts_from_sync0(rig):
