@@ -99,10 +99,12 @@ class Page:
         self.mouse("mousePressed", x, y)
         self.mouse("mouseReleased", x, y)
 
-    def use_tool(self, tool: str, x: float, y: float, yaw: float, drag_m: float = 0.6) -> None:
-        """Select ``tool`` (its button), press at map point (x, y), drag ``drag_m`` along ``yaw``, release:
-        real mouse events, as a user does. Both points convert through the view shown at the press."""
-        self.click_element(f"tool-{tool}")
+    def use_tool(self, tool: str, x: float, y: float, yaw: float, drag_m: float = 0.6, select: bool = True) -> None:
+        """Select ``tool`` (its button; ``select=False``: it is still selected, as the waypoint tool stays),
+        press at map point (x, y), drag ``drag_m`` along ``yaw``, release: real mouse events, as a user
+        does. Both points convert through the view shown at the press."""
+        if select:
+            self.click_element(f"tool-{tool}")
         a = self.js(f"JSON.stringify(zenav.worldToClient({x}, {y}))")
         b = self.js(f"JSON.stringify(zenav.worldToClient({x + drag_m * np.cos(yaw)}, {y + drag_m * np.sin(yaw)}))")
         a, b = json.loads(a), json.loads(b)

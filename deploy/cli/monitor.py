@@ -132,7 +132,7 @@ def run(args) -> int:
 
         state_subs = subscribe_state(session, robot, web_state)
         try:
-            commands = bus_commands(session, robot)
+            commands = bus_commands(session, robot, on_mission=web_state.mission_line)
             web = WebServer(web_state, commands, args.serve_web, args.grpc_port, args.bind,
                             args.token, args.memory_limit, assets)
         except OSError as e:

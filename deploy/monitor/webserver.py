@@ -9,7 +9,10 @@ Serves, on the address the user chose (``--bind``, default 127.0.0.1) only:
   GET  /api/map          the map as grey levels (WebState.map_payload)
   POST /api/goal         {"x", "y", "yaw"} -> a goal (map frame), acknowledged by move_base
   POST /api/initialpose  {"x", "y", "yaw"} -> an initial pose, acknowledged by AMCL
-  POST /api/cancel       {} -> cancel, acknowledged by move_base
+  POST /api/mission      {"waypoints": [{"x", "y", "yaw"}, ...], "loop": false} -> the waypoints driven one
+                         after the other (deploy/stack/missions.py), a failed leg said and skipped; a new
+                         mission replaces a running one; its progress is /api/state's "mission"
+  POST /api/cancel       {} -> cancel (the mission too), acknowledged by move_base
   (each answers with what the node said, or 504 naming the node that did not answer in time)
 POSTs need ``Content-Type: application/json`` (a cross-site form cannot send it) and, with ``--token``,
 the header ``X-Zenav-Token`` (403 otherwise).
@@ -33,7 +36,8 @@ log = logging.getLogger("zenav.monitor.web")
 WEB_DIR = Path(__file__).resolve().parent / "web"
 TYPES = {".js": "text/javascript", ".wasm": "application/wasm", ".html": "text/html; charset=utf-8",
          ".css": "text/css", ".png": "image/png"}
-MAX_BODY = 4096
+MAX_BODY = 16384
+MAX_WAYPOINTS = 100
 
 
 STATE_TOPICS = ("tf", "amcl_pose", "particlecloud", "move_base/status", "move_base/global_plan",
@@ -63,8 +67,9 @@ class CommandNotAcknowledged(RuntimeError):
 
 class WebServer:
     """``send(what, msg)`` hands a command from the page ("goal", "initialpose": a PoseStamped in the map
-    frame; "cancel": None) to the robot's bus and returns the acting node's answer as one line of text; it
-    raises ``CommandNotAcknowledged`` when that node did not answer, ``ValueError`` when it said no."""
+    frame; "mission": (a list of PoseStamped, loop); "cancel": None) to the robot's bus and returns the
+    acting node's answer as one line of text; it raises ``CommandNotAcknowledged`` when that node did not
+    answer, ``ValueError`` when it said no."""
 
     def __init__(self, state: WebState, send: Callable[[str, object], str], port: int, grpc_port: int,
                  bind: str = "127.0.0.1", token: str | None = None, memory_limit: str = "2GiB",
@@ -96,17 +101,39 @@ class WebServer:
             answer = self.send("cancel", None)
             self.state.note(f"cancel: {answer}")
             return {"ok": True, "answer": answer}
-        try:
-            x, y, yaw = (float(body[k]) for k in ("x", "y", "yaw"))
-        except (KeyError, TypeError, ValueError):
-            raise ValueError("expected numbers x, y, yaw") from None
-        if not all(map(math.isfinite, (x, y, yaw))):
-            raise ValueError("x, y, yaw must be finite")
+        if what == "mission":
+            wps = body.get("waypoints")
+            if not isinstance(wps, list) or not 0 < len(wps) <= MAX_WAYPOINTS:
+                raise ValueError(f"expected waypoints: a list of 1 to {MAX_WAYPOINTS} {{x, y, yaw}}")
+            poses = [_pose(w, f"waypoint {i + 1}: ") for i, w in enumerate(wps)]
+            loop = body.get("loop", False)
+            if not isinstance(loop, bool):
+                raise ValueError("loop must be true or false")
+            msgs = [PoseStamped(Header(0.0, self.state.map_frame), Pose2D(*p).to_transform()) for p in poses]
+            self.state.mission_line(f"starting ({len(poses)} waypoints)", True, [list(p) for p in poses])
+            try:
+                answer = self.send("mission", (msgs, loop))
+            except Exception as e:
+                self.state.mission_line(f"not started: {e}", False)
+                raise
+            self.state.note(f"mission of {len(poses)} waypoints{' (loop)' if loop else ''}: {answer}")
+            return {"ok": True, "answer": answer, "waypoints": len(poses)}
+        x, y, yaw = _pose(body)
         msg = PoseStamped(Header(0.0, self.state.map_frame), Pose2D(x, y, yaw).to_transform())
         answer = self.send(what, msg)
         self.state.note(f"{what} ({x:.2f}, {y:.2f}, {math.degrees(yaw):.0f} deg): {answer}")
         log.info("web page: %s (%.2f, %.2f, %.2f): %s", what, x, y, yaw, answer)
         return {"ok": True, "answer": answer, "x": x, "y": y, "yaw": yaw}
+
+
+def _pose(body, where: str = "") -> tuple[float, float, float]:
+    try:
+        x, y, yaw = (float(body[k]) for k in ("x", "y", "yaw"))
+    except (KeyError, TypeError, ValueError):
+        raise ValueError(f"{where}expected numbers x, y, yaw") from None
+    if not all(map(math.isfinite, (x, y, yaw))):
+        raise ValueError(f"{where}x, y, yaw must be finite")
+    return x, y, yaw
 
 
 class _Handler(BaseHTTPRequestHandler):
@@ -159,7 +186,7 @@ class _Handler(BaseHTTPRequestHandler):
     def do_POST(self) -> None:  # noqa: N802
         path = self.path.split("?", 1)[0]
         what = path.removeprefix("/api/")
-        if what not in ("goal", "initialpose", "cancel"):
+        if what not in ("goal", "initialpose", "cancel", "mission"):
             return self._json(404, {"error": "not found"})
         token = self.app.token
         if token and not hmac.compare_digest(self.headers.get("X-Zenav-Token", ""), token):

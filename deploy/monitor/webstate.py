@@ -80,6 +80,7 @@ class WebState:
         self.tf = Tf2D()
         self.map: m.OccupancyGrid | None = None
         self.map_version = 0
+        self.mission: dict | None = None  # the page's waypoint queue as it is driven (commands.py)
         self._map_payload: dict | None = None
         self.move_base: m.MoveBaseStatus | None = None
         self.safety: m.CollisionMonitorState | None = None
@@ -114,6 +115,13 @@ class WebState:
             elif isinstance(msg, m.PolygonStamped) and topic.endswith("global_costmap/footprint"):
                 pts = self.tf.to_map(msg.header.frame_id, self.map_frame, np.asarray(msg.points, float))
                 self.footprint = [] if pts is None else pts.round(3).tolist()
+
+    def mission_line(self, text: str, active: bool = True, waypoints: list | None = None) -> None:
+        """The waypoint queue's progress (a line of deploy/stack/missions.py's), shown in the page's bar."""
+        with self.lock:
+            old = self.mission or {}
+            self.mission = {"line": text, "active": active,
+                            "waypoints": waypoints if waypoints is not None else old.get("waypoints", [])}
 
     def note(self, text: str) -> None:
         with self.lock:
@@ -152,7 +160,7 @@ class WebState:
                 "move_base": None if mb is None else {
                     "state": mb.state, "status": STATUS_NAMES.get(mb.status, str(mb.status)),
                     "goal_id": mb.goal_id, "distance": round(mb.distance_to_goal_m, 3)},
-                "why": self.why_not_moving(), "events": list(self.events),
+                "why": self.why_not_moving(), "events": list(self.events), "mission": self.mission,
             }
 
     def map_payload(self) -> dict | None:

@@ -4,7 +4,8 @@ One browser session against one simulated stack (P3-AT in the room, map server +
 monitor), real mouse events over the DevTools protocol:
   1. AMCL starts 0.8 m off the truth; "2D Pose Estimate" at the true pose: the estimate jumps there;
   2. "2D Nav Goal" at a free point: the simulated robot reaches it (ground truth);
-  3. a screenshot: the map fills most of our map panel.
+  3. "Waypoints": two queued by clicks (a quarter turn there, then 0.4 m on), "Go": both legs reached;
+  4. a screenshot: the map fills most of our map panel.
 ``ZENAV_DOCS_SHOTS=1`` reloads the page with the Rerun viewer, checks that the map fills most of Rerun's map
 view too, and writes that screenshot to docs/monitor-web.png (the README's picture).
 """
@@ -26,6 +27,7 @@ from testkit.webrig import REPO, WebRig, map_extent, map_fraction, rgb
 START = (-2.2, 0.0, 0.0)  # robot_side/worlds/room.yaml
 AMCL_WRONG = (-1.5, 0.5, 0.4)
 GOAL = (-1.0, 1.3, math.pi / 2)  # free: left of the crate at (0, 0)
+WAYPOINTS = [(-1.0, 1.3, 0.0), (-0.6, 1.3, 0.0)]  # from GOAL: a quarter turn in place, then 0.4 m on
 
 
 def _post(port: int, path: str, token: str | None, body: dict, ctype: str = "application/json") -> int:
@@ -91,7 +93,20 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
         state = json.loads(rig.js("JSON.stringify(zenav.state.move_base)"))
         assert state["status"] in ("SUCCEEDED", "ACTIVE", "PENDING"), state
 
-        # 3. the screenshot: our map panel is mostly map. The Rerun viewer in the page is checked on screen by
+        # 3. the waypoint queue: the tool stays selected for the second click; Go sends both as one mission
+        for k, wp in enumerate(WAYPOINTS):
+            rig.use_tool("waypoint", *wp, select=k == 0)
+        rig.wait(lambda: rig.js("zenav.queue.length") == 2, 10.0, "two waypoints queued on the page")
+        rig.click_element("mission-go")
+        line = rig.wait(lambda: (m := rig.js("zenav.state && zenav.state.mission && !zenav.state.mission.active "
+                                             "? zenav.state.mission.line : ''")) and m, 120.0,
+                        "the page's mission ending")
+        assert line == "mission: 2 of 2 legs reached", line
+        end = rig.gt.latest().pose2d
+        assert math.hypot(end.x - WAYPOINTS[1][0], end.y - WAYPOINTS[1][1]) < 0.3, end
+        t_mission = time.monotonic() - t0
+
+        # 4. the screenshot: our map panel is mostly map. The Rerun viewer in the page is checked on screen by
         # tests/monitor/test_monitor_not_mirrored.py (a known grid and marker); loading it here, beside a whole
         # stack, took 30-180 s of a loaded CI machine for a check that tolerated a view a minute behind (issue
         # 31: the view must be live, and its test will bound that). ZENAV_DOCS_SHOTS=1 still shoots the whole
@@ -108,7 +123,8 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
         rerun = "" if f_rerun is None else f", {100 * f_rerun:.0f} % of Rerun's map view"
         print(f"\nweb tools: setup {t_setup:.0f} s, initial pose applied at {t_pose:.0f} s (amcl "
               f"({est.x:.2f}, {est.y:.2f}, {est.theta:.2f})), goal reached at {t_goal:.0f} s ({reach:.2f} m "
-              f"off), map spans {100 * extent[0]:.0f} % x {100 * extent[1]:.0f} % of our panel (fills "
+              f"off), mission at {t_mission:.0f} s, map spans {100 * extent[0]:.0f} % x {100 * extent[1]:.0f} % "
+              f"of our panel (fills "
               f"{100 * f_ours:.0f} %){rerun}; screenshot {tmp_path / 'monitor-web.png'}")
         # fitted: edge to edge one way, not both (zoomed in) and not a sliver
         assert max(extent) > 0.9 and 0.3 < min(extent) < 0.98, extent

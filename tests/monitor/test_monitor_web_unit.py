@@ -111,10 +111,30 @@ def test_the_control_endpoints_publish_only_with_the_token_and_valid_numbers(ser
     assert code == 200 and json.loads(body)["events"][-1] == "cancel: cancel taken"
 
 
+def test_a_waypoint_queue_goes_as_one_mission_and_a_bad_one_is_refused_naming_the_waypoint(server):
+    srv, sent = server
+    code, body = _req(srv, "/api/mission", {"waypoints": [{"x": 1, "y": 2, "yaw": 0}, {"x": 1}]}, "tok")
+    assert code == 400 and "waypoint 2: expected numbers x, y, yaw" in json.loads(body)["error"]
+    assert _req(srv, "/api/mission", {"waypoints": []}, "tok")[0] == 400
+    assert _req(srv, "/api/mission", {"waypoints": [{"x": 1, "y": 2, "yaw": 0}], "loop": "yes"}, "tok")[0] == 400
+    assert _req(srv, "/api/mission", {"waypoints": [{"x": 0, "y": 0, "yaw": 0}] * 101}, "tok")[0] == 400
+    assert sent == []
+    wps = [{"x": 1.0, "y": 2.0, "yaw": 0.5}, {"x": -2.2, "y": 0.0, "yaw": 3.0}]
+    code, body = _req(srv, "/api/mission", {"waypoints": wps, "loop": True}, "tok")
+    assert code == 200 and json.loads(body)["waypoints"] == 2
+    ((what, (poses, loop)),) = sent
+    assert what == "mission" and loop is True
+    assert [tuple(round(v, 6) for v in (q.pose.to_pose2d().x, q.pose.to_pose2d().y, q.pose.to_pose2d().theta))
+            for q in poses] == [(1.0, 2.0, 0.5), (-2.2, 0.0, 3.0)]
+    assert all(q.header.frame_id == "map" for q in poses)
+    mission = json.loads(_req(srv, "/api/state")[1])["mission"]
+    assert mission["active"] and mission["waypoints"] == [[1.0, 2.0, 0.5], [-2.2, 0.0, 3.0]]
+
+
 def test_the_page_and_its_files_are_served_and_nothing_outside(server):
     srv, _ = server
     code, body = _req(srv, "/")
-    assert code == 200 and b"2D Nav Goal" in body
+    assert code == 200 and b"2D Nav Goal" in body and b"Waypoints" in body
     assert _req(srv, "/app.js")[0] == 200
     assert _req(srv, "/../webserver.py")[0] == 404
     assert _req(srv, "/rerun/re_viewer.js")[0] == 404  # no assets given to this server

@@ -5,7 +5,7 @@
 
 const Z = (window.zenav = {
   tool: null, map: null, mapImage: null, state: null, config: null, drag: null,
-  viewerEvents: [], rerun: "starting", sent: [],
+  viewerEvents: [], rerun: "starting", sent: [], queue: [], loop: false,
 });
 const token = new URLSearchParams(location.search).get("token") || "";
 const canvas = document.getElementById("map");
@@ -77,6 +77,12 @@ function polyline(v, pts, color, width, close) {
   ctx.stroke();
 }
 
+function waypoint(v, p, n, color) {  // a queued waypoint: its arrow and its number
+  arrow(v, p, color, 0.4);
+  const [x, y] = toCanvas(v, p.x, p.y);
+  ctx.fillStyle = color; ctx.font = "bold 13px system-ui"; ctx.fillText(String(n), x + 6, y + 14);
+}
+
 function draw() {
   const r = canvas.getBoundingClientRect();
   const dpr = window.devicePixelRatio || 1;
@@ -102,11 +108,14 @@ function draw() {
     }
     polyline(v, st.plan, "#28c828", 2, false);
     polyline(v, st.footprint, "#3c78ff", 2, true);
+    const m = st.mission;
+    if (m && m.active) m.waypoints.forEach((p, i) => waypoint(v, { x: p[0], y: p[1], yaw: p[2] }, i + 1, "#c8a000"));
     if (st.goal) arrow(v, st.goal, "#ff00c8", 0.5);
     if (st.amcl) arrow(v, st.amcl, "#ff8c00", 0.4);
     if (st.pose) arrow(v, st.pose, "#3c78ff", 0.4);
   }
-  if (Z.drag) arrow(v, Z.drag, Z.tool === "goal" ? "#ff00c8" : "#00e0e0", 0.6);
+  Z.queue.forEach((p, i) => waypoint(v, p, i + 1, "#ffd84d"));
+  if (Z.drag) arrow(v, Z.drag, { goal: "#ff00c8", waypoint: "#ffd84d" }[Z.tool] || "#00e0e0", 0.6);
 }
 
 // -- data ----------------------------------------------------------------------------------------
@@ -137,6 +146,7 @@ async function poll() {
       mb ? `move_base: ${mb.state || "-"} [${mb.status}]` + (mb.goal_id ? ` ${mb.distance.toFixed(2)} m to go` : "")
          : "move_base: not seen";
     document.getElementById("why").textContent = st.why ? `why not moving: ${st.why}` : "";
+    document.getElementById("mission-state").textContent = st.mission ? `mission: ${st.mission.line}` : "";
     draw();
   } catch (e) {
     document.getElementById("mb-state").textContent = "monitor unreachable";
@@ -152,6 +162,26 @@ function setTool(t) {
 }
 document.getElementById("tool-goal").onclick = () => setTool("goal");
 document.getElementById("tool-initialpose").onclick = () => setTool("initialpose");
+// the waypoint queue: the tool adds waypoints (it stays selected), Go sends them as one mission
+document.getElementById("tool-waypoint").onclick = () => setTool("waypoint");
+function showQueue() {
+  document.getElementById("mission-go").textContent = `Go (${Z.queue.length})`;
+  document.getElementById("mission-loop").classList.toggle("active", Z.loop);
+  draw();
+}
+document.getElementById("mission-loop").onclick = () => { Z.loop = !Z.loop; showQueue(); };
+document.getElementById("mission-clear").onclick = () => { Z.queue = []; showQueue(); };
+document.getElementById("mission-go").onclick = async () => {
+  if (!Z.queue.length) { note("no waypoint queued: select Waypoints, then click points of the map"); return; }
+  try {
+    const out = await post("api/mission", { waypoints: Z.queue, loop: Z.loop });
+    note(out.answer);
+    Z.queue = []; setTool(null);
+  } catch (e) {
+    note(`mission refused: ${e.message}`);
+  }
+  showQueue();
+};
 document.getElementById("cancel").onclick = () =>
   post("api/cancel").then((out) => note(out.answer)).catch((e) => note(`cancel failed: ${e.message}`));
 
@@ -187,6 +217,12 @@ window.addEventListener("mouseup", async () => {
   const d = Z.drag, tool = Z.tool;
   if (!d) return;
   Z.drag = null; Z.frozen = null;
+  if (tool === "waypoint") {  // queued here; sent with Go
+    Z.queue.push({ x: d.x, y: d.y, yaw: d.yaw });
+    note(`waypoint ${Z.queue.length} queued (${d.x.toFixed(2)}, ${d.y.toFixed(2)}); Go sends the queue`);
+    showQueue();
+    return;
+  }
   setTool(null);
   try {
     const out = await post(`api/${tool}`, { x: d.x, y: d.y, yaw: d.yaw });
