@@ -33,6 +33,7 @@ sys.path.insert(0, str(ROOT))
 from common.geometry import Pose2D  # noqa: E402
 from deploy.mrpb.cases import load_cases, world_map  # noqa: E402
 from deploy.mrpb.exploration import ExploreRun, run_exploration  # noqa: E402
+from deploy.stack.process_group import terminate_as_interrupt  # noqa: E402
 
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
@@ -73,8 +74,9 @@ def main(argv: list[str] | None = None) -> int:
                 name = f"{w}/{sensor}/{k + 1}"
                 print(f"{name}: exploring from ({start.x:.1f}, {start.y:.1f}) ...", file=sys.stderr, flush=True)
                 t0 = time.monotonic()
-                r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
-                                    echo=lambda s: print(s, file=sys.stderr, flush=True))
+                with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
+                    r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
+                                        echo=lambda s: print(s, file=sys.stderr, flush=True))
                 runs.append(r)
                 print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
                       f"({time.monotonic() - t0:.0f} s wall)", file=sys.stderr, flush=True)

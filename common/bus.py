@@ -71,11 +71,25 @@ class Node:
         sim = SimClock() if use_sim_time else None
         self.clock: WallClock | SimClock = sim if sim is not None else WallClock()
         self.stats_sources: list[Any] = []  # objects with stats() -> TopicStats rows (subscriptions, TF)
-        if use_sim_time:
-            self.subscribe("clock", Clock, callback=lambda m: sim.update(m.clock), inline=True)
+        if sim is not None:
+            self._follow(sim)
         self.service(f"node_stats/{name}", lambda _req: self.stats(), token=False)
         self._node_token = self._declare_token("node")
         self.log = logging.getLogger(f"zenav.{name}")
+
+    def _follow(self, sim: SimClock) -> None:
+        self.subscribe("clock", Clock, callback=lambda m: sim.update(m.clock), inline=True)
+
+    def follow_sim_clock(self, first: float) -> None:
+        """From now on, the robot's simulated ``clock`` is this node's time (``first``: its latest value,
+        so ``now()`` is right at once): for a command that learns only after starting that the robot is
+        simulated (``zenav explore``). TF listeners and timers made before keep the old clock."""
+        if self.clock.simulated:
+            return
+        sim = SimClock()
+        sim.update(first)
+        self.clock = sim
+        self._follow(sim)
 
     # -- helpers -------------------------------------------------------------------------------
     def _declare_token(self, kind: str, topic: str = ""):

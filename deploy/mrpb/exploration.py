@@ -93,13 +93,17 @@ class _Watch:
 
 def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, master_config: Path,
                     workdir: Path, speed: float = 2.0, time_limit_s: float = 1800.0, explore_args=(),
-                    echo=print) -> ExploreRun:
+                    echo=print, monitor_args: tuple[str, ...] = (), robot: str = "",
+                    endpoint: str = "") -> ExploreRun:
     """``world``: a zenav world name or a map YAML; ``start``: where the robot starts in it (SLAM's map
-    frame); ``time_limit_s``: simulated seconds from the first map."""
+    frame); ``time_limit_s``: simulated seconds from the first map; ``monitor_args``: also run
+    ``zenav monitor`` with these (e.g. ``--serve-web PORT``); ``robot`` / ``endpoint``: the private
+    network's robot name and endpoint (default: new ones)."""
     wall0 = time.monotonic()
     work = Path(workdir) / name.replace("/", "_")
     work.mkdir(parents=True, exist_ok=True)
-    robot, endpoint = f"explore{uuid.uuid4().hex[:6]}", f"tcp/127.0.0.1:{free_port()}"
+    robot = robot or f"explore{uuid.uuid4().hex[:6]}"
+    endpoint = endpoint or f"tcp/127.0.0.1:{free_port()}"
     truth = WorldTruth.of(world, start, 0.05)
     group = ProcessGroup(robot, endpoint, work)
     node = Node("explore_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)))
@@ -109,6 +113,8 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(world),
                               "--start", str(start.x), str(start.y), str(start.theta), "--speed", str(speed)])
         group.spawn("master", ["master", "--config", str(master_config)])
+        if monitor_args:
+            group.spawn("monitor", ["monitor", *monitor_args])
         explore = group.spawn("explore", ["explore", "--save", str(work / "explored"), "--wait",
                                           str(STARTUP_S), *explore_args])
         next_note = time.monotonic() + 30.0

@@ -3,8 +3,9 @@ as explore_lite with costmap_topic map: the tutorial's SLAM costmaps track no un
 move_base for the chosen one, until none is left (master_side/exploration: the search and the choice,
 pure). Progress lines through ``echo``; the end says why and how much is known.
 
-Time (``progress_timeout``, the planner period) is the robot's: the simulator's ``clock`` when it publishes
-one (a simulator slowed by a busy machine must not make a frontier look stuck), else wall time."""
+Time (``progress_timeout``, TF's stamps and ages) is the robot's: the simulator's ``clock`` when it publishes
+one (a simulator slowed by a busy machine must not make a frontier look stuck, and one at --speed 2 stamps
+TF ahead of the wall clock), else wall time."""
 
 from __future__ import annotations
 
@@ -46,7 +47,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             base_frame: str = "base_link") -> ExploreReport:
     from common.delivery import DeliveryFailed, last_seen, send_goal
     from common.geometry import Pose2D
-    from common.messages import Clock, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PoseStamped
+    from common.messages import Clock, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PointCloud, PoseStamped
     from common.tf import TFListener
     from deploy.stack.goals import send_goal as send_and_wait
 
@@ -55,8 +56,9 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     maps = node.subscribe("map", OccupancyGrid)
     status = node.subscribe("move_base/status", MoveBaseStatus)
     results = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
-    tf = TFListener(node)
     clock = node.subscribe("clock", Clock)
+    if params.visualize:
+        pub_frontiers, pub_target = node.publisher("explore/frontiers"), node.publisher("explore/target")
     seen = last_seen(status, "move_base's status")
     deadline = time.monotonic() + wait
     while maps.latest() is None or status.latest() is None:
@@ -67,10 +69,11 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                 if maps.latest() is None else "no move_base"
             return ExploreReport(2, f"{what} on robot '{node.robot}' within {wait:g} s", seconds=wait)
         time.sleep(0.1)
-    sim = clock.latest() is not None  # it comes at 100 Hz from a simulator: by now it is there
-
-    def now() -> float:
-        return clock.latest().clock if sim else time.monotonic()
+    first = clock.latest()  # it comes at 100 Hz from a simulator: with SLAM and move_base up, it is there
+    if first is not None:  # the robot's time, not the wall's: TF is stamped with it (and runs ahead at --speed 2)
+        node.follow_sim_clock(first.clock)
+    tf = TFListener(node)
+    now = node.clock.now
 
     ex, report = Explorer(params), ExploreReport(0, "")
     goal_id, target = "", None
@@ -106,14 +109,20 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             stop.wait(period)
             continue
         d = ex.plan(frontiers, now())
+        if params.visualize:
+            cells = np.concatenate([f.cells for f in frontiers]) if frontiers else np.zeros((0, 2))
+            pts = np.column_stack((cells, np.full(len(cells), 0.02))).astype(np.float32)
+            pub_frontiers.publish(PointCloud(Header(node.clock.now(), frame), pts))
         if d.action == "done":
             report.why = d.why
             break
         if d.action == "send" and d.target is not None and d.frontier is not None:
             target, goal_id, (gx, gy) = d.target, f"explore-{uuid.uuid4().hex[:8]}", d.frontier.goal
             yaw = math.atan2(gy - pose.y, gx - pose.x)
-            goal = MoveBaseGoal(goal_id, PoseStamped(Header(node.clock.now(), frame),
-                                                     Pose2D(gx, gy, yaw).to_transform()))
+            target_pose = PoseStamped(Header(node.clock.now(), frame), Pose2D(gx, gy, yaw).to_transform())
+            goal = MoveBaseGoal(goal_id, target_pose)
+            if params.visualize:
+                pub_target.publish(target_pose)
             try:
                 send_goal(node, goal, 10.0, seen, cancelled=stop.is_set)
             except DeliveryFailed as e:

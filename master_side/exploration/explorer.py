@@ -26,8 +26,9 @@ class ExploreParams:
                                      doc="accepted; no effect (explore_lite does not use it either)")
     gain_scale: float = param(1.0, lo=0.0, hi=1e6, doc="weight of the frontier's size")
     min_frontier_size: float = param(0.5, lo=0.0, hi=100.0, unit="m", doc="smaller frontiers are ignored")
-    visualize: bool = param(False, no_effect=True,
-                            doc="accepted; no effect yet (the frontiers are not published for the monitor)")
+    visualize: bool = param(True, doc="publish the frontiers (explore/frontiers, a cloud of their cells) and the "
+                                      "target (explore/target) for the monitor; on by default here (explore_lite: "
+                                      "off), as the monitor is where a user watches exploration")
     blacklist_radius: float = param(0.5, lo=0.0, hi=100.0, unit="m",
                                     doc="zenav's: a target this near a blacklisted one is blacklisted too")
     look_around: bool = param(True, doc="zenav's: a full turn in place (four quarter turns) before the first "

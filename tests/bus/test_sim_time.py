@@ -50,3 +50,24 @@ def test_timer_follows_sim_clock_published_5x_faster_than_real_time(node_pair):
         node.clock.now()
         time.sleep(0.05)
     assert len(ticks) <= n + 1
+
+
+def test_a_node_started_on_wall_time_follows_the_robot_clock_once_told(node_pair):
+    """``zenav explore`` learns only after starting that the robot is simulated: follow_sim_clock switches
+    the node to the clock topic from the value it last saw; time then moves only with the clock."""
+    sim = node_pair("sim")
+    clock_pub = sim.publisher("clock")
+    node = node_pair("explore")
+    assert not node.clock.simulated and node.clock.now() > 1e9  # wall time
+    node.follow_sim_clock(100.0)
+    assert node.clock.simulated and node.clock.now() == 100.0
+    wait_for(lambda: clock_pub._pub.matching_status.matching, timeout=30, what="clock subscriber matched")
+
+    def published(t: float) -> bool:
+        clock_pub.publish(Clock(t))
+        return node.clock.now() == t
+
+    wait_for(lambda: published(100.5), timeout=30, what="the node at the clock's 100.5 s")
+    wait_for(lambda: published(101.0), timeout=30, what="the node at the clock's 101 s")
+    node.follow_sim_clock(5.0)  # once simulated, stays on the same clock
+    assert node.clock.now() == 101.0
