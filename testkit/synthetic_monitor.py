@@ -158,6 +158,9 @@ class SyntheticRobot:
         self.pub("scan", self.scan(s, robot))
         self.pub("odom", m.Odometry(m.Header(s, "odom"), "base_link", odom_base.to_transform(),
                                     m.Twist.planar(0.375, 0.25)))
+        # the simulator's evaluation topic: the same motion in the map frame, a different Odometry stream
+        self.pub("ground_truth", m.Odometry(m.Header(s, "map"), "base_link", robot.to_transform(),
+                                            m.Twist.planar(0.375, 0.25)))
         self.pub("cmd_vel", m.Twist.planar(0.375, 0.25 + 0.05 * math.sin(t)))
         phase = int(t // 2) % 3
         self.pub("move_base/status", m.MoveBaseStatus(

@@ -220,6 +220,9 @@ class Monitor(TextEvents):
             entity = "camera/" + topic.removeprefix("camera/")
             sub(entity, topic, kind, stamp, lambda: L.log_depth_image(rec, entity, msg))
         elif isinstance(msg, m.Odometry):
+            if topic != "odom":  # the simulator's ground_truth (map frame) or another source: no trail, no
+                return            # speed plot (interleaved with odom's, they drew a smear metres off the path)
+
             def odom() -> None:
                 self._trail.log(rec, "world/odom_trail", msg)
                 rec.log("plots/odom/speed", rr.Scalars(msg.twist.linear.x))

@@ -106,6 +106,17 @@ def test_recording_has_every_display_in_its_frame(tmp_path, robot_bus):
     trail = [e for e in rec if e.startswith("/world/odom_trail/")]
     assert trail
     assert len(_one(rec[trail[0]], "LineStrips3D:strips")) >= 2
+    # the trail is odom's alone, in its frame: the simulator's ground_truth (another Odometry stream, in the
+    # map frame) once zigzagged into it, a smear of lines metres off the path (issue 31)
+    odom_xy = np.array([(o.pose.translation.x, o.pose.translation.y) for o in published["odom"]])
+    for e in trail:
+        assert _one(rec[e], "CoordinateFrame:frame") == "odom"
+        for strip in values(rec[e], "LineStrips3D:strips"):
+            pts = np.array(strip[0])[:, :2]
+            gap = np.min(np.hypot(pts[:, None, 0] - odom_xy[None, :, 0], pts[:, None, 1] - odom_xy[None, :, 1]), 1)
+            assert gap.max() < 1e-3, f"{e}: a trail point {gap.max():.2f} m from every odom pose"
+    speeds = values(rec["/plots/odom/speed"], "Scalars:scalars")
+    assert speeds and len(speeds) <= len(published["odom"])
 
     # TF edges with ROS parent/child names; static ones without time.
     edges = {e: (_one(r, "Transform3D:parent_frame"), _one(r, "Transform3D:child_frame"))
