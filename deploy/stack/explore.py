@@ -103,7 +103,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                 goal_id, target = "", None
         try:
             frontiers = search(grid, (pose.x, pose.y), params.potential_scale, params.gain_scale,
-                               params.min_frontier_size)
+                               params.min_frontier_size, params.inscribed_radius)
         except ValueError as e:
             echo(f"  {e}")
             stop.wait(period)
@@ -118,7 +118,9 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             break
         if d.action == "send" and d.target is not None and d.frontier is not None:
             target, goal_id, (gx, gy) = d.target, f"explore-{uuid.uuid4().hex[:8]}", d.frontier.goal
-            yaw = math.atan2(gy - pose.y, gx - pose.x)
+            cx, cy = d.frontier.centroid  # arrive facing the frontier
+            yaw = math.atan2(cy - gy, cx - gx) if math.hypot(cx - gx, cy - gy) > 0.05 else \
+                math.atan2(gy - pose.y, gx - pose.x)
             target_pose = PoseStamped(Header(node.clock.now(), frame), Pose2D(gx, gy, yaw).to_transform())
             goal = MoveBaseGoal(goal_id, target_pose)
             if params.visualize:

@@ -1,15 +1,18 @@
-"""Frontier search on a costmap, as explore_lite defines it (our code).
+"""Frontier search on a costmap, after explore_lite (our code).
 
-A frontier cell is an unknown cell (NO_INFORMATION) next to (4-connected) free space the robot can
-reach: the cells below INSCRIBED connected (4-connected) to the robot's cell, or to the free cell
-nearest it when the robot stands on a costly one. Frontier cells are grouped 8-connected into frontiers;
-each has its size (cells), centroid, and the cell nearest the robot (``middle``, at ``min_distance``).
-The place to send the robot (``goal``) is the centroid, as explore_lite sends it, unless it falls where
-the robot's centre cannot be (a curved frontier's centroid can lie in a wall or a crate, and move_base
-refuses such a goal): then the reachable cell beside the frontier cell nearest the centroid.
-Frontiers smaller than ``min_frontier_size`` metres are dropped. The cost is explore_lite's:
-``potential_scale * min_distance - gain_scale * size``, both in metres here (explore_lite multiplies its
-metric distance by the resolution once more), cheapest first.
+The robot's centre can be on the free cells (below INSCRIBED) 4-connected to its own cell (or to the free cell
+nearest it, when it stands on a costly one): the reachable cells. From them it sees a little further, into the
+band along walls where its centre cannot go: the known cells that are not LETHAL within ``inscribed_radius``
+(plus a cell) of a reachable cell, and joined to them without crossing a LETHAL one. A frontier cell is an
+unknown cell (NO_INFORMATION) 4-connected to those. (explore_lite asks for a FREE neighbour: in a corridor or
+a doorway seen at a slant, that left frontiers of a few cells, under ``min_frontier_size``, and exploration
+ended at the first door.) Frontier cells are grouped 8-connected into frontiers; each has its size (cells),
+centroid, and the cell nearest the robot (``middle``, at ``min_distance``). The place to send the robot
+(``goal``) is where it can stand: the reachable cell nearest the frontier cell nearest the centroid
+(explore_lite sends the centroid, which lies in unknown space, in a wall, or inside a crate, and move_base
+refused such goals). Frontiers smaller than ``min_frontier_size`` metres are dropped. The cost is
+explore_lite's: ``potential_scale * min_distance - gain_scale * size``, both in metres here (explore_lite
+multiplies its metric distance by the resolution once more), cheapest first.
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ class Frontier:
     min_distance: float  # m, from the robot to ``middle``
     cost: float
     cells: np.ndarray  # (n, 2) world x, y of every cell
-    goal: tuple[float, float]  # where to send the robot: the centroid, or the reachable cell nearest it
+    goal: tuple[float, float]  # where to send the robot: a reachable cell beside the frontier's middle part
 
 
 @dataclass(frozen=True)
@@ -58,8 +61,17 @@ class Grid:
 def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, float],
                   inscribed_radius: float, occupied: int = 65) -> Grid:
     """A SLAM map (OccupancyGrid values: -1 unknown, 0..100) as costs: unknown, LETHAL from ``occupied``,
-    INSCRIBED within ``inscribed_radius`` of a LETHAL cell (where the robot's centre cannot go), else FREE."""
+    INSCRIBED within ``inscribed_radius`` of a LETHAL cell (where the robot's centre cannot go), else FREE.
+    Only the part holding known cells (and a margin of unknown ones) is kept: a SLAM map is mostly unknown,
+    and the distance transform of a whole 100 m map took a third of a second."""
     data = np.asarray(data)
+    known = data >= 0
+    rows, cols = np.nonzero(known.any(axis=1))[0], np.nonzero(known.any(axis=0))[0]
+    if len(rows):
+        h, w = data.shape
+        r0, c0 = max(rows[0] - 2, 0), max(cols[0] - 2, 0)
+        data = data[r0:min(rows[-1] + 3, h), c0:min(cols[-1] + 3, w)]
+        origin = (origin[0] + c0 * resolution, origin[1] + r0 * resolution)
     lethal = data >= occupied
     cost = np.where(data < 0, NO_INFORMATION, FREE).astype(np.uint8)
     if lethal.any():
@@ -85,49 +97,61 @@ def reachable(grid: Grid, robot: tuple[float, float]) -> np.ndarray:
     return labels == labels[at]
 
 
-def _goal(grid: Grid, reach: np.ndarray, rows: np.ndarray, cols: np.ndarray,
-          centroid: tuple[float, float]) -> tuple[float, float]:
-    """The centroid unless its cell is INSCRIBED or LETHAL (unknown is allowed: move_base plans into it),
-    else the reachable neighbour of the frontier cell nearest the centroid (every frontier cell has one)."""
-    at = grid.cell(*centroid)
-    if at is not None and (grid.data[at] < INSCRIBED or grid.data[at] == NO_INFORMATION):
-        return float(centroid[0]), float(centroid[1])
-    xy = grid.centres(rows, cols)
-    k = int(np.argmin(np.hypot(xy[:, 0] - centroid[0], xy[:, 1] - centroid[1])))
-    r, c = int(rows[k]), int(cols[k])
-    h, w = reach.shape
-    for rr, cc in ((r + 1, c), (r - 1, c), (r, c + 1), (r, c - 1)):
-        if 0 <= rr < h and 0 <= cc < w and reach[rr, cc]:
-            x, y = grid.centres(np.array([rr]), np.array([cc]))[0]
-            return float(x), float(y)
-    return float(centroid[0]), float(centroid[1])  # not reached: a frontier cell borders reachable space
+def _known_box(grid: Grid, pad: int = 2) -> tuple[slice, slice]:
+    """The rows and columns holding every known cell (a SLAM map is mostly unknown), ``pad`` cells wider."""
+    known = grid.data != NO_INFORMATION
+    rows, cols = np.nonzero(known.any(axis=1))[0], np.nonzero(known.any(axis=0))[0]
+    if len(rows) == 0:
+        return slice(0, 0), slice(0, 0)
+    h, w = grid.data.shape
+    return (slice(max(rows[0] - pad, 0), min(rows[-1] + pad + 1, h)),
+            slice(max(cols[0] - pad, 0), min(cols[-1] + pad + 1, w)))
 
 
 def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 1e-3, gain_scale: float = 1.0,
-           min_frontier_size: float = 0.5) -> list[Frontier]:
-    """The frontiers reachable from ``robot`` (x, y in the grid's frame), cheapest first."""
-    reach = reachable(grid, robot)
-    unknown = grid.data == NO_INFORMATION
-    frontier = unknown & ndimage.binary_dilation(reach, structure=_FOUR)
+           min_frontier_size: float = 0.5, inscribed_radius: float = 0.254) -> list[Frontier]:
+    """The frontiers seen from where the robot can reach from ``robot`` (x, y in the grid's frame),
+    cheapest first."""
+    if grid.cell(*robot) is None:
+        raise ValueError(f"the robot at ({robot[0]:.2f}, {robot[1]:.2f}) is outside the costmap")
+    box = _known_box(grid)
+    r0, c0 = box[0].start, box[1].start
+    sub = Grid(grid.data[box], grid.resolution, (grid.origin[0] + c0 * grid.resolution,
+                                                  grid.origin[1] + r0 * grid.resolution))
+    if sub.data.size == 0 or sub.cell(*robot) is None:
+        return []
+    reach = reachable(sub, robot)
+    if not reach.any():
+        return []
+    # distance to, and index of, the nearest reachable cell, for every cell
+    dist, (near_r, near_c) = ndimage.distance_transform_edt(~reach, return_indices=True)
+    open_known = (sub.data != NO_INFORMATION) & (sub.data != LETHAL)
+    parts, _ = ndimage.label(open_known, structure=_FOUR)  # not through a wall: the reachable cells' part
+    mine = np.unique(parts[reach])
+    seen = np.isin(parts, mine[mine > 0]) & (dist * sub.resolution <= inscribed_radius + sub.resolution)
+    frontier = (sub.data == NO_INFORMATION) & ndimage.binary_dilation(seen, structure=_FOUR)
     labels, n = ndimage.label(frontier, structure=_EIGHT)
     if n == 0:
         return []
     rows, cols = np.nonzero(labels)
     ids = labels[rows, cols]
-    xy = grid.centres(rows, cols)
+    xy = sub.centres(rows, cols)
     d = np.hypot(xy[:, 0] - robot[0], xy[:, 1] - robot[1])
     out = []
     order = np.argsort(ids, kind="stable")
     bounds = np.searchsorted(ids[order], np.arange(1, n + 2))
     for k in range(n):
         idx = order[bounds[k]:bounds[k + 1]]
-        size_m = len(idx) * grid.resolution
+        size_m = len(idx) * sub.resolution
         if size_m < min_frontier_size:
             continue
         near = idx[int(np.argmin(d[idx]))]
         cost = potential_scale * float(d[near]) - gain_scale * size_m
         cx, cy = xy[idx].mean(axis=0)
+        mid = idx[int(np.argmin(np.hypot(xy[idx, 0] - cx, xy[idx, 1] - cy)))]
+        r, c = rows[mid], cols[mid]
+        gx, gy = sub.centres(np.array([near_r[r, c]]), np.array([near_c[r, c]]))[0]
         out.append(Frontier(len(idx), size_m, (float(cx), float(cy)), (float(xy[near, 0]), float(xy[near, 1])),
-                            float(d[near]), cost, xy[idx], _goal(grid, reach, rows[idx], cols[idx], (cx, cy))))
+                            float(d[near]), cost, xy[idx], (float(gx), float(gy))))
     out.sort(key=lambda f: f.cost)
     return out

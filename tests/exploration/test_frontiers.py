@@ -82,11 +82,11 @@ def test_a_slam_map_becomes_costs_with_the_robots_radius_kept_off_the_walls():
 
 
 
-def test_a_frontier_whose_centroid_falls_on_an_obstacle_sends_the_robot_beside_it_instead():
+def test_the_goal_is_where_the_robot_can_stand_beside_the_frontier_not_its_centroid():
     """A known square (x, y in [0.5, 2.0)) with a crate in its middle, unknown all around: one ring-shaped
-    frontier whose centroid (1.25, 1.25) lies on the crate, where move_base refuses a goal. The goal is then
-    a reachable cell beside the frontier cell nearest the centroid; the door of the room above keeps its
-    centroid (explore_lite's goal), in unknown space as it is."""
+    frontier whose centroid (1.25, 1.25) lies on the crate, where move_base refuses a goal. The goal is the
+    reachable cell nearest the frontier cell nearest the centroid: beside the frontier. The door of the
+    room above gets the reachable cell in the doorway, not its centroid in unknown space."""
     g = np.full((30, 30), NO_INFORMATION, np.uint8)
     g[5:20, 5:20] = FREE
     g[10:15, 10:15] = LETHAL
@@ -101,4 +101,22 @@ def test_a_frontier_whose_centroid_falls_on_an_obstacle_sends_the_robot_beside_i
     assert np.hypot(f.goal[0] - 1.25, f.goal[1] - 1.25) == pytest.approx(0.7)  # beside its nearest cell
 
     (door,) = search(Grid(_room(), RES, (0.0, 0.0)), (1.0, 1.0), min_frontier_size=0.0)
-    assert door.goal == door.centroid
+    assert door.goal[0] == pytest.approx(1.55) and door.goal[1] in (pytest.approx(0.95), pytest.approx(1.05))
+
+
+def test_the_band_along_walls_the_robot_cannot_enter_still_borders_frontiers():
+    """A corridor 0.7 m wide (x in [0.5, 1.2)) running north into unknown space, its walls' inscribed bands
+    (0.25 m each) leaving a 0.2 m strip the robot's centre can use: the frontier across its end is the whole
+    width the robot sees from that strip (explore_lite's FREE-neighbour rule gives the strip's 2 cells, under
+    min_frontier_size), and no frontier is seen through a wall."""
+    g = np.full((40, 20), NO_INFORMATION, np.uint8)
+    g[0:20, 5:12] = FREE
+    g[0:20, 4] = g[0:20, 12] = LETHAL
+    g[0:20, 5:8] = g[0:20, 9:12] = INSCRIBED  # the bands; the strip is column 8
+    g[0:20, 14:17] = FREE  # known space beyond the east wall, not joined to the corridor
+    grid = Grid(g, RES, (0.0, 0.0))
+    fs = search(grid, (0.85, 0.5), min_frontier_size=0.5, inscribed_radius=0.25)
+    assert len(fs) == 1, fs
+    f = fs[0]
+    assert f.size == 7 and set(np.round(f.cells[:, 1], 2)) == {2.05}  # the row just north of the corridor
+    assert grid.cell(*f.goal) == (19, 8)  # on the strip, at the frontier
