@@ -22,6 +22,12 @@ Watching: with a display the Rerun viewer opens (--spawn); without one the run i
 zenav-demo.rrd (open it with `rerun zenav-demo.rrd`, or serve it to a browser with
 `rerun --serve-web zenav-demo.rrd`). --serve-web PORT shows it live in a browser instead.
 
+--explore [ENV]: instead, the robot maps a building by itself: the P3-AT with its planar laser (or its
+Kinect, --sensor kinect) starts in MRPB's office02 (or ENV: shopping_mall, room02, ...) with gmapping and
+no map, and `zenav explore` drives it to frontiers until nothing is left; the monitor shows the map
+growing, the frontiers and the chosen target. Exits 0 when exploration ends by itself with 95 % of the
+reachable free area known and no collision.
+
 Bus: --robot names the robot (default "demo"); --connect / --listen / --mode / --no-multicast are refused
 (the network is private). The demo prints its endpoint, e.g. for `zenav --robot demo --no-multicast
 --connect tcp/127.0.0.1:PORT topic hz scan` in another terminal.
@@ -45,6 +51,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--engine", choices=("kinematic", "mujoco"), default="kinematic",
                    help="simulator engine: kinematic (exact arcs, no slip) or mujoco (rigid-body physics: the "
                         "skid-steered P3-AT with inertia, slip and torque limits)")
+    p.add_argument("--explore", nargs="?", const="office02", metavar="ENV",
+                   help="explore an MRPB building with SLAM and `zenav explore` instead (default office02)")
+    p.add_argument("--sensor", choices=("laser", "kinect"), default="laser",
+                   help="with --explore: the P3-AT's planar laser (default) or its Kinect")
     p.add_argument("--goals", type=nonneg_int, default=0, help="at most this many goals per world (0 = all)")
     p.add_argument("--speed", type=positive, default=1.0, help="simulated time / real time")
     p.add_argument("--goal-timeout", type=positive, default=180.0, help="seconds allowed per goal")
@@ -81,6 +91,8 @@ def run(args) -> int:
               "(multicast off), so it never talks to robots on the LAN; it prints that network's endpoint "
               "for other zenav commands to join", file=sys.stderr)
         return 2
+    if args.explore:
+        return _explore(args)
     worlds = tuple(args.world or ("room", "corridor"))
     opts = DemoOptions(worlds=worlds, planner=args.planner, max_goals=args.goals, speed=args.speed,
                        goal_timeout=args.goal_timeout, monitor_args=monitor_args(args),
@@ -95,12 +107,35 @@ def run(args) -> int:
     try:
         with terminate_as_interrupt():  # SIGTERM / SIGHUP as Ctrl-C: the agents are stopped below
             ok = demo.run()
+            _summary(opts, args, ok, "", time.monotonic() - t0, demo)
+            keep_serving(args)
     except KeyboardInterrupt as e:
         error = f"interrupted ({e})" if str(e) else "interrupted"
     except RuntimeError as e:
         error = str(e)
     finally:
         demo.close()
+    if error:
+        _summary(opts, args, False, error, time.monotonic() - t0, demo)
+        return 1
+    return 0 if ok else 1
+
+
+def keep_serving(args) -> None:
+    """With --serve-web, the page stays up after the run (the recording in the viewer, the robot stopped)
+    until Ctrl-C: a user who opened it to watch can still look back at the run."""
+    if not args.serve_web:
+        return
+    print(f"[demo] the run is over; the page keeps showing it at http://localhost:{args.serve_web} "
+          "until Ctrl-C", flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        print("[demo] stopped", flush=True)
+
+
+def _summary(opts, args, ok: bool, error: str, total: float, demo) -> None:
     print("[demo] ---- summary ----")
     for r in opts.results:
         print(f"[demo] {r.world:<9} {r.name:<22} {'OK  ' if r.ok else 'FAIL'} {r.seconds:6.1f} s  "
@@ -108,10 +143,61 @@ def run(args) -> int:
     if args.save:
         print(f"[demo] recording: {args.save}\n[demo]   view it:  rerun {args.save}\n"
               f"[demo]   or in a browser: rerun --serve-web {args.save}  (then open http://localhost:9090)")
-    total = time.monotonic() - t0
-    if ok:
-        print(f"[demo] all {len(opts.results)} goals reached in {total:.0f} s")
-        return 0
+    if ok and not error:
+        print(f"[demo] all {len(opts.results)} goals reached in {total:.0f} s", flush=True)
+        return
     why = error or next((f"{r.world} '{r.name}': {r.reason}" for r in opts.results if not r.ok), "no goal ran")
-    print(f"[demo] FAILED: {why} (logs in {demo.work})", file=sys.stderr)
-    return 1
+    print(f"[demo] FAILED: {why} (logs in {demo.work})", file=sys.stderr, flush=True)
+
+
+def _explore(args) -> int:
+    """``zenav demo --explore``: deploy/mrpb/exploration.py's run, with the monitor, said as it goes."""
+    import tempfile
+    from pathlib import Path
+
+    from deploy.mrpb.cases import STATIC_ENVS, load_cases, world_map
+    from deploy.mrpb.exploration import run_exploration
+    from deploy.stack.process_group import terminate_as_interrupt
+
+    root = Path(__file__).resolve().parents[2]
+    mrpb = root.parent / "shared" / "datasets" / "mrpb" / "map10cm"
+    env = args.explore
+    if env not in STATIC_ENVS or env.endswith("_partially_unknown"):
+        print(f"zenav demo: --explore {env}: not an MRPB building (one of "
+              f"{', '.join(e for e in STATIC_ENVS if not e.endswith('_partially_unknown'))})", file=sys.stderr)
+        return 2
+    if not mrpb.is_dir():
+        print(f"zenav demo: --explore needs MRPB's maps in {mrpb} (../shared/datasets/mrpb)", file=sys.stderr)
+        return 2
+    from common.geometry import Pose2D
+
+    start = Pose2D(*load_cases(mrpb, (env,), (1,))[0].start)
+    robot_cfg = root / "robot_side" / "config" / ("p3at_sim_laser.yaml" if args.sensor == "laser" else "p3at_sim.yaml")
+    work = Path(args.workdir or tempfile.mkdtemp(prefix="zenav-demo-explore-"))
+    print(f"[demo] exploring MRPB {env} from ({start.x:.1f}, {start.y:.1f}) with the P3-AT's {args.sensor}, gmapping "
+          f"and `zenav explore`; logs and the map in {work}", flush=True)
+    with terminate_as_interrupt():
+        try:
+            r = run_exploration(env, str(world_map(mrpb, env)), start, robot_cfg,
+                                root / "master_side" / "config" / "p3at_slam.yaml", work, args.speed,
+                                echo=lambda s: print(f"[demo]{s}", flush=True), monitor_args=monitor_args(args),
+                                robot=getattr(args, "robot", None) or "demo",
+                                before_stop=lambda r: (_explore_summary(r, args), keep_serving(args)))
+        except KeyboardInterrupt:
+            print("[demo] interrupted", file=sys.stderr)
+            return 1
+    if not args.serve_web:  # else said before the page was left up
+        _explore_summary(r, args)
+    ok = r.end == "done" and r.final_share >= 0.95 and r.collisions == 0
+    return 0 if ok else 1
+
+
+def _explore_summary(r, args) -> None:
+    from pathlib import Path
+
+    print(f"[demo] exploration {r.end} after {r.sim_s:.0f} s simulated ({r.wall_s:.0f} s): "
+          f"{100 * r.final_share:.1f} % of the {r.free_m2:.0f} m² the robot can reach known free, "
+          f"walls {100 * r.walls_ok:.1f} % right, free cells {100 * r.free_ok:.1f} % right, {r.path_m:.0f} m driven, "
+          f"{r.collisions} collisions; map: {Path(r.log_dir) / 'explored.yaml'}", flush=True)
+    if args.save:
+        print(f"[demo] recording: {args.save} (rerun {args.save})")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import base64
 import math
 import threading
+import time
 
 import numpy as np
 
@@ -81,6 +82,7 @@ class WebState:
         self.map: m.OccupancyGrid | None = None
         self.map_version = 0
         self.mission: dict | None = None  # the page's waypoint queue as it is driven (commands.py)
+        self.last_data: float | None = None  # monotonic time of the robot's last message (not the map)
         self._map_payload: dict | None = None
         self.move_base: m.MoveBaseStatus | None = None
         self.safety: m.CollisionMonitorState | None = None
@@ -94,6 +96,8 @@ class WebState:
     # -- input (the monitor's thread) --------------------------------------------------------------
     def observe(self, topic: str, msg) -> None:
         with self.lock:
+            if topic != "map":  # the latched map comes again on a query: not a sign of a live robot
+                self.last_data = time.monotonic()
             if isinstance(msg, m.TFMessage):
                 self.tf.add(msg)
             elif isinstance(msg, m.OccupancyGrid) and topic.rsplit("/", 1)[-1] == "map":
@@ -161,6 +165,7 @@ class WebState:
                     "state": mb.state, "status": STATUS_NAMES.get(mb.status, str(mb.status)),
                     "goal_id": mb.goal_id, "distance": round(mb.distance_to_goal_m, 3)},
                 "why": self.why_not_moving(), "events": list(self.events), "mission": self.mission,
+                "data_age_s": None if self.last_data is None else round(time.monotonic() - self.last_data, 1),
             }
 
     def map_payload(self) -> dict | None:

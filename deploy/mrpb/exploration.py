@@ -94,11 +94,13 @@ class _Watch:
 def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, master_config: Path,
                     workdir: Path, speed: float = 2.0, time_limit_s: float = 1800.0, explore_args=(),
                     echo=print, monitor_args: tuple[str, ...] = (), robot: str = "",
-                    endpoint: str = "") -> ExploreRun:
+                    endpoint: str = "", before_stop=None) -> ExploreRun:
     """``world``: a zenav world name or a map YAML; ``start``: where the robot starts in it (SLAM's map
     frame); ``time_limit_s``: simulated seconds from the first map; ``monitor_args``: also run
     ``zenav monitor`` with these (e.g. ``--serve-web PORT``); ``robot`` / ``endpoint``: the private
-    network's robot name and endpoint (default: new ones)."""
+    network's robot name and endpoint (default: new ones); ``before_stop(run)``: called with the measured
+    run once the robot and master are stopped, before the monitor is (``zenav demo --serve-web`` keeps
+    the page up there)."""
     wall0 = time.monotonic()
     work = Path(workdir) / name.replace("/", "_")
     work.mkdir(parents=True, exist_ok=True)
@@ -109,6 +111,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     node = Node("explore_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)))
     watch = _Watch(node, truth)
     out = ExploreRun(name, "failed", free_m2=truth.free_m2, log_dir=str(work))
+    completed = False
     try:
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(world),
                               "--start", str(start.x), str(start.y), str(start.theta), "--speed", str(speed)])
@@ -141,13 +144,21 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         hits = watch.hits.latest()
         out.collisions = hits.count if hits is not None else 0
         out.sim_s = watch.now() - (watch.t0 or 0.0)
+        completed = True
     except RuntimeError as e:  # an agent died or never came up
         out.end = f"failed: {e}"
+        completed = True
     finally:
-        group.stop()
-        node.close()
-    with watch.lock:
-        out.path_m = watch.path
-    out.coverage = list(watch.coverage)
-    out.wall_s = time.monotonic() - wall0
+        with watch.lock:
+            out.path_m = watch.path
+        out.coverage = list(watch.coverage)
+        out.wall_s = time.monotonic() - wall0
+        try:
+            if before_stop is not None and completed:  # not on Ctrl-C
+                for name in ("explore", "master", "robot"):
+                    group.stop(name)
+                before_stop(out)
+        finally:
+            group.stop()
+            node.close()
     return out

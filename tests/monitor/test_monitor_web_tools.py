@@ -56,6 +56,9 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
         rig.wait(lambda: rig.js("!!(window.zenav && zenav.map && zenav.state && zenav.state.pose "
                                  "&& zenav.state.move_base)"),
                  120.0, "the page showing the map, the robot and move_base")
+        link = rig.wait(lambda: (t := rig.js("document.getElementById('link').textContent")).startswith("● live")
+                        and t, 30.0, "the page's link state live")
+        assert rig.robot in link, link
         rig.wait(lambda: rig.amcl.latest() is not None, 30.0, "amcl_pose")
         before = rig.amcl.latest().pose.to_pose2d()
         assert math.hypot(before.x - START[0], before.y - START[1]) > 0.4, before
@@ -101,7 +104,7 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
         line = rig.wait(lambda: (m := rig.js("zenav.state && zenav.state.mission && !zenav.state.mission.active "
                                              "? zenav.state.mission.line : ''")) and m, 120.0,
                         "the page's mission ending")
-        assert line == "mission: 2 of 2 legs reached", line
+        assert line == "mission: 2 of 2 legs reached", line  # the last line, as the bar shows it
         end = rig.gt.latest().pose2d
         assert math.hypot(end.x - WAYPOINTS[1][0], end.y - WAYPOINTS[1][1]) < 0.3, end
         t_mission = time.monotonic() - t0

@@ -34,8 +34,10 @@ def _state() -> WebState:
 
 
 def test_the_state_puts_the_robot_in_the_map_through_tf_and_serves_the_map():
+    assert WebState("r1").snapshot()["data_age_s"] is None  # the page says: no data from the robot yet
     st = _state()
     snap = st.snapshot()
+    assert 0.0 <= snap["data_age_s"] < 5.0  # live
     assert snap["pose"] == pytest.approx({"x": 1.0, "y": 1.0, "yaw": round(math.pi / 2, 4)}, abs=1e-3)
     mp = st.map_payload()
     assert (mp["width"], mp["height"], mp["resolution"]) == (2, 2, 0.5)

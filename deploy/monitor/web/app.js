@@ -135,9 +135,40 @@ async function loadMap() {
   Z.map = m; Z.mapImage = off;
 }
 
+// the link to the monitor, said as it is: live, no data from the robot (stopped?), or reconnecting
+Z.link = { ok: null, since: Date.now(), error: "" };
+function showLink(ok, st, error) {
+  if (ok !== Z.link.ok) Z.link = { ok, since: Date.now(), error: "" };
+  if (error) Z.link.error = error;
+  const el = document.getElementById("link");
+  const where = `monitor ${location.host}`;
+  const secs = Math.round((Date.now() - Z.link.since) / 1000);
+  if (!ok) {
+    el.textContent = `● reconnecting to the ${where} (${secs} s: ${Z.link.error})`;
+    el.className = "link down";
+  } else if (st.data_age_s === null || st.data_age_s > 3) {
+    el.textContent = st.data_age_s === null ? `● ${where}: no data from robot '${st.robot}' yet`
+      : `● ${where}: robot '${st.robot}' silent for ${Math.round(st.data_age_s)} s (stopped?)`;
+    el.className = "link quiet";
+  } else {
+    el.textContent = `● live: robot '${st.robot}' via ${where}`;
+    el.className = "link live";
+  }
+}
+
 async function poll() {
+  let st;
   try {
-    const st = await (await fetch("api/state")).json();
+    const r = await fetch("api/state", { signal: AbortSignal.timeout(5000) });
+    if (!r.ok) throw new Error(`HTTP ${r.status}`);
+    st = await r.json();
+  } catch (e) {  // the monitor is down or busy: say so, try again
+    showLink(false, null, e.name === "TimeoutError" ? "no answer in 5 s" : e.message);
+    setTimeout(poll, 1000);
+    return;
+  }
+  showLink(true, st);
+  try {  // a drawing error is ours, not the link's: said apart, and the polling goes on
     if (!Z.map || st.map_version !== Z.map.version) await loadMap();
     Z.state = st;
     const mb = st.move_base;
@@ -146,10 +177,12 @@ async function poll() {
       mb ? `move_base: ${mb.state || "-"} [${mb.status}]` + (mb.goal_id ? ` ${mb.distance.toFixed(2)} m to go` : "")
          : "move_base: not seen";
     document.getElementById("why").textContent = st.why ? `why not moving: ${st.why}` : "";
-    document.getElementById("mission-state").textContent = st.mission ? `mission: ${st.mission.line}` : "";
+    const line = st.mission ? st.mission.line : "";
+    document.getElementById("mission-state").textContent = !line || line.startsWith("mission") ? line : `mission: ${line}`;
     draw();
   } catch (e) {
-    document.getElementById("mb-state").textContent = "monitor unreachable";
+    console.error(e);
+    note(`page error: ${e.message}`);
   }
   setTimeout(poll, 200);
 }
