@@ -51,7 +51,7 @@ class Node:
     """A named participant on the bus. Owns a Zenoh session unless one is passed in."""
 
     def __init__(self, name: str, robot: str | None = None, config: BusConfig | None = None,
-                 session: zenoh.Session | None = None, use_sim_time: bool | None = None) -> None:
+                 session: zenoh.Session | None = None, use_sim_time: bool | str | None = None) -> None:
         if not name or "/" in name or "*" in name:
             raise ValueError(f"bad node name {name!r}")
         self.config = config or BusConfig.from_env()
@@ -67,29 +67,31 @@ class Node:
         self._entities.append(self.queryables)
         self._closed = False
         if use_sim_time is None:
-            use_sim_time = os.environ.get("ZENAV_USE_SIM_TIME", "0") in ("1", "true", "yes")
-        sim = SimClock() if use_sim_time else None
+            env = os.environ.get("ZENAV_USE_SIM_TIME", "0")
+            use_sim_time = "auto" if env == "auto" else env in ("1", "true", "yes")
+        sim = SimClock() if use_sim_time is True else None
         self.clock: WallClock | SimClock = sim if sim is not None else WallClock()
         self.stats_sources: list[Any] = []  # objects with stats() -> TopicStats rows (subscriptions, TF)
         if sim is not None:
-            self._follow(sim)
+            self.subscribe("clock", Clock, callback=lambda m: sim.update(m.clock), inline=True)
+        elif use_sim_time == "auto":
+            self.subscribe("clock", Clock, callback=self._auto_clock, inline=True)
         self.service(f"node_stats/{name}", lambda _req: self.stats(), token=False)
         self._node_token = self._declare_token("node")
         self.log = logging.getLogger(f"zenav.{name}")
 
-    def _follow(self, sim: SimClock) -> None:
-        self.subscribe("clock", Clock, callback=lambda m: sim.update(m.clock), inline=True)
-
-    def follow_sim_clock(self, first: float) -> None:
-        """From now on, the robot's simulated ``clock`` is this node's time (``first``: its latest value,
-        so ``now()`` is right at once): for a command that learns only after starting that the robot is
-        simulated (``zenav explore``). TF listeners and timers made before keep the old clock."""
-        if self.clock.simulated:
+    def _auto_clock(self, m: Clock) -> None:
+        """use_sim_time="auto": wall time until the robot's simulator publishes ``clock``, its time from the
+        first message on (a command started before, or beside, a simulated robot: ``zenav goal``, ``zenav
+        explore``). A wall-clock node refuses messages stamped more than 300 s ahead of it, and a simulator at
+        --speed 2 gets that far ahead of the wall in five minutes. Timers made before keep the wall clock."""
+        clock = self.clock
+        if isinstance(clock, SimClock):
+            clock.update(m.clock)
             return
         sim = SimClock()
-        sim.update(first)
+        sim.update(m.clock)
         self.clock = sim
-        self._follow(sim)
 
     # -- helpers -------------------------------------------------------------------------------
     def _declare_token(self, kind: str, topic: str = ""):

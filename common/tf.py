@@ -182,6 +182,16 @@ def _frames_problem(msg: TFMessage) -> str | None:
     return None
 
 
+class _NodeClock:
+    """The node's clock as it is at each call: a node on use_sim_time="auto" switches to the simulator's."""
+
+    def __init__(self, node) -> None:
+        self._node = node
+
+    def __getattr__(self, name: str):
+        return getattr(self._node.clock, name)
+
+
 class TFListener:
     """Fills ``self.buffer`` from ``tf`` and ``tf_static`` of the node's robot.
 
@@ -195,7 +205,7 @@ class TFListener:
         from common.codec import DecodeError, decode
 
         self._zenoh, self._decode, self._decode_error = zenoh, decode, DecodeError
-        self.buffer = buffer if buffer is not None else TFBuffer(cache_time, clock=node.clock)
+        self.buffer = buffer if buffer is not None else TFBuffer(cache_time, clock=_NodeClock(node))
         self._node, self._session = node, node.session
         self.malformed = 0  # payloads that are not a TFMessage
         self.invalid = 0  # TFMessages refused whole: NaN, zero quaternion, far-future stamp, bad frames

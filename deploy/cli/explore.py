@@ -52,7 +52,8 @@ def run(args) -> int:
     one_robot(args)
     stop = threading.Event()
     signal.signal(signal.SIGINT, lambda *_: stop.set())
-    with Node(f"explore_{uuid.uuid4().hex[:6]}") as node:
+    # the robot's time when it is simulated (TF is stamped with it): explore_lite follows /clock with use_sim_time
+    with Node(f"explore_{uuid.uuid4().hex[:6]}", use_sim_time="auto") as node:
         report = explore(node, params, lambda s: print(s, flush=True), stop, args.wait)
         if report.code == 2:  # nothing explored: one line saying why
             print(f"zenav explore: {report.why}", file=sys.stderr)

@@ -82,7 +82,7 @@ def run(args) -> int:
     import signal
 
     signal.signal(signal.SIGINT, lambda *_: stop.set())
-    with Node(f"goal_{uuid.uuid4().hex[:6]}") as node:
+    with Node(f"goal_{uuid.uuid4().hex[:6]}", use_sim_time="auto") as node:  # a simulated robot's stamps
         echo = (lambda *_a, **_k: None) if args.quiet else (lambda s: print(s, flush=True))
         if waypoints is not None:
             return _mission(node, waypoints, args, stop, echo)

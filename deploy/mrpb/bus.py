@@ -85,7 +85,7 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
     robot = f"mrpb{uuid.uuid4().hex[:6]}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     group = ProcessGroup(robot, endpoint, work)
-    node = Node("mrpb_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)))
+    node = Node("mrpb_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)), use_sim_time="auto")
     rec = _Recorder(node)
     status, reason = "timeout", f"not reached within {time_limit_s:g} s"
     cancel = threading.Event()

@@ -113,7 +113,8 @@ class Demo:
         self.work = Path(opts.workdir or tempfile.mkdtemp(prefix="zenav-demo-"))
         self.work.mkdir(parents=True, exist_ok=True)
         self.group = ProcessGroup(opts.robot, self.endpoint, self.work)
-        self.node = Node("demo", config=BusConfig(robot=opts.robot, multicast=False, listen=(self.endpoint,)))
+        self.node = Node("demo", config=BusConfig(robot=opts.robot, multicast=False, listen=(self.endpoint,)),
+                         use_sim_time="auto")  # the simulator's stamps run ahead of the wall at --speed 2
         self.truth = self.node.subscribe("ground_truth", Odometry)
         self.collisions = self.node.subscribe("collision", Collision)
         self.status = self.node.subscribe("move_base/status", MoveBaseStatus)

@@ -47,7 +47,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             base_frame: str = "base_link") -> ExploreReport:
     from common.delivery import DeliveryFailed, last_seen, send_goal
     from common.geometry import Pose2D
-    from common.messages import Clock, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PointCloud, PoseStamped
+    from common.messages import GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PointCloud, PoseStamped
     from common.tf import TFListener
     from deploy.stack.goals import send_goal as send_and_wait
 
@@ -56,7 +56,6 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     maps = node.subscribe("map", OccupancyGrid)
     status = node.subscribe("move_base/status", MoveBaseStatus)
     results = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
-    clock = node.subscribe("clock", Clock)
     if params.visualize:
         pub_frontiers, pub_target = node.publisher("explore/frontiers"), node.publisher("explore/target")
     seen = last_seen(status, "move_base's status")
@@ -69,11 +68,10 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                 if maps.latest() is None else "no move_base"
             return ExploreReport(2, f"{what} on robot '{node.robot}' within {wait:g} s", seconds=wait)
         time.sleep(0.1)
-    first = clock.latest()  # it comes at 100 Hz from a simulator: with SLAM and move_base up, it is there
-    if first is not None:  # the robot's time, not the wall's: TF is stamped with it (and runs ahead at --speed 2)
-        node.follow_sim_clock(first.clock)
     tf = TFListener(node)
-    now = node.clock.now
+
+    def now() -> float:  # the robot's time with a node on use_sim_time="auto" (zenav explore's)
+        return node.clock.now()
 
     ex, report = Explorer(params), ExploreReport(0, "")
     goal_id, target = "", None

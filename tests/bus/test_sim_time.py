@@ -52,22 +52,32 @@ def test_timer_follows_sim_clock_published_5x_faster_than_real_time(node_pair):
     assert len(ticks) <= n + 1
 
 
-def test_a_node_started_on_wall_time_follows_the_robot_clock_once_told(node_pair):
-    """``zenav explore`` learns only after starting that the robot is simulated: follow_sim_clock switches
-    the node to the clock topic from the value it last saw; time then moves only with the clock."""
+def test_a_node_on_auto_sim_time_takes_the_robots_clock_from_its_first_message(node_pair):
+    """use_sim_time="auto" (``zenav goal``, ``zenav explore``): wall time until a simulator publishes
+    ``clock``, then its time; a TF listener made before follows the switch. A wall-clock node drops what is
+    stamped 300 s ahead of it: a simulator at --speed 2 is that far ahead of the wall in five minutes."""
+    from common import messages as m
+    from common.geometry import Pose2D
+    from common.tf import TFListener
+
     sim = node_pair("sim")
-    clock_pub = sim.publisher("clock")
-    node = node_pair("explore")
+    clock_pub, tf_pub = sim.publisher("clock"), sim.publisher("tf")
+    node = node_pair("explore", use_sim_time="auto")
+    tf = TFListener(node)
     assert not node.clock.simulated and node.clock.now() > 1e9  # wall time
-    node.follow_sim_clock(100.0)
-    assert node.clock.simulated and node.clock.now() == 100.0
-    wait_for(lambda: clock_pub._pub.matching_status.matching, timeout=30, what="clock subscriber matched")
+    ahead = time.time() + 1000.0  # a simulator 1000 s ahead of the wall
 
     def published(t: float) -> bool:
         clock_pub.publish(Clock(t))
-        return node.clock.now() == t
+        return node.clock.simulated and node.clock.now() == t
 
-    wait_for(lambda: published(100.5), timeout=30, what="the node at the clock's 100.5 s")
-    wait_for(lambda: published(101.0), timeout=30, what="the node at the clock's 101 s")
-    node.follow_sim_clock(5.0)  # once simulated, stays on the same clock
-    assert node.clock.now() == 101.0
+    wait_for(lambda: published(ahead), timeout=30, what="the node on the simulator's clock")
+    wait_for(lambda: published(ahead + 0.5), timeout=30, what="the node following the clock")
+    edge = m.TFMessage((m.TransformStamped(m.Header(ahead + 0.5, "odom"), "base_link",
+                                           Pose2D(1.0, 2.0, 0.0).to_transform()),))
+
+    def got_tf() -> bool:
+        tf_pub.publish(edge)
+        return tf.buffer.can_transform("odom", "base_link", ahead + 0.5)
+
+    wait_for(got_tf, timeout=30, what="a transform stamped 1000 s ahead of the wall, taken")
