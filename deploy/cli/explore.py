@@ -14,7 +14,7 @@ Drive the robot to the frontiers between known free space and unknown space on S
 the other, while SLAM builds it (zenav master --config master_side/config/p3at_slam.yaml), until no
 frontier is left; then save the map (--save NAME, default 'explored'). Ctrl-C stops, cancels the goal
 and saves the map too. Frontiers, their cost and the choice are explore_lite's: the cheapest of
-potential_scale x distance - gain_scale x size (metres), frontiers under min_frontier_size ignored, a
+(potential_scale x distance - gain_scale x size) x the map's resolution, frontiers under min_frontier_size ignored, a
 target blacklisted when move_base gives up on it or after progress_timeout without getting nearer; free
 space nearer a wall than inscribed_radius does not count as reachable.
 

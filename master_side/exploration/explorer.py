@@ -21,7 +21,10 @@ class ExploreParams:
     planner_frequency: float = param(1.0, lo=0.01, hi=100.0, unit="Hz", doc="how often frontiers are searched")
     progress_timeout: float = param(30.0, lo=1.0, hi=3600.0, unit="s",
                                     doc="a target whose frontier got no nearer for this long is blacklisted")
-    potential_scale: float = param(1e-3, lo=0.0, hi=1e6, doc="weight of the frontier's distance")
+    potential_scale: float = param(3.0, lo=0.0, hi=1e6,
+                                   doc="weight of the frontier's distance (explore_lite's explore.launch: 3.0; its "
+                                       "node's 1e-3 makes distance irrelevant: the robot thrashed between far "
+                                       "frontiers of near-equal size, a new one every second)")
     orientation_scale: float = param(0.0, lo=0.0, hi=1e6, no_effect=True,
                                      doc="accepted; no effect (explore_lite does not use it either)")
     gain_scale: float = param(1.0, lo=0.0, hi=1e6, doc="weight of the frontier's size")

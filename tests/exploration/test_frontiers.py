@@ -33,7 +33,7 @@ def test_the_door_is_the_one_frontier_and_a_pocket_beyond_a_wall_is_not():
     assert f.size == 4 and f.size_m == pytest.approx(0.4)
     assert f.centroid == pytest.approx((1.65, 1.0))
     assert f.min_distance == pytest.approx(np.hypot(0.65, 0.05))
-    assert f.cost == pytest.approx(1e-3 * f.min_distance - 0.4)
+    assert f.cost == pytest.approx(3.0 * f.min_distance * RES - 0.4)  # explore_lite's, its launch file's scale
 
 
 def test_bigger_frontiers_win_by_gain_and_nearer_ones_by_potential():
