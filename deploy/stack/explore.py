@@ -94,14 +94,18 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                 r = results.get(timeout=0.0)
             except TimeoutError:
                 break
-            if r.goal_id == goal_id and r.status != GoalStatus.SUCCEEDED and target is not None:
+            if r.goal_id != goal_id or target is None:
+                continue
+            if r.status == GoalStatus.SUCCEEDED:
+                ex.goal_reached()
+            else:
                 ex.goal_failed(target)
                 report.failed += 1
                 echo(f"  target ({target[0]:.2f}, {target[1]:.2f}) failed: {r.reason}; blacklisted")
-                goal_id, target = "", None
+            goal_id, target = "", None
         try:
             frontiers = search(grid, (pose.x, pose.y), params.potential_scale, params.gain_scale,
-                               params.min_frontier_size, params.inscribed_radius)
+                               params.min_frontier_size, params.inscribed_radius, params.circumscribed_radius)
         except ValueError as e:
             echo(f"  {e}")
             stop.wait(period)

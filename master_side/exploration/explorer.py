@@ -1,10 +1,13 @@
 """Where to go next while exploring (explore_lite's makePlan, our code), with its parameter names.
 
-Each ``plan`` call (every 1/planner_frequency s) takes the frontiers, cheapest first, and picks the first
-whose centroid is not on the blacklist (within ``blacklist_radius`` of a blacklisted goal). A new target
-is a goal to send; the same target again is only watched: when its frontier's ``min_distance`` has not
-shrunk for ``progress_timeout`` s, the target is blacklisted and the next one taken. A goal move_base
-aborts is blacklisted too (``goal_failed``). No frontier left (or all blacklisted): exploration is done.
+Each ``plan`` call (every 1/planner_frequency s) follows the current target while its frontier is there
+(a frontier with a cell within ``commit_radius`` of the goal sent) and the robot is on its way; a new
+target is chosen, the cheapest frontier not on the blacklist (within ``blacklist_radius`` of a
+blacklisted centroid), when there is none yet, when move_base reached the goal (``goal_reached``), when
+the frontier is gone (explored), or when its ``min_distance`` has not shrunk for ``progress_timeout`` s
+(blacklisted). explore_lite picks the cheapest every cycle: as SLAM's map grew, frontiers of near-equal
+cost traded places and the robot was sent back and forth across office02. A goal move_base aborts is
+blacklisted too (``goal_failed``). No frontier left (or all blacklisted): exploration is done.
 """
 
 from __future__ import annotations
@@ -34,10 +37,16 @@ class ExploreParams:
                                       "off), as the monitor is where a user watches exploration")
     blacklist_radius: float = param(0.5, lo=0.0, hi=100.0, unit="m",
                                     doc="zenav's: a target this near a blacklisted one is blacklisted too")
+    commit_radius: float = param(1.0, lo=0.0, hi=100.0, unit="m",
+                                 doc="zenav's: the current target's frontier is the one with a cell this near its "
+                                     "goal; followed until reached, gone, failed or stuck")
     look_around: bool = param(True, doc="zenav's: a full turn in place (four quarter turns) before the first "
                                         "search, so the sensor has seen all around the start: a forward laser or "
                                         "a camera leaves the space behind it unknown, and that frontier, "
                                         "running under the robot, gets no nearer by driving")
+    circumscribed_radius: float = param(0.36, lo=0.0, hi=10.0, unit="m",
+                                        doc="zenav's: goals this clear of walls where one is near, so the robot can "
+                                            "turn to face the frontier (the P3-AT's, from the tutorial's footprint)")
     inscribed_radius: float = param(0.254, lo=0.0, hi=10.0, unit="m",
                                     doc="zenav's: free space nearer a wall is not free for the search (the "
                                         "P3-AT's, from the tutorial's footprint)")
@@ -55,7 +64,8 @@ class Decision:
 class Explorer:
     params: ExploreParams = field(default_factory=ExploreParams)
     blacklist: list[tuple[float, float]] = field(default_factory=list)
-    target: tuple[float, float] | None = None
+    target: tuple[float, float] | None = None  # the followed frontier's centroid (as last seen)
+    goal: tuple[float, float] | None = None  # where the robot was sent for it
     _best_distance: float = math.inf
     _last_progress: float = 0.0
 
@@ -63,27 +73,52 @@ class Explorer:
         r = self.params.blacklist_radius
         return any(math.hypot(point[0] - b[0], point[1] - b[1]) <= r for b in self.blacklist)
 
+    def _followed(self, frontiers: list[Frontier]) -> Frontier | None:
+        """The current target's frontier as it is now: the one with a cell nearest the goal sent, within
+        ``commit_radius`` (frontiers without cells: by their goal)."""
+        if self.goal is None:
+            return None
+        gx, gy = self.goal
+        best, best_d = None, self.params.commit_radius
+        for f in frontiers:
+            if self.blacklisted(f.centroid):
+                continue
+            pts = f.cells if len(f.cells) else [f.goal]
+            d = min(math.hypot(x - gx, y - gy) for x, y in pts)
+            if d <= best_d:
+                best, best_d = f, d
+        return best
+
     def plan(self, frontiers: list[Frontier], now: float) -> Decision:
-        for _ in range(len(frontiers) + 1):
-            pick = next((f for f in frontiers if not self.blacklisted(f.centroid)), None)
-            if pick is None:
-                self.target = None
-                why = "no frontier left" if not frontiers else f"all {len(frontiers)} frontiers blacklisted"
-                return Decision("done", why=why)
-            same = self.target is not None and math.hypot(pick.centroid[0] - self.target[0],
-                                                          pick.centroid[1] - self.target[1]) < 1e-6
-            if not same or pick.min_distance < self._best_distance:
-                self._last_progress, self._best_distance = now, pick.min_distance
-            if now - self._last_progress > self.params.progress_timeout:
-                self.blacklist.append(pick.centroid)
-                self.target = None
-                continue  # the next frontier, at once (explore_lite plans again)
-            self.target = pick.centroid
-            return Decision("keep" if same else "send", pick.centroid, pick)
-        return Decision("done", why="no frontier left")
+        cur = self._followed(frontiers)
+        if cur is not None:
+            if cur.min_distance < self._best_distance:
+                self._last_progress, self._best_distance = now, cur.min_distance
+            if now - self._last_progress <= self.params.progress_timeout:
+                self.target = cur.centroid
+                moved = math.hypot(cur.goal[0] - self.goal[0], cur.goal[1] - self.goal[1])
+                if moved > self.params.commit_radius:  # the frontier moved on as the robot saw more
+                    self.goal = cur.goal
+                    return Decision("send", cur.centroid, cur, "the followed frontier moved")
+                return Decision("keep", cur.centroid, cur)
+            self.blacklist.append(cur.centroid)  # no nearer for progress_timeout: explore_lite's rule
+        self.target = self.goal = None
+        pick = next((f for f in frontiers if not self.blacklisted(f.centroid)), None)
+        if pick is None:
+            why = "no frontier left" if not frontiers else f"all {len(frontiers)} frontiers blacklisted"
+            return Decision("done", why=why)
+        self.target, self.goal = pick.centroid, pick.goal
+        self._last_progress, self._best_distance = now, pick.min_distance
+        return Decision("send", pick.centroid, pick)
+
+    def goal_reached(self) -> None:
+        """move_base reached the goal: the next plan chooses afresh."""
+        self.target = self.goal = None
 
     def goal_failed(self, target: tuple[float, float]) -> None:
-        """move_base gave up on ``target``: never again."""
+        """move_base gave up on the goal sent for ``target`` (the centroid then): that frontier never again,
+        where it was and where it is now."""
         self.blacklist.append(target)
-        if self.target is not None and math.hypot(target[0] - self.target[0], target[1] - self.target[1]) < 1e-6:
-            self.target = None
+        if self.target is not None and self.target != target:
+            self.blacklist.append(self.target)
+        self.target = self.goal = None

@@ -8,7 +8,9 @@ unknown cell (NO_INFORMATION) 4-connected to those. (explore_lite asks for a FRE
 a doorway seen at a slant, that left frontiers of a few cells, under ``min_frontier_size``, and exploration
 ended at the first door.) Frontier cells are grouped 8-connected into frontiers; each has its size (cells),
 centroid, and the cell nearest the robot (``middle``, at ``min_distance``). The place to send the robot
-(``goal``) is where it can stand: the reachable cell nearest the frontier cell nearest the centroid
+(``goal``) is where it can stand: the reachable cell nearest the frontier cell nearest the centroid, or
+one where it can also turn in place (``circumscribed_radius`` clear of walls) if that is at most
+``roomy_detour`` further (a goal facing the frontier by a wall failed: "rotation would collide")
 (explore_lite sends the centroid, which lies in unknown space, in a wall, or inside a crate, and move_base
 refused such goals). Frontiers smaller than ``min_frontier_size`` metres are dropped. The cost is
 explore_lite's, ``potential_scale * min_distance * resolution - gain_scale * size * resolution`` (its
@@ -111,7 +113,8 @@ def _known_box(grid: Grid, pad: int = 2) -> tuple[slice, slice]:
 
 
 def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0, gain_scale: float = 1.0,
-           min_frontier_size: float = 0.5, inscribed_radius: float = 0.254) -> list[Frontier]:
+           min_frontier_size: float = 0.5, inscribed_radius: float = 0.254,
+           circumscribed_radius: float = 0.0, roomy_detour: float = 1.0) -> list[Frontier]:
     """The frontiers seen from where the robot can reach from ``robot`` (x, y in the grid's frame),
     cheapest first."""
     if grid.cell(*robot) is None:
@@ -135,6 +138,14 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
     labels, n = ndimage.label(frontier, structure=_EIGHT)
     if n == 0:
         return []
+    # goals where the robot can also turn in place (``circumscribed_radius`` clear of LETHAL cells), if one is
+    # at most ``roomy_detour`` further from the frontier than the nearest reachable cell
+    roomy = reach & (ndimage.distance_transform_edt(sub.data != LETHAL) * sub.resolution
+                     >= circumscribed_radius + sub.resolution / 2)
+    if circumscribed_radius > 0 and roomy.any():
+        roomy_dist, (roomy_r, roomy_c) = ndimage.distance_transform_edt(~roomy, return_indices=True)
+    else:
+        roomy_dist, roomy_r, roomy_c = None, near_r, near_c
     rows, cols = np.nonzero(labels)
     ids = labels[rows, cols]
     xy = sub.centres(rows, cols)
@@ -152,7 +163,9 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
         cx, cy = xy[idx].mean(axis=0)
         mid = idx[int(np.argmin(np.hypot(xy[idx, 0] - cx, xy[idx, 1] - cy)))]
         r, c = rows[mid], cols[mid]
-        gx, gy = sub.centres(np.array([near_r[r, c]]), np.array([near_c[r, c]]))[0]
+        use_roomy = roomy_dist is not None and (roomy_dist[r, c] - dist[r, c]) * sub.resolution <= roomy_detour
+        gr, gc = (roomy_r[r, c], roomy_c[r, c]) if use_roomy else (near_r[r, c], near_c[r, c])
+        gx, gy = sub.centres(np.array([gr]), np.array([gc]))[0]
         out.append(Frontier(len(idx), size_m, (float(cx), float(cy)), (float(xy[near, 0]), float(xy[near, 1])),
                             float(d[near]), cost, xy[idx], (float(gx), float(gy))))
     out.sort(key=lambda f: f.cost)

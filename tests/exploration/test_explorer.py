@@ -41,3 +41,21 @@ def test_a_failed_goal_is_never_chosen_again_and_all_blacklisted_is_the_end():
     d = ex.plan(fs, 2.0)
     assert d.action == "done" and d.why == "all 2 frontiers blacklisted"
     assert Explorer().plan([], 0.0).why == "no frontier left"
+
+
+def test_the_target_is_followed_until_reached_though_a_cheaper_frontier_shows_up():
+    """explore_lite takes the cheapest frontier every cycle: near-equal frontiers traded places as the map grew
+    and the robot went back and forth. Here the followed frontier stays the target while it is there; a new
+    goal goes out only when its frontier moved on by more than commit_radius; after goal_reached the cheapest
+    is chosen; a frontier that is gone (explored) ends the commitment too."""
+    ex = Explorer(ExploreParams(progress_timeout=30.0, commit_radius=1.0))
+    assert ex.plan([_f(3, 0, -2.0)], now=0.0).action == "send"
+    d = ex.plan([_f(-3, 0, -9.0), _f(3.3, 0, -2.0, dist=1.5)], now=1.0)  # cheapest first, as search gives them
+    assert (d.action, d.target) == ("keep", (3.3, 0))  # followed, not the cheaper one
+    grown = Frontier(27, 2.7, (4.5, 0), (3.2, 0), 1.4, -2.0, np.column_stack((np.linspace(3.2, 5.8, 27), np.zeros(27))),
+                     (4.5, 0))  # the same frontier, grown: a cell 0.2 m from the goal sent, its own goal 1.5 m on
+    d = ex.plan([_f(-3, 0, -9.0), grown], now=2.0)
+    assert (d.action, d.target) == ("send", (4.5, 0)) and ex.goal == (4.5, 0)  # moved on: sent again
+    ex.goal_reached()
+    assert ex.plan([_f(-3, 0, -9.0), grown], now=3.0).target == (-3, 0)
+    assert ex.plan([_f(9, 9, -1.0)], now=4.0).target == (9, 9)  # (-3, 0) explored: gone

@@ -120,3 +120,24 @@ def test_the_band_along_walls_the_robot_cannot_enter_still_borders_frontiers():
     f = fs[0]
     assert f.size == 7 and set(np.round(f.cells[:, 1], 2)) == {2.05}  # the row just north of the corridor
     assert grid.cell(*f.goal) == (19, 8)  # on the strip, at the frontier
+
+
+def test_the_goal_leaves_room_to_turn_in_place_when_such_a_cell_is_near():
+    """A frontier along y = 2.0 (unknown north of it) with a pillar 0.1 m below its middle: the reachable cell
+    nearest the middle is beside the pillar, where the P3-AT (circumscribed radius 0.36 m) cannot turn to face
+    the frontier (move_base aborted such goals: "rotation to the goal yaw would collide"). With the radius
+    given, the goal is the nearest cell clear by that radius, still within a metre of the frontier."""
+    g = np.full((40, 40), NO_INFORMATION, np.uint8)
+    g[0:20, :] = FREE
+    g[17:19, 19:21] = LETHAL  # the pillar, x and y in [1.7, 1.9) x [1.9, 2.1)
+    grid = Grid(g, RES, (0.0, 0.0))
+    (tight,) = search(grid, (2.0, 0.5), min_frontier_size=0.0)
+    (roomy,) = search(grid, (2.0, 0.5), min_frontier_size=0.0, circumscribed_radius=0.36)
+    pillar = np.array([(x, y) for x in (1.95, 2.05) for y in (1.75, 1.85)])
+
+    def clearance(p):
+        return float(np.min(np.hypot(pillar[:, 0] - p[0], pillar[:, 1] - p[1])))
+
+    assert clearance(tight.goal) < 0.36 and np.hypot(*np.subtract(tight.goal, tight.middle)) < 0.5
+    assert clearance(roomy.goal) >= 0.36 + RES / 2
+    assert np.min(np.hypot(roomy.cells[:, 0] - roomy.goal[0], roomy.cells[:, 1] - roomy.goal[1])) <= 1.0
