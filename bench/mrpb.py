@@ -59,17 +59,17 @@ SAFE_DISTANCE_M = 0.46
 
 
 def _fast(job: tuple) -> Result:
-    case, robot, master = job
+    case, robot, master, engine = job
     from deploy.mrpb.inproc import run_case_fast
 
-    return run_case_fast(case, robot, master)
+    return run_case_fast(case, robot, master, engine=engine)
 
 
 def _bus(job: tuple) -> Result:
-    case, robot, master, work, speed = job
+    case, robot, master, work, speed, engine = job
     from deploy.mrpb.bus import run_case_bus
 
-    return run_case_bus(case, robot, master, work, speed)
+    return run_case_bus(case, robot, master, work, speed, engine=engine)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -85,6 +85,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", default=str(DATA), help="MRPB's map10cm folder")
     ap.add_argument("--jobs", type=int, default=2, help="cases run at once (fast mode)")
     ap.add_argument("--speed", type=float, default=1.0, help="bus mode: simulated time x real time")
+    ap.add_argument("--engine", choices=("kinematic", "mujoco"), default=None,
+                    help="simulator engine (default: the robot YAML's, the kinematic one); mujoco: the skid-steered "
+                         "P3-AT on rigid-body physics, MRPB's walls as boxes")
     ap.add_argument("--safe-distance", type=float, default=SAFE_DISTANCE_M, metavar="M",
                     help=f"MRPB's d_safe (default {SAFE_DISTANCE_M} m)")
     ap.add_argument("--workdir", default="", help="bus mode: where the agents' logs go (default: a temp folder)")
@@ -114,19 +117,20 @@ def main(argv: list[str] | None = None) -> int:
         print(f"## {cfg}: {master}", flush=True)
         if a.mode == "fast":
             with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
-                runs = ex.map(_fast, [(c, a.robot, master) for c in cases])
+                runs = ex.map(_fast, [(c, a.robot, master, a.engine) for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
         else:
             from deploy.stack.process_group import terminate_as_interrupt
 
             with terminate_as_interrupt():  # a killed bench stops each case's agents too
-                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed) for c in cases])
+                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed, a.engine) for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
     summary = []
     for cfg, runs_of in results.items():
         _table(cfg, runs_of, a.safe_distance)
         summary.append(_summary("mrpb" if cfg == "zenav" else cfg, runs_of))
-    print(" ".join(summary) + f" cases={len(cases)} mode={a.mode} wall_s={time.monotonic() - t0:.0f}")
+    print(" ".join(summary) + f" cases={len(cases)} mode={a.mode} engine={a.engine or 'yaml'} "
+          f"wall_s={time.monotonic() - t0:.0f}")
     return 0
 
 
