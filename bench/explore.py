@@ -1,9 +1,10 @@
 """Exploration benchmark: `zenav explore` maps a building by itself, from an unknown start.
 
 The simulated P3-AT (its planar laser, p3at_sim_laser.yaml, or its Kinect, p3at_sim.yaml) with gmapping
-while navigating (p3at_slam.yaml), `zenav explore` with its defaults, on a private loopback Zenoh network
-(deploy/mrpb/exploration.py). Worlds: `room` (robot_side/worlds/room.yaml, from its start) and MRPB's
-office02 and shopping_mall (../shared/datasets/mrpb/maps, from the start of the environment's first test).
+while navigating (p3at_slam_zenav.yaml: the tutorial's p3at_slam.yaml with zenav's local costmap and
+DWA), `zenav explore` with its defaults, on a private loopback Zenoh network (deploy/mrpb/exploration.py).
+Worlds: `room` (robot_side/worlds/room.yaml, from its start) and MRPB's office02 and shopping_mall
+(../shared/datasets/mrpb/maps, from the start of the environment's first test).
 
 Per run: the share of the free area the robot can reach that the map knows as free, over the simulated
 time, and the time to 95 % of it; the distance driven; contacts; at the end the map's agreement with the
@@ -37,7 +38,7 @@ from deploy.stack.process_group import terminate_as_interrupt  # noqa: E402
 
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
-MASTER = ROOT / "master_side/config/p3at_slam.yaml"
+MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
 WORLDS = ("room", "office02", "shopping_mall")
 
 
@@ -79,7 +80,9 @@ def main(argv: list[str] | None = None) -> int:
                                         echo=lambda s: print(s, file=sys.stderr, flush=True))
                 runs.append(r)
                 print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
-                      f"({time.monotonic() - t0:.0f} s wall)", file=sys.stderr, flush=True)
+                      f"({time.monotonic() - t0:.0f} s wall)" + "".join(
+                          f"; contact at ({x:.2f}, {y:.2f}) at {t:.0f} s" for t, x, y in r.contacts),
+                      file=sys.stderr, flush=True)
     print(f"{'run':24} {'end':10} {'known%':>6} {'t95 s':>8} {'sim s':>7} {'path m':>7} {'walls%':>6} "
           f"{'free%':>6} {'hits':>4} {'area m2':>7} {'wall s':>7}")
     for r in runs:

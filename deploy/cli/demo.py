@@ -179,7 +179,7 @@ def _explore(args) -> int:
     with terminate_as_interrupt():
         try:
             r = run_exploration(env, str(world_map(mrpb, env)), start, robot_cfg,
-                                root / "master_side" / "config" / "p3at_slam.yaml", work, args.speed,
+                                root / "master_side" / "config" / "p3at_slam_zenav.yaml", work, args.speed,
                                 echo=lambda s: print(f"[demo]{s}", flush=True), monitor_args=monitor_args(args),
                                 robot=getattr(args, "robot", None) or "demo",
                                 before_stop=lambda r: (_explore_summary(r, args), keep_serving(args)))

@@ -11,7 +11,7 @@ from common.argtypes import positive
 
 DESCRIPTION = """\
 Drive the robot to the frontiers between known free space and unknown space on SLAM's map, one after
-the other, while SLAM builds it (zenav master --config master_side/config/p3at_slam.yaml), until no
+the other, while SLAM builds it (zenav master --config master_side/config/p3at_slam_zenav.yaml), until no
 frontier is left; then save the map (--save NAME, default 'explored'). Ctrl-C stops, cancels the goal
 and saves the map too. Frontiers, their cost and the choice are explore_lite's: the cheapest of
 (potential_scale x distance - gain_scale x size) x the map's resolution, frontiers under min_frontier_size ignored, a

@@ -26,14 +26,18 @@ ROBOT_ENTITY = "/world/robot"
 LOCAL_HEIGHT = 6.0
 # Eye height (m) above the ground before the map is known; then ``fit_height`` of the map.
 DEFAULT_HEIGHT = 12.0
-# The 3D view's field of view seen from above: the ground visible across ~1.4 x the height, down ~1.1 x
-# (measured in the 0.41 web viewer on a 3:2 view).
-SPAN_X, SPAN_Y = 1.4, 1.1
+# The 3D view's field of view seen from above: the ground visible down the view is ~1.1 x the eye height
+# (measured in the 0.41 web viewer), across it the view's width / height times that.
+SPAN_Y = 1.1
+# The narrowest map view to fit: in our web page the viewer has 56 % of the window and the map view 3/5 of
+# that above the time panel, about 540 x 620 px at 1600 x 900 (a 3:2 fit there showed a quarter of the room,
+# issue 31); the native viewer's map view is wider, where the map then has a margin.
+MIN_ASPECT = 0.85
 
 
-def fit_height(width_m: float, height_m: float) -> float:
-    """Eye height at which a ``width_m`` x ``height_m`` map just fits the view."""
-    return 1.02 * max(width_m / SPAN_X, height_m / SPAN_Y, 1.0)
+def fit_height(width_m: float, height_m: float, aspect: float = MIN_ASPECT) -> float:
+    """Eye height at which a ``width_m`` x ``height_m`` map just fits a view ``aspect`` (width / height)."""
+    return 1.05 * max(width_m / (SPAN_Y * aspect), height_m / SPAN_Y, 1.0)
 
 
 def top_down(centre: tuple[float, float], height: float, follow: bool) -> rrb.EyeControls3D:

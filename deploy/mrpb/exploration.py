@@ -43,6 +43,7 @@ class ExploreRun:
     free_m2: float = 0.0  # the reachable free area of the world
     path_m: float = 0.0
     collisions: int = 0
+    contacts: list[tuple[float, float, float]] = field(default_factory=list)  # (sim s, x, y in the world)
     sim_s: float = 0.0
     wall_s: float = 0.0
     log_dir: str = ""
@@ -64,6 +65,8 @@ class _Watch:
         self.clock = node.subscribe("clock", Clock)
         self.maps = node.subscribe("map", OccupancyGrid)
         self.hits = node.subscribe("collision", Collision)
+        self.contacts: list[tuple[float, float, float]] = []  # (sim s, x, y) of each new contact
+        node.subscribe("collision", Collision, mode="queue", callback=self._contact)
         self.gt = node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
         self.t0: float | None = None
         self.path, self.last = 0.0, None
@@ -76,6 +79,11 @@ class _Watch:
             if self.last is not None:
                 self.path += float(np.hypot(p.x - self.last[0], p.y - self.last[1]))
             self.last = (p.x, p.y)
+
+    def _contact(self, m: Collision) -> None:
+        with self.lock:
+            if m.count > len(self.contacts):
+                self.contacts.append((self.now() - (self.t0 or 0.0), m.x, m.y))
 
     def now(self) -> float:
         c = self.clock.latest()
@@ -154,6 +162,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     finally:
         with watch.lock:
             out.path_m = watch.path
+            out.contacts = list(watch.contacts)
         out.coverage = list(watch.coverage)
         out.wall_s = time.monotonic() - wall0
         try:

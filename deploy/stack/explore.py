@@ -64,7 +64,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
         if stop.is_set():
             return ExploreReport(1, "stopped before the map came", seconds=time.monotonic() - t0)
         if time.monotonic() > deadline:
-            what = "no map (is SLAM running? zenav master --config master_side/config/p3at_slam.yaml)" \
+            what = "no map (is SLAM running? zenav master --config master_side/config/p3at_slam_zenav.yaml)" \
                 if maps.latest() is None else "no move_base"
             return ExploreReport(2, f"{what} on robot '{node.robot}' within {wait:g} s", seconds=wait)
         time.sleep(0.1)
@@ -128,7 +128,9 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             if params.visualize:
                 pub_target.publish(target_pose)
             try:
-                send_goal(node, goal, 10.0, seen, cancelled=stop.is_set)
+                # ``wait``: a move_base starved for a few seconds on a busy machine is not gone (10 s ended
+                # an office02 run that the robot was still exploring)
+                send_goal(node, goal, wait, seen, cancelled=stop.is_set)
             except DeliveryFailed as e:
                 report.code, report.why = 2, str(e)
                 break
