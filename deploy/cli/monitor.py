@@ -12,8 +12,13 @@ import time
 
 from common.argtypes import nonneg, port
 
-KEYFRAME_S = 30.0  # with --serve-web: rarely logged entities (the latched map) logged again this often
-HISTORY_LIMIT = "512MiB"  # with --serve-web: Rerun's gRPC history buffer (bench/monitor_memory.py)
+KEYFRAME_S = 10.0  # with --serve-web: rarely logged entities (the latched map) logged again this often
+# with --serve-web: Rerun's gRPC history buffer, what a page opened later takes in before it shows the robot
+# as it is (the viewer follows the newest data it has taken in). The viewer here takes in about 0.5 MB/s:
+# 512 MiB made a page opened a minute in a minute late for good, 16 MiB a minute late at first; 4 MiB (about
+# 17 s at the web rates) is live within 20 s (bench/monitor_live.py, issue 31). The map and the goal are
+# logged again every KEYFRAME_S, so the history always holds them.
+HISTORY_LIMIT = "4MiB"
 
 DESCRIPTION = """\
 Join the bus as a Zenoh peer (on any machine: robot, master or a laptop) and log one robot's
@@ -61,7 +66,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "seen from above")
     p.add_argument("--rate", action="append", default=[], metavar="TYPE=HZ",
                    help="max logging rate per entity for a message type or a topic, e.g. --rate Costmap=1 "
-                        "--rate camera/depth/points=0.5 (0 = every message; repeatable or comma list)")
+                        "--rate camera/depth/points=0.5 (0 = every message; repeatable or comma list); with "
+                        "--serve-web the defaults are lower (deploy/monitor/pacing.py WEB_RATES: a browser's viewer "
+                        "without a GPU falls behind at the native viewer's rates)")
     p.add_argument("--duration", type=nonneg, default=0.0, help="stop after this many seconds (0 = Ctrl-C)")
     p.add_argument("--memory-limit", default="2GiB",
                    help="memory limit of the viewer (spawned, or the page's web viewer); the oldest data is "
@@ -89,6 +96,10 @@ def run(args) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):  # first thing: a signal during start-up still ends cleanly
         signal.signal(sig, lambda *_: stop.set())
     rates = parse_rates(args.rate)
+    if args.serve_web:  # a browser's viewer: the web budget, then the user's own --rate on top
+        from deploy.monitor.pacing import WEB_RATES
+
+        rates = {**WEB_RATES, **rates}
 
     import zenoh
 

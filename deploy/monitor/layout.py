@@ -75,4 +75,12 @@ def blueprint(map_frame: str = "map", odom_frame: str = "odom", follow: bool = F
                 rrb.TextLogView(name="Events", origin="/log"),
                 row_shares=[3, 2, 2]),
             column_shares=[3, 2]),
+        live_time_panel(),
         collapse_panels=True)
+
+
+def live_time_panel() -> rrb.TimePanel:
+    """The time cursor follows the newest data. Without it a viewer that connects to a running monitor
+    (the page's, opened after the start) played the history at 1x from its beginning and stayed that far
+    behind the robot for good: a minute late on a page opened a minute in (bench/monitor_live.py, issue 31)."""
+    return rrb.TimePanel(play_state="following")

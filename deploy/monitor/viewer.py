@@ -46,8 +46,11 @@ def fit_view_to_map(rec, args):
         if done or topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
             return
         done.append(True)
-        w, h = msg.width * msg.resolution, msg.height * msg.resolution
-        centre = (msg.origin.x + w / 2, msg.origin.y + h / 2)  # (map origins are not rotated in practice)
+        from deploy.monitor.loggers import known_part
+
+        data, origin = known_part(msg.data, msg.origin, msg.resolution)  # as drawn: SLAM's grid is mostly unknown
+        w, h = data.shape[1] * msg.resolution, data.shape[0] * msg.resolution
+        centre = (origin.x + w / 2, origin.y + h / 2)  # (map origins are not rotated in practice)
         rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre,
                                      height=fit_height(w, h)), make_active=True)
 
@@ -69,7 +72,9 @@ def robots_blueprint(maps: dict[str, tuple]) -> object:
             rrb.TextLogView(name=f"{r}: events", origin=f"/{r}/log"), row_shares=[3, 2, 2])
 
     cols = [column(r, *maps[r]) for r in sorted(maps)] or [rrb.TextDocumentView(name="waiting for robots")]
-    return rrb.Blueprint(rrb.Horizontal(*cols), collapse_panels=True)
+    from deploy.monitor.layout import live_time_panel
+
+    return rrb.Blueprint(rrb.Horizontal(*cols), live_time_panel(), collapse_panels=True)
 
 
 def fit_robots_views(rec):

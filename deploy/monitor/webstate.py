@@ -177,11 +177,14 @@ class WebState:
             if g is None:
                 return None
             if self._map_payload is None:
-                d = np.asarray(g.data).astype(np.int16)
+                from deploy.monitor.loggers import known_part
+
+                part, origin = known_part(np.asarray(g.data), g.origin, g.resolution)  # SLAM's: mostly unknown
+                d = part.astype(np.int16)
                 grey = np.where(d < 0, 128, 254 - np.clip(d, 0, 100) * 254 // 100).astype(np.uint8)[::-1]
                 self._map_payload = {
-                    "version": self.map_version, "width": int(g.width), "height": int(g.height),
-                    "resolution": float(g.resolution), "origin": _pose(g.origin),
+                    "version": self.map_version, "width": int(part.shape[1]), "height": int(part.shape[0]),
+                    "resolution": float(g.resolution), "origin": _pose(origin),
                     "frame": _frame(g.header.frame_id), "rows": "top_first",
                     "data": base64.b64encode(np.ascontiguousarray(grey).tobytes()).decode()}
             return self._map_payload

@@ -1,0 +1,170 @@
+"""Is the browser view live? The monitor's output rate and the web viewer's lag, on this machine.
+
+The simulated P3-AT patrols the room (`zenav goal --waypoints deploy/missions/room_patrol.yaml --loop`) on the
+known map, with `zenav monitor --serve-web` on a private loopback bus and, beside it, a second `zenav monitor
+--save` with the same rates whose file growth is the monitor's output rate (what a viewer has to take in;
+given the web's rates, deploy/monitor/pacing.py WEB_RATES). After --warmup seconds the page is opened in
+headless Chromium (its software rasterizer, as on this machine) with the Rerun web viewer, and every few
+seconds a screenshot is taken:
+  - in Rerun's map view, the map's extent on screen (its free and unknown cells) calibrates screen to
+    world (a top-down view, +y up);
+  - the robot's footprint outline (blue) is found there and placed in the world: it must lie on the
+    robot's true track (within 0.15 m of the simulator's ground truth of the last two minutes);
+  - the lag is how far the viewer's time cursor (its ``time_update`` events, the ``stamp`` timeline it
+    follows live) is behind the robot's clock at the capture.
+The whole map in view is checked too: the map's extent must lie inside the view, with a margin.
+
+    python bench/monitor_live.py [--warmup 20] [--samples 12] [--monitor-arg=--rate=LaserScan=2 ...]
+
+Ends with monitor_out_mb_s=… viewer_lag_s=… (the median of the samples) viewer_lag_max_s=… robot_found=k/n
+robot_on_track=k/n map_in_view=k/n
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc  # noqa: E402
+from testkit.wait import free_port, wait_until  # noqa: E402
+from testkit.webrig import ZENAV, Page, map_mask, rgb  # noqa: E402
+
+PATROL = REPO / "deploy" / "missions" / "room_patrol.yaml"
+FOOTPRINT_RGB = (60, 120, 255)  # deploy/monitor/loggers.log_polygon
+
+
+def rerun_map_view(img: np.ndarray) -> tuple[int, int, int, int]:
+    """Rerun's map view in the page (style.css: 41 px bar, our panel 44 % wide; the map view is 3/5 of the
+    viewer's width, below Rerun's top bar and the view's title, above the time panel)."""
+    h, w = img.shape[:2]
+    split = int(0.44 * w)
+    return split + 4, 41 + 60, split + int(0.6 * (w - split)) - 4, h - 50
+
+
+def locate(img: np.ndarray, box, world_box) -> tuple[tuple[float, float] | None, bool]:
+    """(the robot's world x, y from its footprint outline on screen, or None; the whole map inside the view
+    with a margin). ``world_box``: the map's (x0, y0, x1, y1) in metres."""
+    x0, y0, x1, y1 = box
+    mask = map_mask(img, box)
+    cols, rows = np.nonzero(mask.mean(axis=0) > 0.2)[0], np.nonzero(mask.mean(axis=1) > 0.2)[0]
+    if len(cols) < 10 or len(rows) < 10:
+        return None, False
+    c0, c1, r0, r1 = cols[0], cols[-1], rows[0], rows[-1]
+    c = img[y0:y1, x0:x1]
+    # the whole map in view: its free interior (white, under the costmap's bands) clear of the view's edges
+    white = (c[..., 0] > 200) & (c[..., 1] > 200) & (c[..., 2] > 200)
+    wc, wr = np.nonzero(white.mean(axis=0) > 0.2)[0], np.nonzero(white.mean(axis=1) > 0.2)[0]
+    inside = bool(len(wc) and len(wr) and wc[0] > 10 and wr[0] > 10 and wc[-1] < (x1 - x0) - 10
+                  and wr[-1] < (y1 - y0) - 10)
+    blue = (np.abs(c[..., 0] - FOOTPRINT_RGB[0]) < 30) & (np.abs(c[..., 1] - FOOTPRINT_RGB[1]) < 30) \
+        & (np.abs(c[..., 2] - FOOTPRINT_RGB[2]) < 30)
+    ys, xs = np.nonzero(blue)
+    if len(xs) < 8:
+        return None, inside
+    wx0, wy0, wx1, wy1 = world_box
+    wx = wx0 + (xs.mean() - c0) / max(c1 - c0, 1) * (wx1 - wx0)
+    wy = wy1 - (ys.mean() - r0) / max(r1 - r0, 1) * (wy1 - wy0)  # screen rows grow downwards, +y up
+    return (float(wx), float(wy)), inside
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--warmup", type=float, default=20.0, help="seconds of patrol before the page is opened")
+    ap.add_argument("--samples", type=int, default=12)
+    ap.add_argument("--every", type=float, default=4.0, help="seconds between screenshots")
+    ap.add_argument("--monitor-arg", action="append", default=[], help="extra argument for both monitors")
+    a = ap.parse_args(argv)
+    from common.bus import Node
+    from common.messages import Odometry
+    from common.zenoh_config import BusConfig
+    from deploy.monitor.pacing import WEB_RATES
+    from deploy.stack.world_maps import export_world_map
+    from master_side.mapping.map_io import load_map
+
+    tmp = Path(tempfile.mkdtemp(prefix="zenav-monitor-live-"))
+    web_rates = ",".join(f"{k}={v:g}" for k, v in WEB_RATES.items())  # what --serve-web logs
+    robot = f"live{os.getpid()}"
+    hub = f"tcp/127.0.0.1:{free_port()}"
+    web, grpc = free_port(), free_port()
+    node = Node("monitor_live_bench", config=BusConfig(robot=robot, listen=(hub,), multicast=False),
+                use_sim_time=False)
+    truth: list[tuple[float, float, float, float]] = []  # (wall time, stamp, x, y)
+    node.subscribe("ground_truth", Odometry, mode="queue",
+                   callback=lambda m: truth.append((time.time(), m.header.stamp, m.pose2d.x, m.pose2d.y)))
+    base = {**os.environ, "ZENAV_ROBOT": robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
+            "ZENAV_CONNECT": hub, "PYTHONPATH": str(REPO)}
+    base.pop("ZENAV_USE_SIM_TIME", None)
+    map_yaml = export_world_map("room", tmp / "maps")
+    grid = load_map(map_yaml)
+    world_box = (grid.origin.x, grid.origin.y, grid.origin.x + grid.data.shape[1] * grid.resolution,
+                 grid.origin.y + grid.data.shape[0] * grid.resolution)
+    procs = [NavProc(tmp / f"{n}.log", argv, base) for n, argv in (
+        ("robot", [*ZENAV, "robot", "--config", str(ROBOT_CONFIG), "--world", "room"]),
+        ("master", [*ZENAV, "master", "--config", str(MASTER_DIR / "p3at_known_map.yaml"), "--map", str(map_yaml)]),
+        ("monitor", [*ZENAV, "monitor", "--serve-web", str(web), "--grpc-port", str(grpc), *a.monitor_arg]),
+        ("recorder", [*ZENAV, "monitor", "--save", str(tmp / "out.rrd"), "--rate", web_rates, *a.monitor_arg]))]
+    page = None
+    try:
+        wait_until(lambda: len(truth) > 0, 120, "the simulator's ground truth")
+        patrol = NavProc(tmp / "patrol.log", [*ZENAV, "goal", "--waypoints", str(PATROL), "--loop"], base)
+        procs.append(patrol)
+        rrd = tmp / "out.rrd"
+        time.sleep(a.warmup)
+        size0, t0 = (rrd.stat().st_size if rrd.exists() else 0), time.monotonic()
+        page = Page(tmp, web)
+        page.open_page(viewer=True)
+        page.wait(lambda: page.js("!!(window.zenav && zenav.map && zenav.rerun !== 'starting')"), 150.0,
+                  "the page with the Rerun viewer")
+        lags, found, in_view, on_track = [], 0, 0, 0
+        for k in range(a.samples):
+            time.sleep(a.every)
+            t_req = time.time()
+            img = rgb(page.screenshot())
+            t_cap = (t_req + time.time()) / 2  # the frame was drawn between request and answer
+            where, inside = locate(img, rerun_map_view(img), world_box)
+            in_view += inside
+            cursor = page.js("(() => { const e = zenav.viewerEvents.filter((v) => v.includes('time_update'));"
+                             " return e.length ? JSON.parse(e[e.length - 1]).time / 1e9 : null; })()")
+            if where is None:
+                print(f"sample {k + 1}: robot not found on screen; map in view: {inside}", file=sys.stderr)
+                continue
+            found += 1
+            recent = np.array([r for r in truth if r[0] > t_cap - 120.0])
+            off = float(np.min(np.hypot(recent[:, 2] - where[0], recent[:, 3] - where[1])))
+            on_track += off < 0.15
+            # the lag: how far the viewer's time cursor (the stamp timeline, followed live) is behind the
+            # robot's clock at the capture (its latest ground truth stamp then)
+            now_stamp = recent[recent[:, 0] <= t_cap][-1, 1]
+            lag = now_stamp - cursor if cursor is not None else float("inf")
+            lags.append(lag)
+            print(f"sample {k + 1}: robot drawn at ({where[0]:.2f}, {where[1]:.2f}), {off:.2f} m from its true "
+                  f"track; the view {lag:.1f} s behind the robot's clock; map in view: {inside}", file=sys.stderr,
+                  flush=True)
+        out_mb_s = ((rrd.stat().st_size if rrd.exists() else 0) - size0) / 1e6 / (time.monotonic() - t0)
+        lag = float(np.median(lags)) if lags else float("inf")
+        print(f"monitor_out_mb_s={out_mb_s:.3f} viewer_lag_s={lag:.1f} "
+              f"viewer_lag_max_s={max(lags) if lags else float('inf'):.1f} robot_found={found}/{a.samples} "
+              f"robot_on_track={on_track}/{a.samples} map_in_view={in_view}/{a.samples}")
+        (tmp / "last.png").write_bytes(page.screenshot())
+        print(f"last screenshot: {tmp / 'last.png'}", file=sys.stderr)
+    finally:
+        if page is not None:
+            page.close()
+        for p in reversed(procs):
+            p.stop()
+        node.close()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
