@@ -182,7 +182,8 @@ def _explore(args) -> int:
                                 root / "master_side" / "config" / "p3at_slam_zenav.yaml", work, args.speed,
                                 echo=lambda s: print(f"[demo]{s}", flush=True), monitor_args=monitor_args(args),
                                 robot=getattr(args, "robot", None) or "demo",
-                                before_stop=lambda r: (_explore_summary(r, args), keep_serving(args)))
+                                before_stop=(lambda r: (_explore_summary(r, args), keep_serving(args)))
+                                if args.serve_web else None)
         except KeyboardInterrupt:
             print("[demo] interrupted", file=sys.stderr)
             return 1
