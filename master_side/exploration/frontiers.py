@@ -62,6 +62,16 @@ class Grid:
                                 self.origin[1] + (rows + 0.5) * self.resolution))
 
 
+def _known_box(known: np.ndarray, pad: int = 2) -> tuple[slice, slice] | None:
+    """The rows and columns holding every ``known`` cell, ``pad`` cells wider (None: nothing known)."""
+    rows, cols = np.nonzero(known.any(axis=1))[0], np.nonzero(known.any(axis=0))[0]
+    if len(rows) == 0:
+        return None
+    h, w = known.shape
+    return (slice(max(rows[0] - pad, 0), min(rows[-1] + pad + 1, h)),
+            slice(max(cols[0] - pad, 0), min(cols[-1] + pad + 1, w)))
+
+
 def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, float],
                   inscribed_radius: float, occupied: int = 65) -> Grid:
     """A SLAM map (OccupancyGrid values: -1 unknown, 0..100) as costs: unknown, LETHAL from ``occupied``,
@@ -69,13 +79,10 @@ def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, floa
     Only the part holding known cells (and a margin of unknown ones) is kept: a SLAM map is mostly unknown,
     and the distance transform of a whole 100 m map took a third of a second."""
     data = np.asarray(data)
-    known = data >= 0
-    rows, cols = np.nonzero(known.any(axis=1))[0], np.nonzero(known.any(axis=0))[0]
-    if len(rows):
-        h, w = data.shape
-        r0, c0 = max(rows[0] - 2, 0), max(cols[0] - 2, 0)
-        data = data[r0:min(rows[-1] + 3, h), c0:min(cols[-1] + 3, w)]
-        origin = (origin[0] + c0 * resolution, origin[1] + r0 * resolution)
+    box = _known_box(data >= 0)
+    if box is not None:
+        data = data[box]
+        origin = (origin[0] + box[1].start * resolution, origin[1] + box[0].start * resolution)
     lethal = data >= occupied
     cost = np.where(data < 0, NO_INFORMATION, FREE).astype(np.uint8)
     if lethal.any():
@@ -101,17 +108,6 @@ def reachable(grid: Grid, robot: tuple[float, float]) -> np.ndarray:
     return labels == labels[at]
 
 
-def _known_box(grid: Grid, pad: int = 2) -> tuple[slice, slice]:
-    """The rows and columns holding every known cell (a SLAM map is mostly unknown), ``pad`` cells wider."""
-    known = grid.data != NO_INFORMATION
-    rows, cols = np.nonzero(known.any(axis=1))[0], np.nonzero(known.any(axis=0))[0]
-    if len(rows) == 0:
-        return slice(0, 0), slice(0, 0)
-    h, w = grid.data.shape
-    return (slice(max(rows[0] - pad, 0), min(rows[-1] + pad + 1, h)),
-            slice(max(cols[0] - pad, 0), min(cols[-1] + pad + 1, w)))
-
-
 def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0, gain_scale: float = 1.0,
            min_frontier_size: float = 0.5, inscribed_radius: float = 0.254,
            circumscribed_radius: float = 0.0, roomy_detour: float = 1.0) -> list[Frontier]:
@@ -119,11 +115,12 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
     cheapest first."""
     if grid.cell(*robot) is None:
         raise ValueError(f"the robot at ({robot[0]:.2f}, {robot[1]:.2f}) is outside the costmap")
-    box = _known_box(grid)
-    r0, c0 = box[0].start, box[1].start
-    sub = Grid(grid.data[box], grid.resolution, (grid.origin[0] + c0 * grid.resolution,
-                                                  grid.origin[1] + r0 * grid.resolution))
-    if sub.data.size == 0 or sub.cell(*robot) is None:
+    box = _known_box(grid.data != NO_INFORMATION)  # a SLAM map is mostly unknown
+    if box is None:
+        return []
+    sub = Grid(grid.data[box], grid.resolution, (grid.origin[0] + box[1].start * grid.resolution,
+                                                  grid.origin[1] + box[0].start * grid.resolution))
+    if sub.cell(*robot) is None:
         return []
     reach = reachable(sub, robot)
     if not reach.any():
@@ -140,12 +137,12 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
         return []
     # goals where the robot can also turn in place (``circumscribed_radius`` clear of LETHAL cells), if one is
     # at most ``roomy_detour`` further from the frontier than the nearest reachable cell
-    roomy = reach & (ndimage.distance_transform_edt(sub.data != LETHAL) * sub.resolution
-                     >= circumscribed_radius + sub.resolution / 2)
-    if circumscribed_radius > 0 and roomy.any():
-        roomy_dist, (roomy_r, roomy_c) = ndimage.distance_transform_edt(~roomy, return_indices=True)
-    else:
-        roomy_dist, roomy_r, roomy_c = None, near_r, near_c
+    roomy_dist, roomy_r, roomy_c = None, near_r, near_c
+    if circumscribed_radius > 0:
+        roomy = reach & (ndimage.distance_transform_edt(sub.data != LETHAL) * sub.resolution
+                         >= circumscribed_radius + sub.resolution / 2)
+        if roomy.any():
+            roomy_dist, (roomy_r, roomy_c) = ndimage.distance_transform_edt(~roomy, return_indices=True)
     rows, cols = np.nonzero(labels)
     ids = labels[rows, cols]
     xy = sub.centres(rows, cols)
