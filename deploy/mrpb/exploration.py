@@ -1,7 +1,8 @@
 """One exploration run over the bus, as a user runs it, measured: ``zenav robot`` at a start in a world
-(a zenav world such as ``room``, or an MRPB map), ``zenav master`` with SLAM while navigating
-(master_side/config/p3at_slam.yaml), then ``zenav explore`` until it ends by itself (or a time limit:
-then it is interrupted as Ctrl-C would, and saves its map). On a private loopback Zenoh network.
+(a zenav world such as ``room``, or an MRPB map), ``zenav master`` with SLAM while navigating (the
+file given: bench/explore.py and ``zenav demo --explore`` give p3at_slam_zenav.yaml), then ``zenav
+explore`` until it ends by itself (or a time limit: then it is interrupted as Ctrl-C would, and saves its
+map). On a private loopback Zenoh network.
 
 Measured from the bus while it runs: every map SLAM publishes is judged against the world
 (deploy.stack.map_check.WorldTruth: the share of the reachable free area known as free) at the
@@ -22,7 +23,7 @@ import numpy as np
 
 from common.bus import Node
 from common.geometry import Pose2D
-from common.messages import Clock, Collision, OccupancyGrid, Odometry
+from common.messages import Collision, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.stack.map_check import WorldTruth
@@ -61,13 +62,12 @@ class _Watch:
     """Coverage of each map as it comes (judged in this thread, not in Zenoh's), distance, contacts."""
 
     def __init__(self, node: Node, truth: WorldTruth):
-        self.truth, self.lock = truth, threading.Lock()
-        self.clock = node.subscribe("clock", Clock)
+        self.node, self.truth, self.lock = node, truth, threading.Lock()
         self.maps = node.subscribe("map", OccupancyGrid)
-        self.hits = node.subscribe("collision", Collision)
+        self.collisions = 0  # the simulator's count
         self.contacts: list[tuple[float, float, float]] = []  # (sim s, x, y) of each new contact
         node.subscribe("collision", Collision, mode="queue", callback=self._contact)
-        self.gt = node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
+        node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
         self.t0: float | None = None
         self.path, self.last = 0.0, None
         self.coverage: list[tuple[float, float]] = []
@@ -82,12 +82,14 @@ class _Watch:
 
     def _contact(self, m: Collision) -> None:
         with self.lock:
-            if m.count > len(self.contacts):
+            if m.count > self.collisions:
+                self.collisions = m.count
                 self.contacts.append((self.now() - (self.t0 or 0.0), m.x, m.y))
 
     def now(self) -> float:
-        c = self.clock.latest()
-        return c.clock if c is not None else 0.0
+        """The simulator's time (the node is on use_sim_time="auto"), 0 before its first clock."""
+        clock = self.node.clock
+        return clock.now() if clock.simulated else 0.0
 
     def judge(self) -> None:
         m = self.maps.latest()
@@ -152,8 +154,6 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
             grid = load_map(saved)
             out.final_share = truth.explored(grid)
             out.walls_ok, out.free_ok = truth.agreement(grid)
-        hits = watch.hits.latest()
-        out.collisions = hits.count if hits is not None else 0
         out.sim_s = watch.now() - (watch.t0 or 0.0)
         completed = True
     except RuntimeError as e:  # an agent died or never came up
@@ -161,14 +161,14 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         completed = True
     finally:
         with watch.lock:
-            out.path_m = watch.path
+            out.path_m, out.collisions = watch.path, watch.collisions
             out.contacts = list(watch.contacts)
         out.coverage = list(watch.coverage)
         out.wall_s = time.monotonic() - wall0
         try:
             if before_stop is not None and completed:  # not on Ctrl-C
-                for name in ("explore", "master", "robot"):
-                    group.stop(name)
+                for proc in ("explore", "master", "robot"):
+                    group.stop(proc)
                 before_stop(out)
         finally:
             group.stop()

@@ -68,10 +68,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                 if maps.latest() is None else "no move_base"
             return ExploreReport(2, f"{what} on robot '{node.robot}' within {wait:g} s", seconds=wait)
         time.sleep(0.1)
-    tf = TFListener(node)
-
-    def now() -> float:  # the robot's time with a node on use_sim_time="auto" (zenav explore's)
-        return node.clock.now()
+    tf = TFListener(node)  # after the map came: a node on use_sim_time="auto" is on the robot's clock by then
 
     ex, report = Explorer(params), ExploreReport(0, "")
     goal_id, target = "", None
@@ -110,7 +107,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             echo(f"  {e}")
             stop.wait(period)
             continue
-        d = ex.plan(frontiers, now())
+        d = ex.plan(frontiers, node.clock.now())
         if params.visualize:
             cells = np.concatenate([f.cells for f in frontiers]) if frontiers else np.zeros((0, 2))
             pts = np.column_stack((cells, np.full(len(cells), 0.02))).astype(np.float32)
