@@ -35,10 +35,21 @@ def open_recording(args, robot: str, history_limit: str):
     return rec, "spawned the Rerun viewer"
 
 
+def map_view(msg) -> tuple[tuple[float, float], float]:
+    """(centre, eye height) of a top-down view fitted to the map as it is drawn: its known part (SLAM's
+    100 m grid is mostly unknown; deploy.monitor.loggers.known_part)."""
+    from deploy.monitor.layout import fit_height
+    from deploy.monitor.loggers import known_part
+
+    data, origin = known_part(msg.data, msg.origin, msg.resolution)
+    w, h = data.shape[1] * msg.resolution, data.shape[0] * msg.resolution
+    return (origin.x + w / 2, origin.y + h / 2), fit_height(w, h)  # (map origins are not rotated in practice)
+
+
 def fit_view_to_map(rec, args):
     """An observer that sends the blueprint again, the map view fitted to the map, when it first arrives."""
     from common.messages import OccupancyGrid
-    from deploy.monitor.layout import blueprint, fit_height
+    from deploy.monitor.layout import blueprint
 
     done = []
 
@@ -46,13 +57,9 @@ def fit_view_to_map(rec, args):
         if done or topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
             return
         done.append(True)
-        from deploy.monitor.loggers import known_part
-
-        data, origin = known_part(msg.data, msg.origin, msg.resolution)  # as drawn: SLAM's grid is mostly unknown
-        w, h = data.shape[1] * msg.resolution, data.shape[0] * msg.resolution
-        centre = (origin.x + w / 2, origin.y + h / 2)  # (map origins are not rotated in practice)
-        rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre,
-                                     height=fit_height(w, h)), make_active=True)
+        centre, height = map_view(msg)
+        rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre, height=height),
+                           make_active=True)
 
     return observe
 
@@ -81,7 +88,7 @@ def fit_robots_views(rec):
     """For a robot pattern: an observer sending the side-by-side blueprint again when a robot first shows
     up and when its map first arrives (its view fitted to the map)."""
     from common.messages import OccupancyGrid
-    from deploy.monitor.layout import DEFAULT_HEIGHT, fit_height
+    from deploy.monitor.layout import DEFAULT_HEIGHT
 
     maps: dict[str, tuple] = {}
     fitted: set[str] = set()
@@ -94,8 +101,7 @@ def fit_robots_views(rec):
         maps[robot] = ((0.0, 0.0), DEFAULT_HEIGHT)
         if fit:
             fitted.add(robot)
-            w, h = msg.width * msg.resolution, msg.height * msg.resolution
-            maps[robot] = ((msg.origin.x + w / 2, msg.origin.y + h / 2), fit_height(w, h))
+            maps[robot] = map_view(msg)
         rec.send_blueprint(robots_blueprint(maps), make_active=True)
 
     return observe
