@@ -14,10 +14,10 @@ from common.argtypes import nonneg, port
 
 KEYFRAME_S = 10.0  # with --serve-web: rarely logged entities (the latched map) logged again this often
 # with --serve-web: Rerun's gRPC history buffer, what a page opened later takes in before it shows the robot
-# as it is (the viewer follows the newest data it has taken in). The viewer here takes in about 0.5 MB/s:
-# 512 MiB made a page opened a minute in a minute late for good, 16 MiB a minute late at first; 4 MiB (about
-# 17 s at the web rates) is live within 20 s (bench/monitor_live.py, issue 31). The map and the goal are
-# logged again every KEYFRAME_S, so the history always holds them.
+# as it is (the viewer follows the newest data it has taken in). With 512 MiB a page opened a minute in was a
+# minute late; 4 MiB is about 30 s at the web rates (bench/monitor_live.py, issue 31: once, the view then
+# caught up to 0.5 s; in other runs it stayed 15-55 s behind). The map and the goal are logged again every
+# KEYFRAME_S, so the history always holds them.
 HISTORY_LIMIT = "4MiB"
 
 DESCRIPTION = """\

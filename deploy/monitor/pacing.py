@@ -18,11 +18,10 @@ DEFAULT_RATES: dict[str, float] = {
     "ParticleCloud": 2.0,  # AMCL's particlecloud (a Path of poses): the heaviest per-update stream
 }
 
-# With --serve-web, the rates above are lowered to these unless --rate says otherwise: the browser's
-# viewer on a machine without a GPU (headless Chromium's software rasterizer here) took in about 0.6 MB/s
-# while the monitor sent 0.76 MB/s at the rates above, so its view fell a minute behind and kept falling
-# (issue 31); at these rates it sends 0.24 MB/s and the view stays within seconds of the robot
-# (bench/monitor_live.py, README "Watching it").
+# With --serve-web, the rates above are lowered to these unless --rate says otherwise: a browser's viewer
+# on a machine without a GPU (headless Chromium's software rasterizer here) takes in less than the 0.76 MB/s
+# the monitor sends at the rates above; at these it sends 0.14 MB/s (bench/monitor_live.py). That alone
+# does not make the view live on this machine: it still ran 15-55 s behind (README "Watching it").
 WEB_RATES: dict[str, float] = {
     "OccupancyGrid": 0.2, "Costmap": 0.25, "PointCloud": 0.5, "DepthImage": 0.2, "LaserScan": 2.0,
     "Odometry": 2.0, "Twist": 2.0, "Path": 1.0, "PolygonStamped": 2.0, "TFMessage": 5.0, "Scalar": 2.0,
