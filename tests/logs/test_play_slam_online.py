@@ -95,9 +95,14 @@ def test_online_slam_trajectory_error_is_within_10_percent_of_offline_on_an_aces
         wall = time.monotonic() - t
         logs = "\n".join(f"{n}: {(tmp_path / f'{n}.log').read_text()[-1500:]}" for n in ("play", "master"))
         assert rc == 0, logs
+        on_t, on_p = evaluate.read_trajectory(out)
+        if len(on_t) != len(off_t):  # say where the scans went: the node's counters, asked before it stops
+            stats = _zenav("nodes", "--stats", "--connect", f"tcp/127.0.0.1:{port}", robot=robot_name,
+                           log=tmp_path / "stats.log")
+            stats.wait(60)
+            logs += "\nstats: " + (tmp_path / "stats.log").read_text()
     finally:
         _stop(master)
-    on_t, on_p = evaluate.read_trajectory(out)
     # every scan the node could use was processed (nothing dropped from the bounded queue)
     assert len(on_t) == len(off_t) and np.allclose(on_t, off_t, atol=1e-6), (len(on_t), len(off_t), logs)
     online, offline = evaluate.evaluate(on_t, on_p, relations), evaluate.evaluate(off_t, off_p, relations)

@@ -136,7 +136,9 @@ def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
     # Scans: comparable counts over the recorded span, equal points at equal stamps.
     sa = {r["stamp"]: r["Points3D:positions"] for r in in_span(a["/world/scan"], "Points3D:positions")}
     sb = {r["stamp"]: r["Points3D:positions"] for r in in_span(b["/world/scan"], "Points3D:positions")}
-    assert 0.6 * len(sa) - 3 <= len(sb) <= 1.4 * len(sa) + 3, (len(sa), len(sb))
+    # The monitor throttles scans on wall time, so a playback slowed by a loaded machine passes more
+    # of them than the live run did (121 against 83 once): the upper bound is what the log holds.
+    assert 0.6 * len(sa) - 3 <= len(sb) <= counts["scan"], (len(sa), len(sb), counts["scan"])
     common = sorted(set(sa) & set(sb))
     assert len(common) >= min(len(sa), len(sb)) // 4, (len(sa), len(sb), len(common))
     for s in common:

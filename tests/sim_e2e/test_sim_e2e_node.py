@@ -108,7 +108,9 @@ def test_disabled_motors_ignore_cmd_vel(bus, sim, tmp_path):
     assert not motors.last().enabled
     pub.publish(MotorState(enabled=True))
     wait_until(lambda: motors.last().enabled, 30, "motor_state enabled again")
-    rig.drive([(1.0, 0.5, 0.0)])
+    # Drive until ground truth shows the move (a loaded machine may deliver the first commands late);
+    # 10 s of sim time at 0.5 m/s is 5 m, so a robot still ignoring cmd_vel fails here.
+    rig.drive([(10.0, 0.5, 0.0)], until=lambda: rig.gt.last().pose2d.x - x0 > 0.1)
     assert rig.gt.last().pose2d.x - x0 > 0.1, "cmd_vel ignored after re-enabling the motors"
     assert proc.stop() == 0, proc.log()  # SIGINT: clean shutdown
 
