@@ -197,9 +197,13 @@ class TFListener:
 
     Each sample's publisher (the node name the bus puts in the attachment) is recorded per edge. Latched
     static transforms are requested from *every* static publisher, again whenever a new one appears
-    (liveliness), so a listener started before or after them gets all of them."""
+    (liveliness), so a listener started before or after them gets all of them.
 
-    def __init__(self, node, cache_time: float = 10.0, buffer: TFBuffer | None = None) -> None:
+    ``static_only``: ``tf_static`` alone, for a node that needs only mounts (the simulator): the ``tf``
+    stream is a few hundred messages a second with a simulator at 2x, each decoded by every listener."""
+
+    def __init__(self, node, cache_time: float = 10.0, buffer: TFBuffer | None = None,
+                 static_only: bool = False) -> None:
         import zenoh  # the adapter needs per-sample attachments and QueryTarget.ALL
 
         from common.codec import DecodeError, decode
@@ -216,12 +220,14 @@ class TFListener:
         node.stats_sources.append(self)
         self._key_tf, self._key_static = node.key("tf"), node.key("tf_static")
         self._handles: list[Any] = [
-            self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False)),
             self._session.declare_subscriber(self._key_static, lambda s: self._on_sample(s, True)),
             self._session.liveliness().declare_subscriber(
                 live_key(node.robot, "latched", "*", "tf_static"), self._on_static_publisher, history=True),
         ]
-        node.routes.add(self)
+        self._stream: Any = None  # the tf stream's subscriber, watched for lost routes (common.route_watch)
+        if not static_only:
+            self._stream = self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False))
+            node.routes.add(self)
 
     @property
     def closed(self) -> bool:
@@ -229,11 +235,11 @@ class TFListener:
 
     def redeclare(self) -> None:
         """Declare the tf subscriber again (common.route_watch), the old one first."""
-        if self._closed:
+        if self._closed or self._stream is None:
             return
         with contextlib.suppress(self._zenoh.ZError):
-            self._handles[0].undeclare()
-        self._handles[0] = self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False))
+            self._stream.undeclare()
+        self._stream = self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False))
 
     def _on_static_publisher(self, sample) -> None:
         """A static publisher's token: ask until *that* publisher answers (common.bus_topics.fetch_latched;
@@ -280,11 +286,14 @@ class TFListener:
 
     def stats(self) -> tuple[tuple[str, str, int, int, int, int, int], ...]:
         """Rows of the node's stats (see Subscription.stats): tf and tf_static together."""
-        return (("tf+tf_static", "TFMessage", self.received, self.malformed, self.invalid, 0, 0),)
+        topics = "tf+tf_static" if self._stream is not None else "tf_static"
+        return ((topics, "TFMessage", self.received, self.malformed, self.invalid, 0, 0),)
 
     def close(self) -> None:
         self._closed = True
-        for h in self._handles:
+        for h in [*self._handles, self._stream]:
+            if h is None:
+                continue
             with contextlib.suppress(Exception):  # the session may already be closed
                 h.undeclare()
         self._handles = []

@@ -125,7 +125,7 @@ class SimNode:
         self.static.send(self.mounts.transforms())
         self._listener = None
         if not p.mount_tf:
-            self._listener = TFListener(node)
+            self._listener = TFListener(node, static_only=True)  # mounts come on tf_static
             threading.Thread(target=self.mounts.follow, args=(self._listener, self._stop), name="sim:mount_tf",
                              daemon=True).start()
         self.subs = [node.subscribe(p.cmd_vel_topic, Twist, callback=self._on_cmd_vel),

@@ -65,7 +65,7 @@ def test_the_tf_stream_of_one_publisher_is_repaired_too(node_pair):
     _stream(stop, lambda: out.send([TransformStamped(Header(talker.clock.now(), "odom"), "base_link", Transform())]))
     try:
         wait_for(lambda: tf.received >= 20, 30, "the tf stream")
-        tf._handles[0].undeclare()
+        tf._stream.undeclare()
         lost_at = tf.received
         wait_for(lambda: tf.received > lost_at + 20, 30, "tf after its route was lost")
         wait_for(lambda: listener.routes.repairs == 1, 10, "the repair counted")

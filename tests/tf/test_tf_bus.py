@@ -80,6 +80,27 @@ def test_static_publisher_joining_after_the_listener_is_heard(loopback):
         tf.close()
 
 
+def test_a_static_only_listener_gets_the_mounts_and_none_of_the_stream(loopback):
+    """The simulator's listener: tf_static alone (the tf stream at a simulator's rate costs every listener)."""
+    cfg_a, cfg_b = loopback
+    with Node("odometry", config=cfg_a) as a, Node("sim", config=cfg_b) as b:
+        static_tf, full = TFListener(b, static_only=True), TFListener(b)
+        StaticTFBroadcaster(a).send(parse_static_args("0 0 0.5 0 0 0 base_link laser")[0])
+        br, k = TFBroadcaster(a), 0
+        deadline = time.monotonic() + DEADLINE
+        while full.received < 5 or not static_tf.buffer.can_transform("base_link", "laser"):
+            assert time.monotonic() < deadline, (full.received, static_tf.received)
+            br.send(odom_ts(100.0 + k, float(k)))
+            k += 1
+            time.sleep(0.01)
+        assert static_tf.buffer.lookup("base_link", "laser").transform.translation.z == 0.5
+        assert not static_tf.buffer.can_transform("odom", "base_link"), "the tf stream reached a static-only listener"
+        assert static_tf.stats()[0][0] == "tf_static"
+        assert full.stats()[0][0] == "tf+tf_static"
+        static_tf.close()
+        full.close()
+
+
 @pytest.fixture
 def robot_publishing(loopback, shared_dir, monkeypatch):
     """A 'robot' publishing map->odom, odom->base_link at 20 Hz and the p3at static transform;
