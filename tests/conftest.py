@@ -45,8 +45,8 @@ def pytest_terminal_summary(terminalreporter):
             terminalreporter.write_line(line)
 
 
-# The long end-to-end folders first (longest first, roughly, from `--durations=0`): with two workers
-# taking whole modules, a long module left for the end would run alone while the other worker idles.
+# The long end-to-end folders first (longest first, roughly, from `--durations=0`): with workers
+# taking whole modules, a long module left for the end would run alone while the others idle.
 # pyproject's --no-loadscope-reorder keeps this order: xdist's loadfile otherwise sorts modules by their
 # number of tests, which left one-test end-to-end modules (web tools, fuzz, amcl) for the end.
 _LONG_FIRST = ("nav_e2e", "fleet", "sim_e2e", "logs", "monitor", "reliability", "slam_e2e", "barn", "bus",
