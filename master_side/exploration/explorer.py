@@ -68,6 +68,7 @@ class Explorer:
     goal: tuple[float, float] | None = None  # where the robot was sent for it
     _best_distance: float = math.inf
     _last_progress: float = 0.0
+    _reached: tuple[float, float] | None = None  # the goal move_base last reached
 
     def blacklisted(self, point: tuple[float, float]) -> bool:
         r = self.params.blacklist_radius
@@ -103,16 +104,29 @@ class Explorer:
                 return Decision("keep", cur.centroid, cur)
             self.blacklist.append(cur.centroid)  # no nearer for progress_timeout: explore_lite's rule
         self.target = self.goal = None
-        pick = next((f for f in frontiers if not self.blacklisted(f.centroid)), None)
-        if pick is None:
-            why = "no frontier left" if not frontiers else f"all {len(frontiers)} frontiers blacklisted"
-            return Decision("done", why=why)
-        self.target, self.goal = pick.centroid, pick.goal
-        self._last_progress, self._best_distance = now, pick.min_distance
-        return Decision("send", pick.centroid, pick)
+        reached, self._reached = self._reached, None
+        for pick in frontiers:
+            if self.blacklisted(pick.centroid):
+                continue
+            # The frontier of a goal just reached, still there (the sensor did not see it from the goal, or
+            # SLAM did not take a scan while the robot stood): its progress clock runs on, as explore_lite's
+            # for its previous goal. Reset here, it was sent again every second for good (the mall).
+            again = reached is not None and math.dist(pick.goal, reached) <= self.params.commit_radius
+            if again and pick.min_distance >= self._best_distance:
+                if now - self._last_progress > self.params.progress_timeout:
+                    self.blacklist.append(pick.centroid)
+                    continue
+            else:
+                self._last_progress, self._best_distance = now, pick.min_distance
+            self.target, self.goal = pick.centroid, pick.goal
+            return Decision("send", pick.centroid, pick)
+        why = "no frontier left" if not frontiers else f"all {len(frontiers)} frontiers blacklisted"
+        return Decision("done", why=why)
 
     def goal_reached(self) -> None:
-        """move_base reached the goal: the next plan chooses afresh."""
+        """move_base reached the goal: the next plan chooses afresh (the same frontier, if it is still the
+        best, keeps its progress clock)."""
+        self._reached = self.goal
         self.target = self.goal = None
 
     def goal_failed(self, target: tuple[float, float]) -> None:

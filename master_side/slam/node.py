@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 from common.config import Problems, load_params, param, strip_frame
 from common.geometry import Pose2D
+from common.log_util import RateLimitedLog
 from common.messages import Header, LaserScan, TFMessage, TransformStamped
 from master_side.slam.gridslam import GridSlam
 from master_side.slam.params import NODE_ONLY, GMappingParams
@@ -79,6 +80,7 @@ class SlamNode:
         self.scans = ScanLog()  # stamp + odometry of every scan given to the filter (the trajectory's)
         self.handled = 0  # scan callbacks finished (processed or dropped for want of TF)
         self.no_tf = 0  # scans dropped: no transform at their stamp
+        self._warn = RateLimitedLog()
         self.idle = threading.Condition()
         self.lock = threading.Lock()
         self.last_map = -float("inf")
@@ -111,8 +113,9 @@ class SlamNode:
         try:
             odom = self._lookup(self.odom, self.base, t).transform.to_pose2d()
             laser = self._lookup(self.base, strip_frame(scan.header.frame_id), t)
-        except Exception:  # no TF: gmapping drops the scan too
+        except Exception as e:  # no TF: gmapping drops the scan too (its MessageFilter says so; so do we)
             self.no_tf += 1
+            self._warn(self.node.log, f"scan at {t:.3f} dropped (#{self.no_tf}): no transform at its stamp: {e}")
             return
         with self.lock:
             if self.slam is None:
