@@ -5,9 +5,10 @@ Each ``plan`` call (every 1/planner_frequency s) follows the current target whil
 target is chosen, the cheapest frontier not on the blacklist (within ``blacklist_radius`` of a
 blacklisted centroid), when there is none yet, when move_base reached the goal (``goal_reached``), when
 the frontier is gone (explored), or when its ``min_distance`` has not shrunk for ``progress_timeout`` s
-(blacklisted). explore_lite picks the cheapest every cycle: as SLAM's map grew, frontiers of near-equal
-cost traded places and the robot was sent back and forth across office02. A goal move_base aborts is
-blacklisted too (``goal_failed``). No frontier left (or all blacklisted): exploration is done.
+(blacklisted; a frontier still there after its goal was reached keeps the clock it had, as explore_lite
+keeps its previous goal's). explore_lite picks the cheapest every cycle: as SLAM's map grew, frontiers
+of near-equal cost traded places and the robot was sent back and forth across office02. A goal
+move_base aborts is blacklisted too (``goal_failed``). No frontier left (or all blacklisted): done.
 """
 
 from __future__ import annotations
