@@ -92,20 +92,40 @@ def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, floa
     return Grid(cost, resolution, origin)
 
 
-def reachable(grid: Grid, robot: tuple[float, float]) -> np.ndarray:
-    """Free cells (cost below INSCRIBED) 4-connected to the robot's cell, or to the free cell nearest it."""
+def reachable(grid: Grid, robot: tuple[float, float], seed_radius: float = 0.0) -> np.ndarray:
+    """Free cells (cost below INSCRIBED) 4-connected to a free cell within ``seed_radius`` of the robot (on
+    its side of any wall), or else to the free cell nearest it.
+
+    The radius is the robot's own: SLAM's map can leave the cell the robot stands on in a pocket of a few free
+    cells, cut off by an inflated speck from the free space a cell beside it. Searched from the pocket alone,
+    the mall's exploration saw one frontier, blacklisted it and ended at 19 % known, with the rest 0.1 m away."""
     free = grid.data < INSCRIBED
     at = grid.cell(*robot)
     if at is None:
         raise ValueError(f"the robot at ({robot[0]:.2f}, {robot[1]:.2f}) is outside the costmap")
-    if not free[at]:
-        rr, cc = np.nonzero(free)
-        if len(rr) == 0:
-            return np.zeros_like(free)
-        k = int(np.argmin((rr - at[0]) ** 2 + (cc - at[1]) ** 2))
-        at = (int(rr[k]), int(cc[k]))
     labels, _ = ndimage.label(free, structure=_FOUR)
-    return labels == labels[at]
+    seeds = np.zeros(0, labels.dtype)
+    k = int(seed_radius / grid.resolution + 1e-9)
+    if k > 0:
+        (h, w), r0, c0 = free.shape, max(at[0] - k, 0), max(at[1] - k, 0)
+        win = (slice(r0, min(at[0] + k + 1, h)), slice(c0, min(at[1] + k + 1, w)))
+        rr, cc = np.mgrid[win]
+        disc = (rr - at[0]) ** 2 + (cc - at[1]) ** 2 <= k * k
+        # not through a wall: the known, non-lethal cells joined to the robot's inside the window
+        parts, _ = ndimage.label((grid.data[win] != LETHAL) & (grid.data[win] != NO_INFORMATION), structure=_FOUR)
+        mine = parts[at[0] - r0, at[1] - c0]
+        if mine > 0:
+            seeds = np.unique(labels[win][disc & (parts == mine)])
+            seeds = seeds[seeds > 0]
+    if len(seeds) == 0:
+        if not free[at]:
+            rr, cc = np.nonzero(free)
+            if len(rr) == 0:
+                return np.zeros_like(free)
+            i = int(np.argmin((rr - at[0]) ** 2 + (cc - at[1]) ** 2))
+            at = (int(rr[i]), int(cc[i]))
+        return labels == labels[at]
+    return np.isin(labels, seeds)
 
 
 def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0, gain_scale: float = 1.0,
@@ -122,7 +142,7 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
                                                   grid.origin[1] + box[0].start * grid.resolution))
     if sub.cell(*robot) is None:
         return []
-    reach = reachable(sub, robot)
+    reach = reachable(sub, robot, inscribed_radius)
     if not reach.any():
         return []
     # distance to, and index of, the nearest reachable cell, for every cell

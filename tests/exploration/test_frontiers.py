@@ -141,3 +141,24 @@ def test_the_goal_leaves_room_to_turn_in_place_when_such_a_cell_is_near():
     assert clearance(tight.goal) < 0.36 and np.hypot(*np.subtract(tight.goal, tight.middle)) < 0.5
     assert clearance(roomy.goal) >= 0.36 + RES / 2
     assert np.min(np.hypot(roomy.cells[:, 0] - roomy.goal[0], roomy.cells[:, 1] - roomy.goal[1])) <= 1.0
+
+
+def test_a_robot_in_a_pocket_of_free_cells_searches_from_the_free_space_beside_it_not_through_a_wall():
+    """The mall: SLAM's map left the robot's cell in a 3-cell free pocket, cut off by inflated specks from the
+    free space 0.1 m away; searched from the pocket, one frontier was seen and exploration ended at 19 %."""
+    g = np.full((12, 12), FREE, np.uint8)
+    g[:, 10:] = NO_INFORMATION
+    g[4:9, 1:6] = INSCRIBED
+    g[6, 3] = FREE  # the pocket the robot stands in
+    grid = Grid(g, RES, (0.0, 0.0))
+    robot = (0.35, 0.65)
+    assert reachable(grid, robot).sum() == 1  # without a radius: the pocket alone
+    assert reachable(grid, robot, seed_radius=0.3).sum() == 12 * 10 - 25 + 1
+    assert search(grid, robot, min_frontier_size=0.0, inscribed_radius=0.3)[0].size == 12
+    # behind a wall, free cells within the radius are not the robot's
+    g2 = g.copy()
+    g2[:, 6] = LETHAL
+    g2[:, 7:10] = FREE
+    grid2 = Grid(g2, RES, (0.0, 0.0))
+    near = (0.55, 0.65)  # a cell of the inflated band next to the wall; free cells 0.2 m behind it
+    assert not reachable(grid2, near, seed_radius=0.3)[:, 7:].any()
