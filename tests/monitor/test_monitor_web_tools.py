@@ -28,6 +28,10 @@ START = (-2.2, 0.0, 0.0)  # robot_side/worlds/room.yaml
 AMCL_WRONG = (-1.5, 0.5, 0.4)
 GOAL = (-1.0, 1.3, math.pi / 2)  # free: left of the crate at (0, 0)
 WAYPOINTS = [(-1.0, 1.3, 0.0), (-0.6, 1.3, 0.0)]  # from GOAL: a quarter turn in place, then 0.4 m on
+# Ground truth within the planner's xy_goal_tolerance (0.3 m) of a goal reached, plus AMCL's error: move_base
+# applies the tolerance to AMCL's estimate (up to 0.071 m off on the room route, README "The tutorial on physics"). With 0.3 alone a
+# goal reached with the estimate inside the tolerance failed at 0.302 m of truth.
+REACHED_M = 0.3 + 0.1
 
 
 def _post(port: int, path: str, token: str | None, body: dict, ctype: str = "application/json") -> int:
@@ -91,7 +95,7 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
                  "move_base reporting the page's goal SUCCEEDED")
         end = rig.gt.latest().pose2d
         reach = math.hypot(end.x - goal["x"], end.y - goal["y"])
-        assert reach < 0.3, (end, goal)
+        assert reach < REACHED_M, (end, goal)
         t_goal = time.monotonic() - t0
         state = json.loads(rig.js("JSON.stringify(zenav.state.move_base)"))
         assert state["status"] in ("SUCCEEDED", "ACTIVE", "PENDING"), state
@@ -106,7 +110,7 @@ def test_the_page_sets_the_initial_pose_and_a_goal_and_shows_the_map(tmp_path):
                         "the page's mission ending")
         assert line == "mission: 2 of 2 legs reached", line  # the last line, as the bar shows it
         end = rig.gt.latest().pose2d
-        assert math.hypot(end.x - WAYPOINTS[1][0], end.y - WAYPOINTS[1][1]) < 0.3, end
+        assert math.hypot(end.x - WAYPOINTS[1][0], end.y - WAYPOINTS[1][1]) < REACHED_M, end
         t_mission = time.monotonic() - t0
 
         # 4. the screenshot: our map panel is mostly map. The Rerun viewer in the page is checked on screen by
