@@ -29,8 +29,8 @@ AMCL_WRONG = (-1.5, 0.5, 0.4)
 GOAL = (-1.0, 1.3, math.pi / 2)  # free: left of the crate at (0, 0)
 WAYPOINTS = [(-1.0, 1.3, 0.0), (-0.6, 1.3, 0.0)]  # from GOAL: a quarter turn in place, then 0.4 m on
 # Ground truth within the planner's xy_goal_tolerance (0.3 m) of a goal reached, plus AMCL's error: move_base
-# applies the tolerance to AMCL's estimate (up to 0.071 m off on the room route, README "The tutorial on physics"). With 0.3 alone a
-# goal reached with the estimate inside the tolerance failed at 0.302 m of truth.
+# applies the tolerance to AMCL's estimate (up to 0.071 m off on the room route, README "The tutorial on
+# physics"). With 0.3 alone, a goal reached with the estimate inside the tolerance failed at 0.302 m of truth.
 REACHED_M = 0.3 + 0.1
 
 
