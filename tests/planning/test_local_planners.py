@@ -203,6 +203,16 @@ def test_dwa_samples_respect_the_dynamic_window(dwa_params):
     assert np.all(s[:, 1] == 0.0)  # holonomic_robot: false
 
 
+def test_from_standstill_the_robot_may_start_turning_in_place_either_way(dwa_params):
+    """The window from rest (acc_lim_th 2.0 at 10 Hz: +-0.2 rad/s) is widened to min_rot_vel (0.4) so an
+    in-place turn can start; it was widened on the positive side only. A robot beside a wall it had to turn
+    away from clockwise had no such sample, and stood until move_base gave up (the mall's exploration)."""
+    s = DWAPlanner(dwa_params)._samples(np.zeros(3))
+    turns = s[(s[:, 0] == 0.0) & (s[:, 1] == 0.0), 2]
+    assert turns.max() == pytest.approx(dwa_params.min_rot_vel)
+    assert turns.min() == pytest.approx(-dwa_params.min_rot_vel)
+
+
 def test_rotation_holds_through_jitter(tp_params):
     """The estimate wanders a few cm across xy_goal_tolerance (not latched, as the tutorial's file) while
     the robot turns in place to the goal yaw: the rotation goes on in one direction and ends at the yaw."""

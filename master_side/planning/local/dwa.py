@@ -144,7 +144,7 @@ class DWAPlanner(LocalPlanner):
             floor = lim.min_trans_vel if i < 2 else lim.min_in_place_vth
             if 0.0 < b < floor <= hi:  # see _samples' doc: let a slow-accelerating base start moving
                 b = floor
-            if -floor <= lo and -floor < a < 0.0:
+            if lo <= -floor < a < 0.0:  # the same the other way (both ways of turning in place)
                 a = -floor
             win.append(linspace_window(a, b, n if hi > lo else 1))
         s = sample_grid(*win)
