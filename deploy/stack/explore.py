@@ -1,7 +1,8 @@
 """Exploration over the bus (``zenav explore``): the frontiers of SLAM's map while it grows (the map itself,
 as explore_lite with costmap_topic map: the tutorial's SLAM costmaps track no unknown space), a goal to
 move_base for the chosen one, until none is left (master_side/exploration: the search and the choice,
-pure). Progress lines through ``echo``; the end says why and how much is known.
+pure). The cells move_base's global costmap forbids are laid over the map (``with_costmap``), so goals are
+ones navfn accepts. Progress lines through ``echo``; the end says why and how much is known.
 
 Time (``progress_timeout``, TF's stamps and ages) is the robot's: the simulator's ``clock`` when it publishes
 one (a simulator slowed by a busy machine must not make a frontier look stuck, and one at --speed 2 stamps
@@ -20,7 +21,7 @@ import numpy as np
 
 from common.messages import OccupancyGrid
 from master_side.exploration.explorer import ExploreParams, Explorer
-from master_side.exploration.frontiers import Grid, grid_from_map, search
+from master_side.exploration.frontiers import Grid, grid_from_map, search, with_costmap
 
 
 @dataclass
@@ -45,9 +46,9 @@ def known_free_m2(grid: Grid) -> float:
 
 def explore(node, params: ExploreParams, echo=print, stop: threading.Event | None = None, wait: float = 30.0,
             base_frame: str = "base_link") -> ExploreReport:
-    from common.delivery import DeliveryFailed, last_seen, send_goal
+    from common.delivery import DeliveryFailed, cancel_goal, last_seen, send_goal
     from common.geometry import Pose2D
-    from common.messages import GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PointCloud, PoseStamped
+    from common.messages import Costmap, GoalStatus, Header, MoveBaseGoal, MoveBaseStatus, PointCloud, PoseStamped
     from common.tf import TFListener
     from deploy.stack.goals import send_goal as send_and_wait
 
@@ -55,6 +56,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     t0 = time.monotonic()
     maps = node.subscribe("map", OccupancyGrid)
     status = node.subscribe("move_base/status", MoveBaseStatus)
+    costmaps = node.subscribe("global_costmap/costmap", Costmap)  # what move_base plans on (with_costmap)
     results = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
     if params.visualize:
         pub_frontiers, pub_target = node.publisher("explore/frontiers"), node.publisher("explore/target")
@@ -71,7 +73,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     tf = TFListener(node)  # after the map came: a node on use_sim_time="auto" is on the robot's clock by then
 
     ex, report = Explorer(params), ExploreReport(0, "")
-    goal_id, target = "", None
+    goal_id, target, waiting = "", None, False
     period = 1.0 / params.planner_frequency
     if params.look_around:
         _look_around(node, tf, maps, base_frame, send_and_wait, echo, stop)
@@ -80,6 +82,9 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
         grid = grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), params.inscribed_radius)
         report.known_free_m2 = known_free_m2(grid)
         frame = m.header.frame_id or "map"
+        cm = costmaps.latest()
+        if cm is not None and cm.header.frame_id.lstrip("/") == frame.lstrip("/"):
+            grid = with_costmap(grid, Grid(cm.data, cm.resolution, (cm.origin.x, cm.origin.y)))
         try:
             pose = tf.buffer.lookup_pose2d(frame, base_frame, 0.0, timeout=1.0)
         except Exception as e:  # no transform yet: SLAM publishes map -> odom after its first scan
@@ -115,6 +120,19 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
         if d.action == "done":
             report.why = d.why
             break
+        if d.action == "wait":  # nothing to go to now: look around once, SLAM may see more
+            if not waiting:
+                echo(f"  {d.why}: looking around, done if nothing shows within {params.done_timeout:g} s")
+                if goal_id:
+                    with contextlib.suppress(DeliveryFailed):
+                        cancel_goal(node, goal_id, 5.0, seen)
+                    goal_id, target = "", None
+                if params.look_around:
+                    _look_around(node, tf, maps, base_frame, send_and_wait, echo, stop)
+            waiting = True
+            stop.wait(period)
+            continue
+        waiting = False
         if d.action == "send" and d.target is not None and d.frontier is not None:
             target, goal_id, (gx, gy) = d.target, f"explore-{uuid.uuid4().hex[:8]}", d.frontier.goal
             cx, cy = d.frontier.centroid  # arrive facing the frontier
@@ -139,8 +157,6 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     if stop.is_set() and report.code == 0 and not report.why:
         report.code, report.why = 1, "stopped (Ctrl-C)"
     if goal_id:
-        from common.delivery import cancel_goal
-
         with contextlib.suppress(DeliveryFailed):  # the way out: a cancel that does not arrive is said by move_base
             cancel_goal(node, goal_id, 5.0, seen)
     report.seconds = time.monotonic() - t0

@@ -8,7 +8,9 @@ the frontier is gone (explored), or when its ``min_distance`` has not shrunk for
 (blacklisted; a frontier still there after its goal was reached keeps the clock it had, as explore_lite
 keeps its previous goal's). explore_lite picks the cheapest every cycle: as SLAM's map grew, frontiers
 of near-equal cost traded places and the robot was sent back and forth across office02. A goal
-move_base aborts is blacklisted too (``goal_failed``). No frontier left (or all blacklisted): done.
+move_base aborts is blacklisted too (``goal_failed``). No frontier left (or all blacklisted) for
+``done_timeout`` s: done; meanwhile ``wait`` (explore_lite ends on one search: a last frontier blacklisted
+early ended a run in the mall at 2.5 % known; the node looks around while it waits, and SLAM's map grows).
 """
 
 from __future__ import annotations
@@ -48,6 +50,9 @@ class ExploreParams:
     circumscribed_radius: float = param(0.36, lo=0.0, hi=10.0, unit="m",
                                         doc="zenav's: goals this clear of walls where one is near, so the robot can "
                                             "turn to face the frontier (the P3-AT's, from the tutorial's footprint)")
+    done_timeout: float = param(15.0, lo=0.0, hi=3600.0, unit="s",
+                                doc="zenav's: nothing left to go to for this long ends exploration (0: at once, "
+                                    "explore_lite's rule); the robot looks around meanwhile")
     inscribed_radius: float = param(0.254, lo=0.0, hi=10.0, unit="m",
                                     doc="zenav's: free space nearer a wall is not free for the search (the "
                                         "P3-AT's, from the tutorial's footprint)")
@@ -55,7 +60,7 @@ class ExploreParams:
 
 @dataclass
 class Decision:
-    action: str  # "send" (a new goal), "keep" (the same target), "done" (nothing left)
+    action: str  # "send" (a new goal), "keep" (the same target), "wait" (nothing now), "done" (nothing left)
     target: tuple[float, float] | None = None  # the frontier's centroid: what the blacklist holds
     frontier: Frontier | None = None
     why: str = ""
@@ -70,6 +75,7 @@ class Explorer:
     _best_distance: float = math.inf
     _last_progress: float = 0.0
     _reached: tuple[float, float] | None = None  # the goal move_base last reached
+    _idle_since: float | None = None  # when the search last began to find nothing to go to
 
     def blacklisted(self, point: tuple[float, float]) -> bool:
         r = self.params.blacklist_radius
@@ -92,6 +98,17 @@ class Explorer:
         return best
 
     def plan(self, frontiers: list[Frontier], now: float) -> Decision:
+        d = self._choose(frontiers, now)
+        if d.action != "done":
+            self._idle_since = None
+            return d
+        if self._idle_since is None:
+            self._idle_since = now
+        if now - self._idle_since < self.params.done_timeout:
+            return Decision("wait", why=d.why)
+        return d
+
+    def _choose(self, frontiers: list[Frontier], now: float) -> Decision:
         cur = self._followed(frontiers)
         if cur is not None:
             if cur.min_distance < self._best_distance:

@@ -92,6 +92,32 @@ def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, floa
     return Grid(cost, resolution, origin)
 
 
+def with_costmap(grid: Grid, costmap: Grid) -> Grid:
+    """``grid`` (SLAM's map as costs) with what move_base's global costmap forbids: every known cell whose
+    point lies on a costmap cell at INSCRIBED or above (navfn's impassable cells) takes that cost. Unknown
+    cells stay unknown, and cells off the costmap keep theirs.
+
+    Searched on SLAM's map alone, the goal beside a frontier could lie on an obstacle the costmap's sensor
+    layer holds and the map does not (yet): move_base refused it ("in an obstacle"), the frontier was
+    blacklisted, and in the mall that ended exploration at 2.5 % (explore_lite searches the costmap itself)."""
+    h, w = grid.data.shape
+    rows, cols = np.mgrid[0:h, 0:w]
+    xy = grid.centres(rows.ravel(), cols.ravel())
+    cc = np.floor((xy[:, 0] - costmap.origin[0]) / costmap.resolution).astype(np.int64)
+    cr = np.floor((xy[:, 1] - costmap.origin[1]) / costmap.resolution).astype(np.int64)
+    ch, cw = costmap.data.shape
+    inside = (cr >= 0) & (cr < ch) & (cc >= 0) & (cc < cw)
+    cost = np.zeros(h * w, np.uint8)
+    cost[inside] = costmap.data[cr[inside], cc[inside]]
+    cost = cost.reshape(h, w)
+    blocked = (cost >= INSCRIBED) & (cost != NO_INFORMATION) & (grid.data != NO_INFORMATION)
+    if not blocked.any():
+        return grid
+    data = grid.data.copy()
+    data[blocked] = np.maximum(data[blocked], cost[blocked])
+    return Grid(data, grid.resolution, grid.origin)
+
+
 def reachable(grid: Grid, robot: tuple[float, float], seed_radius: float = 0.0) -> np.ndarray:
     """Free cells (cost below INSCRIBED) 4-connected to a free cell within ``seed_radius`` of the robot (on
     its side of any wall), or else to the free cell nearest it.

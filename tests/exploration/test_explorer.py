@@ -39,8 +39,24 @@ def test_a_failed_goal_is_never_chosen_again_and_all_blacklisted_is_the_end():
     assert ex.plan(fs, 1.0).target == (-3, 0)
     ex.goal_failed((-3, 0))
     d = ex.plan(fs, 2.0)
+    assert d.action == "wait" and d.why == "all 2 frontiers blacklisted"
+    d = ex.plan(fs, 2.0 + ex.params.done_timeout)
     assert d.action == "done" and d.why == "all 2 frontiers blacklisted"
-    assert Explorer().plan([], 0.0).why == "no frontier left"
+    assert Explorer(ExploreParams(done_timeout=0.0)).plan([], 0.0).why == "no frontier left"
+
+
+def test_the_end_needs_nothing_to_go_to_for_done_timeout_and_a_new_frontier_meanwhile_restarts_the_wait():
+    """The mall: one frontier in view early on, blacklisted, and explore_lite's rule (the end on one search)
+    ended the run at 2.5 % known. Now nothing to go to must last ``done_timeout`` s of the robot's clock."""
+    ex = Explorer(ExploreParams(done_timeout=15.0))
+    assert ex.plan([], 0.0).action == "wait"
+    assert ex.plan([], 14.0).action == "wait"
+    assert ex.plan([_f(3, 0, -2.0)], 14.5).action == "send"  # the map grew while waiting
+    ex.goal_failed((3, 0))
+    assert ex.plan([_f(3, 0, -2.0)], 20.0).action == "wait"  # a new wait, from 20 s
+    assert ex.plan([], 34.0).action == "wait"
+    d = ex.plan([], 35.0)
+    assert (d.action, d.why) == ("done", "no frontier left")
 
 
 def test_the_target_is_followed_until_reached_though_a_cheaper_frontier_shows_up():

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from master_side.costmap.cost_values import FREE, INSCRIBED, LETHAL, NO_INFORMATION
-from master_side.exploration.frontiers import Grid, reachable, search
+from master_side.exploration.frontiers import Grid, reachable, search, with_costmap
 
 RES = 0.1
 
@@ -162,3 +162,24 @@ def test_a_robot_in_a_pocket_of_free_cells_searches_from_the_free_space_beside_i
     grid2 = Grid(g2, RES, (0.0, 0.0))
     near = (0.55, 0.65)  # a cell of the inflated band next to the wall; free cells 0.2 m behind it
     assert not reachable(grid2, near, seed_radius=0.3)[:, 7:].any()
+
+
+def test_goals_avoid_what_move_bases_global_costmap_forbids_and_its_obstacles_can_close_a_door():
+    """The mall: a goal chosen on SLAM's map alone lay on an obstacle only the global costmap held; move_base
+    refused it ("in an obstacle") and its frontier was blacklisted. With the costmap (coarser, another origin)
+    laid over the map, the goal moves off the obstacle; an obstacle across the door hides the frontier."""
+    room = _room()
+    grid = Grid(room, RES, (0.0, 0.0))
+    goal = search(grid, (1.0, 1.0), min_frontier_size=0.0)[0].goal
+    cm = np.zeros((15, 20), np.uint8)  # 0.2 m cells from (-0.4, -0.4)
+    cm[int((goal[1] + 0.4) // 0.2), int((goal[0] + 0.4) // 0.2)] = INSCRIBED
+    cm[0, 0] = NO_INFORMATION  # unknown in the costmap changes nothing
+    merged = with_costmap(grid, Grid(cm, 0.2, (-0.4, -0.4)))
+    assert merged.data[int(goal[1] / RES), int(goal[0] / RES)] == INSCRIBED
+    assert (merged.data == NO_INFORMATION).sum() == (room == NO_INFORMATION).sum()  # unknown stays unknown
+    moved = search(merged, (1.0, 1.0), min_frontier_size=0.0)[0].goal
+    assert moved != goal and merged.data[int(moved[1] / RES), int(moved[0] / RES)] < INSCRIBED
+    door = np.zeros((15, 20), np.uint8)
+    door[4:9, 9] = LETHAL  # x in [1.4, 1.6), y in [0.4, 1.4): the doorway
+    assert search(with_costmap(grid, Grid(door, 0.2, (-0.4, -0.4))), (1.0, 1.0), min_frontier_size=0.0) == []
+    assert with_costmap(grid, Grid(np.zeros((15, 20), np.uint8), 0.2, (-0.4, -0.4))) is grid  # nothing forbidden
