@@ -50,6 +50,7 @@ from common.geometry import Pose2D  # noqa: E402
 from common.messages import OccupancyGrid  # noqa: E402
 from common.robot_logs import CARMEN_MAX_RANGE, ScanRecord  # noqa: E402
 from master_side.localization.amcl import Amcl  # noqa: E402
+from master_side.localization.odom_noise import fit as fit_odom_noise  # noqa: E402
 from master_side.localization.params import AmclParams, load_amcl_params  # noqa: E402
 from master_side.mapping.map_io import load_map  # noqa: E402
 from master_side.slam.evaluate import Relation, evaluate, read_relations, read_trajectory  # noqa: E402
@@ -68,6 +69,7 @@ HOLD_S = 10.0  # converged (or not) for this long, in data time, to count as con
 OFFSET_M, OFFSET_RAD = 1.0, math.radians(30.0)
 DIRECTIONS = ((1.0, 0.0, "+x"), (0.0, 1.0, "+y"), (-1.0, 0.0, "-x"), (0.0, -1.0, "-y"))
 QUICK_SCANS = 1500
+MEASURE_SHARE = 0.25  # --odom-noise measured: fitted on this share of the log, from its start
 
 
 @dataclass(frozen=True)
@@ -150,6 +152,14 @@ def amcl_params(dataset: str, sets: dict | None = None) -> AmclParams:
     return load_amcl_params({"laser_max_range": LASER_MAX_RANGE_M[dataset], **(sets or {})}, "bench/amcl_real")
 
 
+def measured_odom_noise(records: list[ScanRecord], ref: SlamRef, share: float = MEASURE_SHARE) -> dict:
+    """amcl's odom_alpha1..4 for ROS's default ``diff`` model, measured on the first ``share`` of the log
+    (its odometry against SLAM's trajectory, `zenav slam odom-noise`'s fit)."""
+    k = max(int(len(records) * share), 3)
+    n = fit_odom_noise(np.array([r.odom.as_array() for r in records[:k]]), ref.poses[:k], "diff")
+    return {f"odom_alpha{i}": round(getattr(n, f"alpha{i}"), 4) for i in range(1, 5)}
+
+
 def tracking_starts(first: Pose2D) -> list[tuple[str, Pose2D]]:
     """SLAM's first pose moved 1 m along each map axis, turned +30° (+x, -x) or -30° (+y, -y)."""
     out = []
@@ -218,7 +228,7 @@ def figures(mode: str, start: str, seed: int, poses: np.ndarray, updates: int, c
 
 # -- the bench ------------------------------------------------------------------------------------------
 def bench_log(name: str, max_scans: int | None, seeds: int, track_seeds: int, out: Path, sets: dict,
-              progress=sys.stderr) -> tuple[SlamRef, list[RunFigures]]:
+              progress=sys.stderr, odom_noise: str = "ros") -> tuple[SlamRef, list[RunFigures]]:
     log, rel_path = SHARED / f"{name}.recon.clf", SHARED / f"{name}.relations"
     progress.write(f"{name}: SLAM map (cached in {out})\n")
     ref = slam_reference(log, rel_path, max_scans, out, progress)
@@ -226,6 +236,9 @@ def bench_log(name: str, max_scans: int | None, seeds: int, track_seeds: int, ou
     if len(records) != len(ref.stamps) or not np.allclose([r.stamp for r in records], ref.stamps, atol=1e-5):
         raise RuntimeError(f"{name}: the cached SLAM trajectory does not match the log's scans")
     relations = relations_within(rel_path, ref.stamps[0], ref.stamps[-1])
+    if odom_noise == "measured":
+        sets = {**measured_odom_noise(records, ref), **sets}
+        progress.write(f"{name}: odometry noise measured on the first {MEASURE_SHARE:.0%} of the log: {sets}\n")
     params = amcl_params(name, sets)
     runs = [("track", label, seed, start) for seed in range(track_seeds)
             for label, start in tracking_starts(Pose2D(*ref.poses[0]))]
@@ -306,17 +319,22 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override an amcl parameter, e.g. --set odom_model_type=diff-corrected (to compare; "
                          "the reported figures use none)")
+    ap.add_argument("--odom-noise", choices=("ros", "measured"), default="ros",
+                    help="ros: ROS amcl's default odom_alpha1..4 (0.2); measured: fitted to the log's odometry "
+                         f"against SLAM's trajectory on its first {MEASURE_SHARE:.0%} (zenav slam odom-noise), "
+                         "as a user calibrates a robot")
     a = ap.parse_args(argv)
     sets = parse_sets(a.set)
     t0 = time.perf_counter()
     results = {}
     for name in a.datasets:
-        ref, rows = bench_log(name, QUICK_SCANS if a.quick else None, a.seeds, a.track_seeds, Path(a.out), sets)
+        ref, rows = bench_log(name, QUICK_SCANS if a.quick else None, a.seeds, a.track_seeds, Path(a.out), sets,
+                              odom_noise=a.odom_noise)
         results[name] = (ref, rows)
         print_table(name, ref, rows, len(ref.stamps), ref.stamps[-1] - ref.stamps[0])
     print(f"\nwall {time.perf_counter() - t0:.0f} s, cpu {time.process_time():.0f} s"
           + (f"; amcl overrides {sets}" if sets else ""))
-    print(summary_line(results))
+    print(summary_line(results) + f" odom_noise={a.odom_noise}")
     return 0
 
 

@@ -11,18 +11,24 @@ run LOG --out DIR [--config gmapping.yaml] [--particles N] [--max-scans N] [--se
 eval --relations REL DIR/trajectory.txt
     Kümmerle et al. relation metric; the last line is machine-readable
     (trans_mean_m=... trans_std_m=... rot_mean_deg=... rot_std_deg=... relations=...).
+odom-noise LOG DIR/trajectory.txt [--model diff|diff-corrected] [--first SHARE]
+    amcl's odom_alpha1..4 measured: the odometry's errors against the trajectory over amcl's update
+    steps; prints the lines for amcl's parameters (instead of guessing them).
 
 example:
   zenav slam run ../shared/datasets/slam/aces.recon.clf \
       --config master_side/config/gmapping_datasets.yaml --out out/aces
   zenav slam eval --relations ../shared/datasets/slam/aces.relations out/aces/trajectory.txt
+  zenav slam odom-noise ../shared/datasets/slam/aces.recon.clf out/aces/trajectory.txt
 """
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    p = subparsers.add_parser("slam", help="offline SLAM on a log (run) and its evaluation (eval)",
+    p = subparsers.add_parser("slam", help="offline SLAM on a log (run), its evaluation (eval), odometry noise "
+                                           "for amcl (odom-noise)",
                               description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("action", choices=("run", "eval"), help="run SLAM on a log, or evaluate a trajectory")
+    p.add_argument("action", choices=("run", "eval", "odom-noise"),
+                   help="run SLAM on a log, evaluate a trajectory, or measure amcl's odometry noise")
     p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments of the action (see above)")
     p.set_defaults(func=run)
     return p
