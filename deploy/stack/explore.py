@@ -1,8 +1,8 @@
 """Exploration over the bus (``zenav explore``): the frontiers of SLAM's map while it grows (the map itself,
 as explore_lite with costmap_topic map: the tutorial's SLAM costmaps track no unknown space), a goal to
 move_base for the chosen one, until none is left (master_side/exploration: the search and the choice,
-pure). The cells move_base's global costmap forbids are laid over the map (``with_costmap``), so goals are
-ones navfn accepts. Progress lines through ``echo``; the end says why and how much is known.
+pure). Goals avoid the cells move_base's global costmap forbids (``costmap_forbidden``), so navfn accepts
+them. Progress lines through ``echo``; the end says why and how much is known.
 
 Time (``progress_timeout``, TF's stamps and ages) is the robot's: the simulator's ``clock`` when it publishes
 one (a simulator slowed by a busy machine must not make a frontier look stuck, and one at --speed 2 stamps
@@ -21,7 +21,7 @@ import numpy as np
 
 from common.messages import OccupancyGrid
 from master_side.exploration.explorer import ExploreParams, Explorer
-from master_side.exploration.frontiers import Grid, grid_from_map, search, with_costmap
+from master_side.exploration.frontiers import Grid, costmap_forbidden, grid_from_map, search
 
 
 @dataclass
@@ -56,7 +56,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     t0 = time.monotonic()
     maps = node.subscribe("map", OccupancyGrid)
     status = node.subscribe("move_base/status", MoveBaseStatus)
-    costmaps = node.subscribe("global_costmap/costmap", Costmap)  # what move_base plans on (with_costmap)
+    costmaps = node.subscribe("global_costmap/costmap", Costmap)  # what move_base plans on (costmap_forbidden)
     results = node.subscribe("move_base/result", MoveBaseStatus, mode="queue")
     if params.visualize:
         pub_frontiers, pub_target = node.publisher("explore/frontiers"), node.publisher("explore/target")
@@ -82,9 +82,9 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
         grid = grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), params.inscribed_radius)
         report.known_free_m2 = known_free_m2(grid)
         frame = m.header.frame_id or "map"
-        cm = costmaps.latest()
+        cm, no_goal = costmaps.latest(), None
         if cm is not None and cm.header.frame_id.lstrip("/") == frame.lstrip("/"):
-            grid = with_costmap(grid, Grid(cm.data, cm.resolution, (cm.origin.x, cm.origin.y)))
+            no_goal = costmap_forbidden(grid, Grid(cm.data, cm.resolution, (cm.origin.x, cm.origin.y)))
         try:
             pose = tf.buffer.lookup_pose2d(frame, base_frame, 0.0, timeout=1.0)
         except Exception as e:  # no transform yet: SLAM publishes map -> odom after its first scan
@@ -107,7 +107,8 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             goal_id, target = "", None
         try:
             frontiers = search(grid, (pose.x, pose.y), params.potential_scale, params.gain_scale,
-                               params.min_frontier_size, params.inscribed_radius, params.circumscribed_radius)
+                               params.min_frontier_size, params.inscribed_radius, params.circumscribed_radius,
+                               no_goal=no_goal)
         except ValueError as e:
             echo(f"  {e}")
             stop.wait(period)

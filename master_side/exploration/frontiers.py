@@ -92,14 +92,16 @@ def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, floa
     return Grid(cost, resolution, origin)
 
 
-def with_costmap(grid: Grid, costmap: Grid) -> Grid:
-    """``grid`` (SLAM's map as costs) with what move_base's global costmap forbids: every known cell whose
-    point lies on a costmap cell at INSCRIBED or above (navfn's impassable cells) takes that cost. Unknown
-    cells stay unknown, and cells off the costmap keep theirs.
+def costmap_forbidden(grid: Grid, costmap: Grid) -> np.ndarray:
+    """The cells of ``grid`` (bool, its shape) whose point lies on a ``costmap`` cell at INSCRIBED or above
+    (navfn's impassable cells; unknown costmap cells and cells off it are not forbidden).
 
-    Searched on SLAM's map alone, the goal beside a frontier could lie on an obstacle the costmap's sensor
-    layer holds and the map does not (yet): move_base refused it ("in an obstacle"), the frontier was
-    blacklisted, and in the mall that ended exploration at 2.5 % (explore_lite searches the costmap itself)."""
+    A goal beside a frontier chosen on SLAM's map alone could lie on an obstacle move_base's global costmap
+    holds and the map does not (yet): move_base refused it ("in an obstacle"), the frontier was blacklisted,
+    and in the mall that ended exploration at 2.5 % (explore_lite searches the costmap itself). Only the goal
+    avoids these cells (``search``'s ``no_goal``): laid over the map for the whole search, the costmap's
+    obstacles, left a little off by SLAM's corrections, walled the robot into a pocket, and a mall run saw one
+    frontier where the map had 48."""
     h, w = grid.data.shape
     rows, cols = np.mgrid[0:h, 0:w]
     xy = grid.centres(rows.ravel(), cols.ravel())
@@ -109,13 +111,7 @@ def with_costmap(grid: Grid, costmap: Grid) -> Grid:
     inside = (cr >= 0) & (cr < ch) & (cc >= 0) & (cc < cw)
     cost = np.zeros(h * w, np.uint8)
     cost[inside] = costmap.data[cr[inside], cc[inside]]
-    cost = cost.reshape(h, w)
-    blocked = (cost >= INSCRIBED) & (cost != NO_INFORMATION) & (grid.data != NO_INFORMATION)
-    if not blocked.any():
-        return grid
-    data = grid.data.copy()
-    data[blocked] = np.maximum(data[blocked], cost[blocked])
-    return Grid(data, grid.resolution, grid.origin)
+    return ((cost >= INSCRIBED) & (cost != NO_INFORMATION)).reshape(h, w)
 
 
 def reachable(grid: Grid, robot: tuple[float, float], seed_radius: float = 0.0) -> np.ndarray:
@@ -156,9 +152,11 @@ def reachable(grid: Grid, robot: tuple[float, float], seed_radius: float = 0.0) 
 
 def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0, gain_scale: float = 1.0,
            min_frontier_size: float = 0.5, inscribed_radius: float = 0.254,
-           circumscribed_radius: float = 0.0, roomy_detour: float = 1.0) -> list[Frontier]:
+           circumscribed_radius: float = 0.0, roomy_detour: float = 1.0,
+           no_goal: np.ndarray | None = None) -> list[Frontier]:
     """The frontiers seen from where the robot can reach from ``robot`` (x, y in the grid's frame),
-    cheapest first."""
+    cheapest first; ``no_goal`` (bool, the grid's shape): cells no goal may lie on (costmap_forbidden), as
+    long as some reachable cell is left."""
     if grid.cell(*robot) is None:
         raise ValueError(f"the robot at ({robot[0]:.2f}, {robot[1]:.2f}) is outside the costmap")
     box = _known_box(grid.data != NO_INFORMATION)  # a SLAM map is mostly unknown
@@ -166,13 +164,19 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
         return []
     sub = Grid(grid.data[box], grid.resolution, (grid.origin[0] + box[1].start * grid.resolution,
                                                   grid.origin[1] + box[0].start * grid.resolution))
+    if no_goal is not None and no_goal.shape != grid.data.shape:
+        raise ValueError(f"no_goal {no_goal.shape} is not the grid's shape {grid.data.shape}")
     if sub.cell(*robot) is None:
         return []
     reach = reachable(sub, robot, inscribed_radius)
     if not reach.any():
         return []
-    # distance to, and index of, the nearest reachable cell, for every cell
-    dist, (near_r, near_c) = ndimage.distance_transform_edt(~reach, return_indices=True)
+    dist = ndimage.distance_transform_edt(~reach)  # to the nearest reachable cell, for every cell
+    stand = reach if no_goal is None else reach & ~no_goal[box]  # where goals may go
+    if not stand.any():
+        stand = reach
+    # distance to, and index of, the nearest cell a goal may take, for every cell
+    goal_dist, (near_r, near_c) = ndimage.distance_transform_edt(~stand, return_indices=True)
     open_known = (sub.data != NO_INFORMATION) & (sub.data != LETHAL)
     parts, _ = ndimage.label(open_known, structure=_FOUR)  # not through a wall: the reachable cells' part
     mine = np.unique(parts[reach])
@@ -185,7 +189,7 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
     # at most ``roomy_detour`` further from the frontier than the nearest reachable cell
     roomy_dist, roomy_r, roomy_c = None, near_r, near_c
     if circumscribed_radius > 0:
-        roomy = reach & (ndimage.distance_transform_edt(sub.data != LETHAL) * sub.resolution
+        roomy = stand & (ndimage.distance_transform_edt(sub.data != LETHAL) * sub.resolution
                          >= circumscribed_radius + sub.resolution / 2)
         if roomy.any():
             roomy_dist, (roomy_r, roomy_c) = ndimage.distance_transform_edt(~roomy, return_indices=True)
@@ -206,7 +210,7 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
         cx, cy = xy[idx].mean(axis=0)
         mid = idx[int(np.argmin(np.hypot(xy[idx, 0] - cx, xy[idx, 1] - cy)))]
         r, c = rows[mid], cols[mid]
-        use_roomy = roomy_dist is not None and (roomy_dist[r, c] - dist[r, c]) * sub.resolution <= roomy_detour
+        use_roomy = roomy_dist is not None and (roomy_dist[r, c] - goal_dist[r, c]) * sub.resolution <= roomy_detour
         gr, gc = (roomy_r[r, c], roomy_c[r, c]) if use_roomy else (near_r[r, c], near_c[r, c])
         gx, gy = sub.centres(np.array([gr]), np.array([gc]))[0]
         out.append(Frontier(len(idx), size_m, (float(cx), float(cy)), (float(xy[near, 0]), float(xy[near, 1])),

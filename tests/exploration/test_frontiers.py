@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from master_side.costmap.cost_values import FREE, INSCRIBED, LETHAL, NO_INFORMATION
-from master_side.exploration.frontiers import Grid, reachable, search, with_costmap
+from master_side.exploration.frontiers import Grid, costmap_forbidden, reachable, search
 
 RES = 0.1
 
@@ -164,22 +164,28 @@ def test_a_robot_in_a_pocket_of_free_cells_searches_from_the_free_space_beside_i
     assert not reachable(grid2, near, seed_radius=0.3)[:, 7:].any()
 
 
-def test_goals_avoid_what_move_bases_global_costmap_forbids_and_its_obstacles_can_close_a_door():
+def test_goals_avoid_what_move_bases_global_costmap_forbids_and_its_obstacles_never_wall_the_robot_in():
     """The mall: a goal chosen on SLAM's map alone lay on an obstacle only the global costmap held; move_base
-    refused it ("in an obstacle") and its frontier was blacklisted. With the costmap (coarser, another origin)
-    laid over the map, the goal moves off the obstacle; an obstacle across the door hides the frontier."""
+    refused it ("in an obstacle") and its frontier was blacklisted. The costmap's forbidden cells (coarser,
+    another origin) move the goal off the obstacle; an obstacle across the door, though, only moves the goal:
+    laid over the whole search, the costmap's obstacles walled the robot into a pocket (1 frontier of 48)."""
     room = _room()
     grid = Grid(room, RES, (0.0, 0.0))
     goal = search(grid, (1.0, 1.0), min_frontier_size=0.0)[0].goal
     cm = np.zeros((15, 20), np.uint8)  # 0.2 m cells from (-0.4, -0.4)
     cm[int((goal[1] + 0.4) // 0.2), int((goal[0] + 0.4) // 0.2)] = INSCRIBED
-    cm[0, 0] = NO_INFORMATION  # unknown in the costmap changes nothing
-    merged = with_costmap(grid, Grid(cm, 0.2, (-0.4, -0.4)))
-    assert merged.data[int(goal[1] / RES), int(goal[0] / RES)] == INSCRIBED
-    assert (merged.data == NO_INFORMATION).sum() == (room == NO_INFORMATION).sum()  # unknown stays unknown
-    moved = search(merged, (1.0, 1.0), min_frontier_size=0.0)[0].goal
-    assert moved != goal and merged.data[int(moved[1] / RES), int(moved[0] / RES)] < INSCRIBED
+    cm[0, 0] = NO_INFORMATION  # unknown in the costmap forbids nothing
+    no_goal = costmap_forbidden(grid, Grid(cm, 0.2, (-0.4, -0.4)))
+    assert no_goal.shape == room.shape and no_goal[int(goal[1] / RES), int(goal[0] / RES)]
+    assert no_goal.sum() == 4  # one 0.2 m cell is four 0.1 m ones
+    moved = search(grid, (1.0, 1.0), min_frontier_size=0.0, no_goal=no_goal)[0].goal
+    assert moved != goal and not no_goal[int(moved[1] / RES), int(moved[0] / RES)]
     door = np.zeros((15, 20), np.uint8)
-    door[4:9, 9] = LETHAL  # x in [1.4, 1.6), y in [0.4, 1.4): the doorway
-    assert search(with_costmap(grid, Grid(door, 0.2, (-0.4, -0.4))), (1.0, 1.0), min_frontier_size=0.0) == []
-    assert with_costmap(grid, Grid(np.zeros((15, 20), np.uint8), 0.2, (-0.4, -0.4))) is grid  # nothing forbidden
+    door[4:9, 9] = LETHAL  # x in [1.4, 1.6), y in [0.4, 1.4): the doorway and the cells before it
+    blocked = costmap_forbidden(grid, Grid(door, 0.2, (-0.4, -0.4)))
+    fs = search(grid, (1.0, 1.0), min_frontier_size=0.0, no_goal=blocked)
+    assert len(fs) == 1 and not blocked[int(fs[0].goal[1] / RES), int(fs[0].goal[0] / RES)]
+    everything = np.ones_like(room, bool)  # no cell left for a goal: the goals SLAM's map gives
+    assert search(grid, (1.0, 1.0), min_frontier_size=0.0, no_goal=everything)[0].goal == goal
+    with pytest.raises(ValueError, match="not the grid's shape"):
+        search(grid, (1.0, 1.0), no_goal=np.zeros((3, 3), bool))
