@@ -79,18 +79,19 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
         _look_around(node, tf, maps, base_frame, send_and_wait, echo, stop)
     while not stop.is_set():
         m = report.map = maps.latest()
-        grid = grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), params.inscribed_radius)
-        report.known_free_m2 = known_free_m2(grid)
         frame = m.header.frame_id or "map"
-        cm, no_goal = costmaps.latest(), None
-        if cm is not None and cm.header.frame_id.lstrip("/") == frame.lstrip("/"):
-            no_goal = costmap_forbidden(grid, Grid(cm.data, cm.resolution, (cm.origin.x, cm.origin.y)))
         try:
             pose = tf.buffer.lookup_pose2d(frame, base_frame, 0.0, timeout=1.0)
         except Exception as e:  # no transform yet: SLAM publishes map -> odom after its first scan
             echo(f"  waiting for {frame} -> {base_frame}: {e}")
             stop.wait(period)
             continue
+        grid = grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), params.inscribed_radius,
+                             keep=(pose.x, pose.y))
+        report.known_free_m2 = known_free_m2(grid)
+        cm, no_goal = costmaps.latest(), None
+        if cm is not None and cm.header.frame_id.lstrip("/") == frame.lstrip("/"):
+            no_goal = costmap_forbidden(grid, Grid(cm.data, cm.resolution, (cm.origin.x, cm.origin.y)))
         while True:  # move_base's results for our goal: a failure blacklists its target
             try:
                 r = results.get(timeout=0.0)

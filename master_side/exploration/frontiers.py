@@ -62,24 +62,29 @@ class Grid:
                                 self.origin[1] + (rows + 0.5) * self.resolution))
 
 
-def _known_box(known: np.ndarray, pad: int = 2) -> tuple[slice, slice] | None:
-    """The rows and columns holding every ``known`` cell, ``pad`` cells wider (None: nothing known)."""
+def _known_box(known: np.ndarray, pad: int = 2, keep: tuple[int, int] | None = None) -> tuple[slice, slice] | None:
+    """The rows and columns holding every ``known`` cell and the cell ``keep`` (row, col), ``pad`` cells
+    wider (None: nothing known)."""
     rows, cols = np.nonzero(known.any(axis=1))[0], np.nonzero(known.any(axis=0))[0]
     if len(rows) == 0:
         return None
+    lo_r, hi_r, lo_c, hi_c = rows[0], rows[-1], cols[0], cols[-1]
+    if keep is not None:
+        lo_r, hi_r, lo_c, hi_c = min(lo_r, keep[0]), max(hi_r, keep[0]), min(lo_c, keep[1]), max(hi_c, keep[1])
     h, w = known.shape
-    return (slice(max(rows[0] - pad, 0), min(rows[-1] + pad + 1, h)),
-            slice(max(cols[0] - pad, 0), min(cols[-1] + pad + 1, w)))
+    return (slice(max(lo_r - pad, 0), min(hi_r + pad + 1, h)), slice(max(lo_c - pad, 0), min(hi_c + pad + 1, w)))
 
 
 def grid_from_map(data: np.ndarray, resolution: float, origin: tuple[float, float],
-                  inscribed_radius: float, occupied: int = 65) -> Grid:
+                  inscribed_radius: float, occupied: int = 65, keep: tuple[float, float] | None = None) -> Grid:
     """A SLAM map (OccupancyGrid values: -1 unknown, 0..100) as costs: unknown, LETHAL from ``occupied``,
     INSCRIBED within ``inscribed_radius`` of a LETHAL cell (where the robot's centre cannot go), else FREE.
     Only the part holding known cells (and a margin of unknown ones) is kept: a SLAM map is mostly unknown,
-    and the distance transform of a whole 100 m map took a third of a second."""
+    and the distance transform of a whole 100 m map took a third of a second. ``keep`` (x, y): a point the
+    part must hold too, the robot's (it can stand on unknown cells: it backed into the mall's unknown)."""
     data = np.asarray(data)
-    box = _known_box(data >= 0)
+    at = None if keep is None else Grid(data, resolution, origin).cell(*keep)
+    box = _known_box(data >= 0, keep=at)
     if box is not None:
         data = data[box]
         origin = (origin[0] + box[1].start * resolution, origin[1] + box[0].start * resolution)
@@ -159,7 +164,7 @@ def search(grid: Grid, robot: tuple[float, float], potential_scale: float = 3.0,
     long as some reachable cell is left."""
     if grid.cell(*robot) is None:
         raise ValueError(f"the robot at ({robot[0]:.2f}, {robot[1]:.2f}) is outside the costmap")
-    box = _known_box(grid.data != NO_INFORMATION)  # a SLAM map is mostly unknown
+    box = _known_box(grid.data != NO_INFORMATION, keep=grid.cell(*robot))  # a SLAM map is mostly unknown
     if box is None:
         return []
     sub = Grid(grid.data[box], grid.resolution, (grid.origin[0] + box[1].start * grid.resolution,

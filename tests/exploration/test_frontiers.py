@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from master_side.costmap.cost_values import FREE, INSCRIBED, LETHAL, NO_INFORMATION
-from master_side.exploration.frontiers import Grid, costmap_forbidden, reachable, search
+from master_side.exploration.frontiers import Grid, costmap_forbidden, grid_from_map, reachable, search
 
 RES = 0.1
 
@@ -189,3 +189,20 @@ def test_goals_avoid_what_move_bases_global_costmap_forbids_and_its_obstacles_ne
     assert search(grid, (1.0, 1.0), min_frontier_size=0.0, no_goal=everything)[0].goal == goal
     with pytest.raises(ValueError, match="not the grid's shape"):
         search(grid, (1.0, 1.0), no_goal=np.zeros((3, 3), bool))
+
+
+def test_a_robot_that_backed_off_the_known_map_still_searches_from_the_free_space_nearest_it():
+    """The mall: the robot backed 0.3 m into space its forward laser had never seen, beyond the known part of
+    SLAM's map the search keeps (cropped for speed); 'outside the costmap' every second, no goal, no motion,
+    for good. The search now keeps the robot's cell and starts from the free cell nearest it."""
+    slam = np.full((40, 40), -1, np.int8)  # OccupancyGrid values, 0.1 m cells
+    slam[5:15, 5:15] = 0  # a known free patch, unknown all around
+    robot = (1.85, 1.0)  # 0.35 m east of the patch: off its known part and the 2-cell margin
+    grid = grid_from_map(slam, RES, (0.0, 0.0), inscribed_radius=0.0, keep=robot)
+    assert grid.cell(*robot) is not None
+    assert grid_from_map(slam, RES, (0.0, 0.0), inscribed_radius=0.0).cell(*robot) is None  # as it was
+    fs = search(grid, robot, min_frontier_size=0.0, inscribed_radius=0.0)
+    assert len(fs) == 1 and fs[0].size == 40  # the patch's whole border
+    # the full (uncropped) grid gives the search the same answer
+    full = Grid(np.where(slam < 0, NO_INFORMATION, FREE).astype(np.uint8), RES, (0.0, 0.0))
+    assert search(full, robot, min_frontier_size=0.0, inscribed_radius=0.0)[0].size == 40
