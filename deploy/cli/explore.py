@@ -16,7 +16,9 @@ frontier is left; then save the map (--save NAME, default 'explored'). Ctrl-C st
 and saves the map too. Frontiers, their cost and the choice are explore_lite's: the cheapest of
 (potential_scale x distance - gain_scale x size) x the map's resolution, frontiers under min_frontier_size ignored, a
 target blacklisted when move_base gives up on it or after progress_timeout without getting nearer; free
-space nearer a wall than inscribed_radius does not count as reachable.
+space nearer a wall than inscribed_radius does not count as reachable; goals avoid what move_base's global
+costmap forbids. Nothing left to go to must last done_timeout (15 s, the robot looking around meanwhile)
+before exploration ends.
 
 exit status: 0 nothing left to explore, 1 stopped, 2 no map or no move_base (SLAM not running), bad --params
 """
@@ -26,7 +28,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("explore", help="explore: drive to frontiers until the map is complete",
                               description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--params", metavar="FILE", help="explore_lite parameters (YAML: planner_frequency, "
-                                                    "progress_timeout, potential_scale, gain_scale, min_frontier_size)")
+                                                    "progress_timeout, potential_scale, gain_scale, min_frontier_size; "
+                                                    "zenav's: done_timeout, look_around, ...)")
     p.add_argument("--save", default="explored", metavar="NAME", help="map files written at the end (NAME.pgm/.yaml)")
     p.add_argument("--no-save", action="store_true", help="do not save the map at the end")
     p.add_argument("--wait", type=positive, default=30.0, metavar="S",
