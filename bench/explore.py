@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 from common.geometry import Pose2D  # noqa: E402
 from deploy.mrpb.cases import load_cases, world_map  # noqa: E402
-from deploy.mrpb.exploration import ExploreRun, run_exploration  # noqa: E402
+from deploy.mrpb.exploration import INTERRUPTED, ExploreRun, run_exploration  # noqa: E402
 from deploy.stack.process_group import terminate_as_interrupt  # noqa: E402
 
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
@@ -51,7 +51,7 @@ def world_and_start(world: str) -> tuple[str, Pose2D]:
 
 def row(r: ExploreRun) -> str:
     t95 = r.time_to(0.95)
-    return (f"{r.name:24} {r.end:10.10} {100 * r.final_share:6.1f} {t95:8.0f} {r.sim_s:7.0f} {r.path_m:7.1f} "
+    return (f"{r.name:24} {r.end:11.11} {100 * r.final_share:6.1f} {t95:8.0f} {r.sim_s:7.0f} {r.path_m:7.1f} "
             f"{100 * r.walls_ok:6.1f} {100 * r.free_ok:6.1f} {r.collisions:4d} {r.free_m2:7.0f} {r.wall_s:7.0f}")
 
 
@@ -68,22 +68,23 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
     runs: list[ExploreRun] = []
     print(f"logs and maps under {out}", file=sys.stderr)
-    for w in a.worlds:
+    todo = [(w, sensor, k) for w in a.worlds for sensor in a.sensors for k in range(a.runs)]
+    for w, sensor, k in todo:
         world, start = world_and_start(w)
-        for sensor in a.sensors:
-            for k in range(a.runs):
-                name = f"{w}/{sensor}/{k + 1}"
-                print(f"{name}: exploring from ({start.x:.1f}, {start.y:.1f}) ...", file=sys.stderr, flush=True)
-                t0 = time.monotonic()
-                with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
-                    r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
-                                        echo=lambda s: print(s, file=sys.stderr, flush=True))
-                runs.append(r)
-                print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
-                      f"({time.monotonic() - t0:.0f} s wall)" + "".join(
-                          f"; contact at ({x:.2f}, {y:.2f}) at {t:.0f} s" for t, x, y in r.contacts),
-                      file=sys.stderr, flush=True)
-    print(f"{'run':24} {'end':10} {'known%':>6} {'t95 s':>8} {'sim s':>7} {'path m':>7} {'walls%':>6} "
+        name = f"{w}/{sensor}/{k + 1}"
+        print(f"{name}: exploring from ({start.x:.1f}, {start.y:.1f}) ...", file=sys.stderr, flush=True)
+        t0 = time.monotonic()
+        with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
+            r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
+                                echo=lambda s: print(s, file=sys.stderr, flush=True))
+        runs.append(r)
+        print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
+              f"({time.monotonic() - t0:.0f} s wall)" + "".join(
+                  f"; contact at ({x:.2f}, {y:.2f}) at {t:.0f} s" for t, x, y in r.contacts),
+              file=sys.stderr, flush=True)
+        if r.end == INTERRUPTED:  # Ctrl-C: the table of what was measured, then stop
+            break
+    print(f"{'run':24} {'end':11} {'known%':>6} {'t95 s':>8} {'sim s':>7} {'path m':>7} {'walls%':>6} "
           f"{'free%':>6} {'hits':>4} {'area m2':>7} {'wall s':>7}")
     for r in runs:
         print(row(r))
@@ -94,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
           f"explore_map_agreement_pct={min(100 * r.agreement for r in runs):.1f} "
           f"explore_collisions={sum(r.collisions for r in runs)} "
           f"explore_ended_by_itself={sum(r.end == 'done' for r in runs)}/{len(runs)}")
-    return 0
+    return 130 if runs and runs[-1].end == INTERRUPTED else 0
 
 
 if __name__ == "__main__":

@@ -101,6 +101,9 @@ class _Watch:
         self.coverage.append((self.now() - self.t0, self.truth.explored(m)))
 
 
+INTERRUPTED = "interrupted"  # ExploreRun.end of a run stopped by Ctrl-C / SIGTERM (measured as far as it got)
+
+
 def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, master_config: Path,
                     workdir: Path, speed: float = 2.0, time_limit_s: float = 1800.0, explore_args=(),
                     echo=print, monitor_args: tuple[str, ...] = (), robot: str = "",
@@ -134,28 +137,32 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         explore = group.spawn("explore", ["explore", "--save", str(work / "explored"), "--wait",
                                           str(STARTUP_S), *explore_args])
         next_note = time.monotonic() + 30.0
-        while explore.poll() is None:
-            group.check_alive(ignore=("explore",))
-            watch.judge()
-            if watch.t0 is not None and watch.now() - watch.t0 > time_limit_s:
-                explore.send_signal(signal.SIGINT)  # as Ctrl-C: cancels its goal, saves the map
-                explore.wait(60)
-                out.end = "time limit"
-                break
-            if time.monotonic() > next_note and watch.coverage:
-                t, s = watch.coverage[-1]
-                echo(f"  {name}: {t:.0f} s simulated, {100 * s:.1f} % known")
-                next_note = time.monotonic() + 30.0
-            time.sleep(0.5)
-        else:
-            out.end = "done" if explore.returncode == 0 else f"failed: explore exit {explore.returncode}"
+        try:
+            while explore.poll() is None:
+                group.check_alive(ignore=("explore",))
+                watch.judge()
+                if watch.t0 is not None and watch.now() - watch.t0 > time_limit_s:
+                    out.end = "time limit"
+                    break
+                if time.monotonic() > next_note and watch.coverage:
+                    t, s = watch.coverage[-1]
+                    echo(f"  {name}: {t:.0f} s simulated, {100 * s:.1f} % known")
+                    next_note = time.monotonic() + 30.0
+                time.sleep(0.5)
+            else:
+                out.end = "done" if explore.returncode == 0 else f"failed: explore exit {explore.returncode}"
+        except KeyboardInterrupt:  # Ctrl-C on the bench: this run is measured as far as it got
+            out.end = INTERRUPTED
+        if explore.poll() is None:
+            explore.send_signal(signal.SIGINT)  # as Ctrl-C: cancels its goal, saves the map
+            explore.wait(60)
         saved = work / "explored.yaml"
         if saved.exists():
             grid = load_map(saved)
             out.final_share = truth.explored(grid)
             out.walls_ok, out.free_ok = truth.agreement(grid)
         out.sim_s = watch.now() - (watch.t0 or 0.0)
-        completed = True
+        completed = out.end != INTERRUPTED  # Ctrl-C: no before_stop (the page is not kept up)
     except RuntimeError as e:  # an agent died or never came up
         out.end = f"failed: {e}"
         completed = True
