@@ -107,16 +107,17 @@ def costmap_forbidden(grid: Grid, costmap: Grid) -> np.ndarray:
     avoids these cells (``search``'s ``no_goal``): laid over the map for the whole search, the costmap's
     obstacles, left a little off by SLAM's corrections, walled the robot into a pocket, and a mall run saw one
     frontier where the map had 48."""
-    h, w = grid.data.shape
-    rows, cols = np.mgrid[0:h, 0:w]
-    xy = grid.centres(rows.ravel(), cols.ravel())
-    cc = np.floor((xy[:, 0] - costmap.origin[0]) / costmap.resolution).astype(np.int64)
-    cr = np.floor((xy[:, 1] - costmap.origin[1]) / costmap.resolution).astype(np.int64)
-    ch, cw = costmap.data.shape
-    inside = (cr >= 0) & (cr < ch) & (cc >= 0) & (cc < cw)
-    cost = np.zeros(h * w, np.uint8)
-    cost[inside] = costmap.data[cr[inside], cc[inside]]
-    return ((cost >= INSCRIBED) & (cost != NO_INFORMATION)).reshape(h, w)
+    def along(n: int, axis: int) -> tuple[np.ndarray, np.ndarray]:
+        """The costmap's index of each of the grid's ``n`` cell centres along ``axis`` (0: x, 1: y), and
+        which of them fall on it (both grids are axis-aligned: rows and columns map separately)."""
+        centres = grid.origin[axis] + (np.arange(n) + 0.5) * grid.resolution
+        i = np.floor((centres - costmap.origin[axis]) / costmap.resolution).astype(np.int64)
+        size = costmap.data.shape[1 - axis]
+        return np.clip(i, 0, size - 1), (i >= 0) & (i < size)
+
+    (cr, rows_on), (cc, cols_on) = along(grid.data.shape[0], 1), along(grid.data.shape[1], 0)
+    cost = costmap.data[np.ix_(cr, cc)]
+    return rows_on[:, None] & cols_on[None, :] & (cost >= INSCRIBED) & (cost != NO_INFORMATION)
 
 
 def reachable(grid: Grid, robot: tuple[float, float], seed_radius: float = 0.0) -> np.ndarray:
