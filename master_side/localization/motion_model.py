@@ -16,10 +16,15 @@ import numpy as np
 
 from common.geometry import Pose2D, normalize_angle, normalize_angles
 
+STILL_M = 0.01  # an increment shorter than this has no direction: rot1 is 0, all the turn is rot2
 
-def _turn_noise(rot: float) -> float:
-    """Rotation magnitude for the noise: a half turn is driving backwards, not turning."""
-    return min(abs(normalize_angle(rot)), abs(normalize_angle(rot - math.pi)))
+
+def _turn_noise(rot):
+    """Rotation magnitude for the noise: a half turn is driving backwards, not turning (a float, or an
+    array of them for odom_noise's fit)."""
+    if np.ndim(rot) == 0:
+        return min(abs(normalize_angle(rot)), abs(normalize_angle(rot - math.pi)))
+    return np.minimum(np.abs(normalize_angles(rot)), np.abs(normalize_angles(rot - np.pi)))
 
 
 class DiffMotionModel:
@@ -32,17 +37,19 @@ class DiffMotionModel:
         """(rot1, trans, rot2) of the odometry increment from ``old`` to ``new`` (odom frame)."""
         dx, dy = new.x - old.x, new.y - old.y
         trans = math.hypot(dx, dy)
-        rot1 = 0.0 if trans < 0.01 else normalize_angle(math.atan2(dy, dx) - old.theta)
+        rot1 = 0.0 if trans < STILL_M else normalize_angle(math.atan2(dy, dx) - old.theta)
         rot2 = normalize_angle(new.theta - old.theta - rot1)
         return rot1, trans, rot2
 
-    def sigmas(self, rot1: float, trans: float, rot2: float) -> tuple[float, float, float]:
-        """Noise standard deviations of (rot1, trans, rot2)."""
+    def sigmas(self, rot1, trans, rot2) -> tuple:
+        """Noise standard deviations of (rot1, trans, rot2): floats, or arrays of increments."""
         n1, n2 = _turn_noise(rot1), _turn_noise(rot2)
         v = (self.a1 * n1 * n1 + self.a2 * trans * trans,
              self.a3 * trans * trans + self.a4 * (n1 * n1 + n2 * n2),
              self.a1 * n2 * n2 + self.a2 * trans * trans)
-        return tuple(math.sqrt(x) for x in v) if self.corrected else v  # type: ignore[return-value]
+        if not self.corrected:
+            return v
+        return tuple(math.sqrt(x) if np.ndim(x) == 0 else np.sqrt(x) for x in v)
 
     def sample(self, poses: np.ndarray, old: Pose2D, new: Pose2D, rng: np.random.Generator) -> np.ndarray:
         """Move every particle (N, 3) by the odometry increment old -> new with its own noise."""

@@ -23,6 +23,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from common.geometry import normalize_angles
+from master_side.localization.motion_model import STILL_M, DiffMotionModel
 
 
 @dataclass(frozen=True)
@@ -42,17 +43,12 @@ class OdomNoise:
                          + [f"odom_alpha{k}: {getattr(self, f'alpha{k}'):.4g}" for k in range(1, 5)])
 
 
-def _turn(rot: np.ndarray) -> np.ndarray:
-    """Rotation magnitude as the motion model counts it: a half turn is reversing, not turning."""
-    a = np.abs(normalize_angles(rot))
-    return np.minimum(a, np.pi - a)
-
-
 def decompose(old: np.ndarray, new: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(rot1, trans, rot2) of every increment old -> new ((N, 3) poses each), as DiffMotionModel.decompose."""
+    """(rot1, trans, rot2) of every increment old -> new ((N, 3) poses each): DiffMotionModel.decompose for
+    many increments at once."""
     d = new[:, :2] - old[:, :2]
     trans = np.hypot(d[:, 0], d[:, 1])
-    rot1 = np.where(trans < 0.01, 0.0, normalize_angles(np.arctan2(d[:, 1], d[:, 0]) - old[:, 2]))
+    rot1 = np.where(trans < STILL_M, 0.0, normalize_angles(np.arctan2(d[:, 1], d[:, 0]) - old[:, 2]))
     rot2 = normalize_angles(new[:, 2] - old[:, 2] - rot1)
     return rot1, trans, rot2
 
@@ -114,13 +110,14 @@ def fit(odom: np.ndarray, ref: np.ndarray, model: str = "diff", min_d: float = 0
     if model not in ("diff", "diff-corrected"):
         raise ValueError(f"model {model!r}: diff or diff-corrected (the omni models are not fitted)")
     o1, ot, o2, e_head, e_tr = errors(odom, ref, min_d, min_a)
-    n1, n2, t2 = _turn(o1) ** 2, _turn(o2) ** 2, ot**2
+    corrected = model == "diff-corrected"
 
-    def sd(v: np.ndarray) -> np.ndarray:  # the model's standard deviation for its expression v
-        return np.sqrt(v) if model == "diff-corrected" else v
+    def heading_sd(a: float, b: float) -> np.ndarray:
+        # the heading change is rot1 + rot2, two independent draws: its deviation is the root of their squares
+        s1, _, s2 = DiffMotionModel(a, b, 0.0, 0.0, corrected).sigmas(o1, ot, o2)
+        return np.hypot(s1, s2)
 
-    # the heading change is rot1 + rot2, two independent draws: its deviation is the root of their squares
-    a1, a2 = _fit(lambda a, b: np.hypot(sd(a * n1 + b * t2), sd(a * n2 + b * t2)), e_head)
-    a3, a4 = _fit(lambda a, b: sd(a * t2 + b * (n1 + n2)), e_tr)
+    a1, a2 = _fit(heading_sd, e_head)
+    a3, a4 = _fit(lambda a, b: DiffMotionModel(0.0, 0.0, a, b, corrected).sigmas(o1, ot, o2)[1], e_tr)
     return OdomNoise(a1, a2, a3, a4, model, len(ot), math.degrees(float(np.sqrt(np.mean(e_head**2)))),
                      float(np.sqrt(np.mean(e_tr**2))))
