@@ -11,6 +11,7 @@ import numpy as np
 import rerun as rr
 
 from common import messages as m
+from common.geometry import Transform
 
 COSTMAP_COLORMAP = rr.components.Colormap.RvizCostmap
 MAP_COLORMAP = rr.components.Colormap.RvizMap
@@ -104,16 +105,31 @@ def scan_points(msg: m.LaserScan) -> np.ndarray:
     return np.column_stack((r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok]), np.zeros(ok.sum())))
 
 
-def log_scan(rec, path: str, msg: m.LaserScan) -> None:
-    rec.log(path, _frame(rec, msg.header), rr.Points3D(scan_points(msg), radii=0.03, colors=[255, 40, 40]))
+Fixed = tuple[str, Transform]  # (a fixed frame, the transform from the sensor's frame into it at the stamp)
 
 
-def log_cloud(rec, path: str, msg: m.PointCloud, max_points: int = 20000) -> None:
+def _placed(rec, header: m.Header, pts: np.ndarray, fixed: Fixed | None) -> tuple[rr.CoordinateFrame, np.ndarray]:
+    """Sensor points placed as rviz places them: in the fixed frame, through the transform *at their stamp*.
+    In their own frame, Rerun would move them with the newest transform it has (scans and TF are throttled
+    separately, so a scan taken while turning was drawn rotated by up to a TF period's turn)."""
+    if fixed is None:
+        return _frame(rec, header), pts
+    frame, tf = fixed
+    return rr.CoordinateFrame(frame_of(rec, frame)), aligned(tf.apply(pts), np.float32)
+
+
+def log_scan(rec, path: str, msg: m.LaserScan, fixed: Fixed | None = None) -> None:
+    frame, pts = _placed(rec, msg.header, scan_points(msg), fixed)
+    rec.log(path, frame, rr.Points3D(pts, radii=0.03, colors=[255, 40, 40]))
+
+
+def log_cloud(rec, path: str, msg: m.PointCloud, max_points: int = 20000, fixed: Fixed | None = None) -> None:
     pts = aligned(msg.points, np.float32)
     if len(pts) > max_points:
         pts = aligned(pts[:: int(np.ceil(len(pts) / max_points))])
     z = pts[:, 2] if len(pts) else np.zeros(0)
-    rec.log(path, _frame(rec, msg.header), rr.Points3D(pts, radii=0.01, colors=_height_colors(z)))
+    frame, pts = _placed(rec, msg.header, pts, fixed)
+    rec.log(path, frame, rr.Points3D(pts, radii=0.01, colors=_height_colors(z)))
 
 
 def _height_colors(z: np.ndarray) -> np.ndarray:
@@ -196,12 +212,20 @@ class OdomTrail:
     ``segment`` points and the whole run O(n). A new point is taken every ``min_step`` metres.
     """
 
-    def __init__(self, segment: int = 100, min_step: float = 0.05) -> None:
+    def __init__(self, segment: int = 100, min_step: float = 0.05, gap: float = 3.0) -> None:
         self.points: list[tuple[float, float]] = []
         self.segment, self.min_step, self.index = segment, min_step, 0
+        self.gap, self.stamp = gap, None  # odometry silent longer than gap: another run (see log)
 
     def log(self, rec, path: str, msg: m.Odometry) -> bool:
-        p = msg.pose2d
+        p, stamp = msg.pose2d, msg.header.stamp
+        if self.stamp is not None and not (self.stamp <= stamp <= self.stamp + self.gap):
+            # Odometry that went back in time (a simulator started again) or was silent for a while (the robot
+            # agent restarted, as in `zenav demo` between worlds): a new run, whose odom frame has nothing to do
+            # with the old trail's, so the old trail is cleared from here on and a new one starts.
+            rec.log(path, rr.Clear(recursive=True))
+            self.points, self.index = [], self.index + 1
+        self.stamp = stamp
         if self.points and np.hypot(p.x - self.points[-1][0], p.y - self.points[-1][1]) < self.min_step:
             return False
         self.points.append((p.x, p.y))

@@ -26,6 +26,7 @@ from common import messages as m
 from common.bus_topics import fetch_latched
 from common.codec import DecodeError, decode
 from common.live_keys import LiveKey, live_key
+from common.tf_buffer import TFBuffer, TFError
 from deploy.monitor import loggers as L
 from deploy.monitor.events import STATUS_NAMES, TextEvents
 from deploy.monitor.keyframes import Keyframes
@@ -36,6 +37,7 @@ log = logging.getLogger("zenav.monitor")
 
 IGNORED = {"CameraInfo", "Empty"}
 PLAN_COLORS = {"local_plan": (0, 200, 255)}
+FIXED_FRAME = "odom"  # scans and clouds are drawn in it, as rviz's fixed frame (continuous, unlike map)
 
 
 @dataclass
@@ -66,6 +68,7 @@ class Monitor(TextEvents):
         self.stats = MonitorStats()
         self._last_text: dict[str, str] = {}
         self._trail = L.OdomTrail()
+        self._tf = TFBuffer(cache_time=10.0, tolerance=0.2)  # every transform received (before throttling)
         self._lock = threading.RLock()
         self._prefix = f"zenav/{robot}/"
         self._queried: set[str] = set()
@@ -139,6 +142,20 @@ class Monitor(TextEvents):
                 self.stats.errors += 1
                 log.warning("could not log %s (%s): %s", topic, type(msg).__name__, e)
 
+    # -- sensor placement ------------------------------------------------------------------------
+    def _remember_tf(self, msg: m.TFMessage, static: bool) -> None:
+        for ts in msg.transforms:
+            with contextlib.suppress(ValueError):  # a malformed edge is the TF logger's to report
+                self._tf.set_transform(ts, static=static)
+
+    def _at_stamp(self, header: m.Header) -> L.Fixed | None:
+        """(fixed frame, transform from ``header``'s frame into it at its stamp); None while TF does not have it
+        (the points are then drawn in their own frame, moved by the newest transform)."""
+        try:
+            return FIXED_FRAME, self._tf.lookup(FIXED_FRAME, header.frame_id, header.stamp).transform
+        except TFError:
+            return None
+
     # -- pacing ----------------------------------------------------------------------------------
     def _set_time(self, stamp: float | None) -> None:
         self.rec.reset_time()  # time is per thread: never inherit another message's stamp
@@ -190,6 +207,7 @@ class Monitor(TextEvents):
             return
         if isinstance(msg, m.TFMessage):
             static = topic == "tf_static"
+            self._remember_tf(msg, static)
             for ts in msg.transforms:
                 child = L.frame_name(ts.child_frame_id, "")
                 if not child:
@@ -205,10 +223,15 @@ class Monitor(TextEvents):
             return
         stamp = msg.header.stamp if hasattr(msg, "header") else None
         spatial = {
-            m.OccupancyGrid: L.log_occupancy_grid, m.Costmap: L.log_costmap, m.LaserScan: L.log_scan,
-            m.PointCloud: L.log_cloud, m.PolygonStamped: L.log_polygon, m.PoseStamped: L.log_pose,
+            m.OccupancyGrid: L.log_occupancy_grid, m.Costmap: L.log_costmap,
+            m.PolygonStamped: L.log_polygon, m.PoseStamped: L.log_pose,
         }
-        if type(msg) in spatial:
+        sensors = {m.LaserScan: L.log_scan, m.PointCloud: L.log_cloud}
+        if type(msg) in sensors:  # placed when logged (a pending one later), with the transform at its stamp
+            entity = "world/" + topic
+            sub(entity, topic, kind, stamp,
+                lambda: sensors[type(msg)](rec, entity, msg, fixed=self._at_stamp(msg.header)))
+        elif type(msg) in spatial:
             entity = "world/" + topic
             sub(entity, topic, kind, stamp, lambda: spatial[type(msg)](rec, entity, msg))
         elif isinstance(msg, m.Path) and topic.endswith("particlecloud"):  # AMCL's particles (x, y, yaw)

@@ -58,7 +58,7 @@ def test_monitor_shows_several_robots_side_by_side(tmp_path, robot_name, two_rob
                        "log/move_base"):
             assert rec.get(f"/{name}/{entity}"), f"/{name}/{entity} missing; have {sorted(rec)}"
         frames = {v[0] for v in values(rec[f"/{name}/world/scan"], "CoordinateFrame:frame")}
-        assert frames == {f"{name}/laser"}
+        assert frames <= {f"{name}/odom", f"{name}/laser"} and f"{name}/odom" in frames  # placed at its stamp
         edges = {e: (values(rows, "Transform3D:parent_frame")[-1][0], values(rows, "Transform3D:child_frame")[-1][0])
                  for e, rows in rec.items() if e.startswith(f"/{name}/tf/")}
         assert edges[f"/{name}/tf/odom"] == (f"{name}/map", f"{name}/odom")

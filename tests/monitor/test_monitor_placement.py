@@ -1,0 +1,87 @@
+"""Where the monitor draws what moves (issue 31), read back from a real .rrd:
+
+  - a scan is placed with the transform at *its* stamp, in the fixed frame (odom), as rviz does, not in its
+    own frame (where Rerun would move it with the newest transform: a scan taken before a turn was drawn
+    turned with the robot, a line of points metres outside the room);
+  - the odometry trail starts again when odometry restarts (the demo's next world): the old trail is
+    cleared, not joined to the new one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import rerun as rr
+from monhelp import read_rrd
+
+from common import messages as m
+from common.geometry import Pose2D, Transform, Vector3
+from deploy.monitor.monitor import Monitor
+
+
+def tf(stamp: float, parent: str, child: str, pose: Pose2D) -> m.TFMessage:
+    return m.TFMessage((m.TransformStamped(m.Header(stamp, parent), child, pose.to_transform()),))
+
+
+def recording(tmp_path, name: str) -> tuple[rr.RecordingStream, Monitor]:
+    rec = rr.RecordingStream(f"zenav_test_{name}")
+    rec.save(str(tmp_path / f"{name}.rrd"))
+    return rec, Monitor(None, "r1", rec, subscribe=False, rates={"LaserScan": 0, "TFMessage": 0, "Odometry": 0})
+
+
+def close(rec, mon, tmp_path, name: str) -> dict:
+    mon.flush_pending(flush_all=True)
+    rec.flush()
+    rec.disconnect()
+    return read_rrd(tmp_path / f"{name}.rrd")
+
+
+def test_a_scan_is_drawn_with_the_transform_at_its_stamp_in_the_odom_frame(tmp_path):
+    rec, mon = recording(tmp_path, "scan_stamp")
+    mon.handle("tf_static", m.TFMessage((m.TransformStamped(m.Header(0.0, "base_link"), "laser",
+                                                            Transform(Vector3(0.1, 0.0, 0.0))),)))
+    mon.handle("tf", tf(1.0, "odom", "base_link", Pose2D(0.0, 0.0, 0.0)))
+    mon.handle("tf", tf(2.0, "odom", "base_link", Pose2D(1.0, 0.0, math.pi / 2)))  # then it turned
+    one_beam = np.array([2.0], np.float32)  # straight ahead, 2 m
+    mon.handle("scan", m.LaserScan(m.Header(1.0, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0,
+                                   ranges=one_beam))
+    mon.handle("scan", m.LaserScan(m.Header(1.5, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0,
+                                   ranges=one_beam))  # between: interpolated, half the turn
+    rows = [r for r in close(rec, mon, tmp_path, "scan_stamp")["/world/scan"] if r.get("Points3D:positions")]
+    assert [r["CoordinateFrame:frame"][0] for r in rows] == ["odom", "odom"]
+    first, between = (np.array(r["Points3D:positions"][0]) for r in rows)
+    assert np.allclose(first, [2.1, 0.0, 0.0], atol=1e-4), first  # the pose at 1.0, not the newest
+    yaw = math.pi / 4
+    want = [0.5 + 2.1 * math.cos(yaw), 2.1 * math.sin(yaw), 0.0]
+    assert np.allclose(between, want, atol=1e-3), (between, want)
+
+
+def test_a_scan_without_its_transform_yet_is_drawn_in_its_own_frame(tmp_path):
+    rec, mon = recording(tmp_path, "scan_no_tf")
+    mon.handle("scan", m.LaserScan(m.Header(1.0, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0,
+                                   ranges=np.array([2.0], np.float32)))
+    row = next(r for r in close(rec, mon, tmp_path, "scan_no_tf")["/world/scan"] if r.get("Points3D:positions"))
+    assert row["CoordinateFrame:frame"] == ["laser"]
+    assert np.allclose(row["Points3D:positions"][0], [2.0, 0.0, 0.0])
+
+
+def drive(mon: Monitor, stamps, xs) -> None:
+    for t, x in zip(stamps, xs):
+        mon.handle("odom", m.Odometry(m.Header(t, "odom"), "base_link", Pose2D(x, 0.0, 0.0).to_transform()))
+        mon.flush_pending(flush_all=True)
+
+
+def test_the_trail_starts_again_when_odometry_restarts(tmp_path):
+    rec, mon = recording(tmp_path, "trail_restart")
+    drive(mon, [1.0, 1.1, 1.2], [0.0, 0.1, 0.2])
+    drive(mon, [1.3, 1.4], [0.3, 0.4])  # steady: the same trail
+    drive(mon, [20.0, 20.1], [0.0, 0.1])  # silent for 18.6 s: the robot agent started again (next world)
+    drive(mon, [0.5, 0.6], [5.0, 5.1])  # back in time: a simulator started again
+    rows = close(rec, mon, tmp_path, "trail_restart")
+    clears = [r for r in rows.get("/world/odom_trail", []) if r.get("Clear:is_recursive")]
+    assert len(clears) == 2, rows.get("/world/odom_trail")
+    last = {e: np.array(r[-1]["LineStrips3D:strips"][0])[:, 0].round(2).tolist()
+            for e, r in rows.items() if e.startswith("/world/odom_trail/")}
+    assert last == {"/world/odom_trail/0": [0.0, 0.1, 0.2, 0.3, 0.4], "/world/odom_trail/1": [0.0, 0.1],
+                    "/world/odom_trail/2": [5.0, 5.1]}, last
