@@ -15,15 +15,19 @@ seconds a screenshot is taken:
 The whole map in view is checked too: the map's extent must lie inside the view, with a margin.
 
     python bench/monitor_live.py [--warmup 20] [--samples 12] [--monitor-arg=--rate=LaserScan=2 ...]
+    python bench/monitor_live.py --demo --samples 40     # zenav demo --serve-web, across its world switch
 
-Ends with monitor_out_mb_s=… viewer_lag_s=… (the median of the samples) viewer_lag_max_s=… robot_found=k/n
-robot_on_track=k/n map_in_view=k/n
+Ends with monitor_out_mb_s=… viewer_lag_s=… (the median of the samples) viewer_lag_max_s=… viewer_catchup_s=…
+(from the viewer being up until every later sample is under 5 s behind: the history a late page takes in)
+viewer_lag_live_s=… (the median from then on) robot_found=k/n robot_on_track=k/n map_in_view=k/n
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import re
 import sys
 import tempfile
 import time
@@ -39,6 +43,7 @@ from testkit.wait import free_port, wait_until  # noqa: E402
 from testkit.webrig import ZENAV, Page, map_mask, rgb  # noqa: E402
 
 PATROL = REPO / "deploy" / "missions" / "room_patrol.yaml"
+LIVE_S = 5.0  # issue 31: "Rerun's latency indicator under 5 s"
 FOOTPRINT_RGB = (60, 120, 255)  # deploy/monitor/loggers.log_polygon
 
 
@@ -76,12 +81,31 @@ def locate(img: np.ndarray, box, world_box) -> tuple[tuple[float, float] | None,
     return (float(wx), float(wy)), inside
 
 
+def page_map_box(page: Page) -> tuple[float, float, float, float]:
+    """The map's (x0, y0, x1, y1) in metres, as the page has it now (the demo switches worlds)."""
+    mp = page.js("JSON.stringify({x: zenav.map.origin.x, y: zenav.map.origin.y, w: zenav.map.width,"
+                 " h: zenav.map.height, r: zenav.map.resolution})")
+    d = json.loads(mp)
+    return d["x"], d["y"], d["x"] + d["w"] * d["r"], d["y"] + d["h"] * d["r"]
+
+
+def catch_up(since: list[float], lags: list[float], live_s: float = LIVE_S) -> tuple[float, float]:
+    """(seconds from the page's viewer being up to the first sample from which every sample is under
+    ``live_s`` behind, the median lag from there on); (inf, inf) when the view never stays live."""
+    for i in range(len(lags)):
+        if all(v < live_s for v in lags[i:]):
+            return since[i], float(np.median(lags[i:]))
+    return float("inf"), float("inf")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--warmup", type=float, default=20.0, help="seconds of patrol before the page is opened")
     ap.add_argument("--samples", type=int, default=12)
     ap.add_argument("--every", type=float, default=4.0, help="seconds between screenshots")
+    ap.add_argument("--demo", action="store_true",
+                    help="watch `zenav demo --serve-web` (the room, then the corridor) instead of the patrol")
     ap.add_argument("--monitor-arg", action="append", default=[], help="extra argument for both monitors")
     a = ap.parse_args(argv)
     from common.bus import Node
@@ -89,35 +113,40 @@ def main(argv: list[str] | None = None) -> int:
     from common.zenoh_config import BusConfig
     from deploy.monitor.pacing import WEB_RATES
     from deploy.stack.world_maps import export_world_map
-    from master_side.mapping.map_io import load_map
 
     tmp = Path(tempfile.mkdtemp(prefix="zenav-monitor-live-"))
     web_rates = ",".join(f"{k}={v:g}" for k, v in WEB_RATES.items())  # what --serve-web logs
     robot = f"live{os.getpid()}"
     hub = f"tcp/127.0.0.1:{free_port()}"
     web, grpc = free_port(), free_port()
-    node = Node("monitor_live_bench", config=BusConfig(robot=robot, listen=(hub,), multicast=False),
+    base = {**os.environ, "ZENAV_ROBOT": robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
+            "ZENAV_CONNECT": hub, "PYTHONPATH": str(REPO)}
+    base.pop("ZENAV_USE_SIM_TIME", None)
+    procs: list[NavProc] = []
+    if a.demo:  # the demo runs its own private bus: join it at the endpoint it prints
+        procs.append(NavProc(tmp / "demo.log", [*ZENAV, "demo", "--robot", robot, "--serve-web", str(web),
+                                                "--workdir", str(tmp / "demo")], base))
+        hub = wait_until(lambda: re.search(r"\[demo\] bus: (\S+)", procs[0].log()), 60, "the demo's bus").group(1)
+    node = Node("monitor_live_bench", config=BusConfig(robot=robot, **({"connect": (hub,)} if a.demo else
+                                                                        {"listen": (hub,)}), multicast=False),
                 use_sim_time=False)
     truth: list[tuple[float, float, float, float]] = []  # (wall time, stamp, x, y)
     node.subscribe("ground_truth", Odometry, mode="queue",
                    callback=lambda m: truth.append((time.time(), m.header.stamp, m.pose2d.x, m.pose2d.y)))
-    base = {**os.environ, "ZENAV_ROBOT": robot, "ZENAV_MULTICAST": "0", "ZENAV_MODE": "peer",
-            "ZENAV_CONNECT": hub, "PYTHONPATH": str(REPO)}
-    base.pop("ZENAV_USE_SIM_TIME", None)
-    map_yaml = export_world_map("room", tmp / "maps")
-    grid = load_map(map_yaml)
-    world_box = (grid.origin.x, grid.origin.y, grid.origin.x + grid.data.shape[1] * grid.resolution,
-                 grid.origin.y + grid.data.shape[0] * grid.resolution)
-    procs = [NavProc(tmp / f"{n}.log", argv, base) for n, argv in (
-        ("robot", [*ZENAV, "robot", "--config", str(ROBOT_CONFIG), "--world", "room"]),
-        ("master", [*ZENAV, "master", "--config", str(MASTER_DIR / "p3at_known_map.yaml"), "--map", str(map_yaml)]),
-        ("monitor", [*ZENAV, "monitor", "--serve-web", str(web), "--grpc-port", str(grpc), *a.monitor_arg]),
-        ("recorder", [*ZENAV, "monitor", "--save", str(tmp / "out.rrd"), "--rate", web_rates, *a.monitor_arg]))]
+    if not a.demo:
+        map_yaml = export_world_map("room", tmp / "maps")
+        procs += [NavProc(tmp / f"{n}.log", argv, base) for n, argv in (
+            ("robot", [*ZENAV, "robot", "--config", str(ROBOT_CONFIG), "--world", "room"]),
+            ("master", [*ZENAV, "master", "--config", str(MASTER_DIR / "p3at_known_map.yaml"), "--map",
+                        str(map_yaml)]),
+            ("monitor", [*ZENAV, "monitor", "--serve-web", str(web), "--grpc-port", str(grpc), *a.monitor_arg]),
+            ("recorder", [*ZENAV, "monitor", "--save", str(tmp / "out.rrd"), "--rate", web_rates,
+                          *a.monitor_arg]))]
     page = None
     try:
         wait_until(lambda: len(truth) > 0, 120, "the simulator's ground truth")
-        patrol = NavProc(tmp / "patrol.log", [*ZENAV, "goal", "--waypoints", str(PATROL), "--loop"], base)
-        procs.append(patrol)
+        if not a.demo:
+            procs.append(NavProc(tmp / "patrol.log", [*ZENAV, "goal", "--waypoints", str(PATROL), "--loop"], base))
         rrd = tmp / "out.rrd"
         time.sleep(a.warmup)
         size0, t0 = (rrd.stat().st_size if rrd.exists() else 0), time.monotonic()
@@ -125,13 +154,18 @@ def main(argv: list[str] | None = None) -> int:
         page.open_page(viewer=True)
         page.wait(lambda: page.js("!!(window.zenav && zenav.map && zenav.rerun !== 'starting')"), 150.0,
                   "the page with the Rerun viewer")
-        lags, found, in_view, on_track = [], 0, 0, 0
+        t_ready = time.monotonic()
+        lags, found, in_view, on_track, since, taken = [], 0, 0, 0, [], 0
         for k in range(a.samples):
+            if a.demo and "the run is over" in procs[0].log():
+                print(f"the demo's run is over after {k} samples", file=sys.stderr)
+                break
             time.sleep(a.every)
             t_req = time.time()
             img = rgb(page.screenshot())
+            taken += 1
             t_cap = (t_req + time.time()) / 2  # the frame was drawn between request and answer
-            where, inside = locate(img, rerun_map_view(img), world_box)
+            where, inside = locate(img, rerun_map_view(img), page_map_box(page))
             in_view += inside
             cursor = page.js("(() => { const e = zenav.viewerEvents.filter((v) => v.includes('time_update'));"
                              " return e.length ? JSON.parse(e[e.length - 1]).time / 1e9 : null; })()")
@@ -139,7 +173,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"sample {k + 1}: robot not found on screen; map in view: {inside}", file=sys.stderr)
                 continue
             found += 1
-            recent = np.array([r for r in truth if r[0] > t_cap - 120.0])
+            recent = np.array([r for r in truth if r[0] > t_cap - 120.0] or truth)
             off = float(np.min(np.hypot(recent[:, 2] - where[0], recent[:, 3] - where[1])))
             on_track += off < 0.15
             # the lag: how far the viewer's time cursor (the stamp timeline, followed live) is behind the
@@ -147,14 +181,19 @@ def main(argv: list[str] | None = None) -> int:
             now_stamp = recent[recent[:, 0] <= t_cap][-1, 1]
             lag = now_stamp - cursor if cursor is not None else float("inf")
             lags.append(lag)
+            since.append(time.monotonic() - t_ready)
             print(f"sample {k + 1}: robot drawn at ({where[0]:.2f}, {where[1]:.2f}), {off:.2f} m from its true "
                   f"track; the view {lag:.1f} s behind the robot's clock; map in view: {inside}", file=sys.stderr,
                   flush=True)
-        out_mb_s = ((rrd.stat().st_size if rrd.exists() else 0) - size0) / 1e6 / (time.monotonic() - t0)
+        # the demo has no second monitor to measure (nan)
+        out_mb_s = ((rrd.stat().st_size if rrd.exists() else 0) - size0) / 1e6 / (time.monotonic() - t0) \
+            if not a.demo else float("nan")
         lag = float(np.median(lags)) if lags else float("inf")
+        catchup, live_lag = catch_up(since, lags)
         print(f"monitor_out_mb_s={out_mb_s:.3f} viewer_lag_s={lag:.1f} "
-              f"viewer_lag_max_s={max(lags) if lags else float('inf'):.1f} robot_found={found}/{a.samples} "
-              f"robot_on_track={on_track}/{a.samples} map_in_view={in_view}/{a.samples}")
+              f"viewer_lag_max_s={max(lags) if lags else float('inf'):.1f} viewer_catchup_s={catchup:.0f} "
+              f"viewer_lag_live_s={live_lag:.1f} robot_found={found}/{taken} "
+              f"robot_on_track={on_track}/{taken} map_in_view={in_view}/{taken}")
         (tmp / "last.png").write_bytes(page.screenshot())
         print(f"last screenshot: {tmp / 'last.png'}", file=sys.stderr)
     finally:

@@ -24,7 +24,7 @@ DEFAULT_RATES: dict[str, float] = {
 # does not make the view live on this machine: it still ran 15-55 s behind (README "Watching it").
 WEB_RATES: dict[str, float] = {
     "OccupancyGrid": 0.2, "Costmap": 0.25, "PointCloud": 0.5, "DepthImage": 0.2, "LaserScan": 2.0,
-    "Odometry": 2.0, "Twist": 2.0, "Path": 1.0, "PolygonStamped": 2.0, "TFMessage": 5.0, "Scalar": 2.0,
+    "Odometry": 2.0, "Twist": 1.0, "Path": 1.0, "PolygonStamped": 2.0, "TFMessage": 2.0, "Scalar": 1.0,
     "MoveBaseStatus": 1.0, "PoseStamped": 1.0, "BatteryState": 0.5, "ParticleCloud": 0.5,
 }
 

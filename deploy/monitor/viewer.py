@@ -24,8 +24,9 @@ def open_recording(args, robot: str, history_limit: str):
             raise ValueError(f"cannot write the recording {args.save}: {e}") from None
         return rec, f"saving to {args.save} (open with: rerun {args.save})"
     if args.serve_web:
+        # newest_first: a page opened late gets what is live now ahead of the history it replays
         uri = rec.serve_grpc(grpc_port=args.grpc_port, default_blueprint=bp,
-                             server_memory_limit=history_limit)
+                             server_memory_limit=history_limit, newest_first=True)
         host = args.bind if args.bind not in ("0.0.0.0", "::") else "localhost"
         return rec, f"page at http://{host}:{args.serve_web}/ (recording {uri})"
     if args.connect_viewer:
