@@ -212,19 +212,22 @@ class OdomTrail:
     ``segment`` points and the whole run O(n). A new point is taken every ``min_step`` metres.
     """
 
-    def __init__(self, segment: int = 100, min_step: float = 0.05, gap: float = 3.0) -> None:
+    def __init__(self, segment: int = 100, min_step: float = 0.05) -> None:
         self.points: list[tuple[float, float]] = []
         self.segment, self.min_step, self.index = segment, min_step, 0
-        self.gap, self.stamp = gap, None  # odometry silent longer than gap: another run (see log)
+        self.stamp: float | None = None
+        self.restarted = False  # set by restart(): the odometry's source started again
+
+    def restart(self) -> None:
+        """The odometry's source started again (a driver or simulator restarted, as in `zenav demo` between
+        worlds): its odom frame has nothing to do with the old trail's, which the next point clears."""
+        self.restarted = True
 
     def log(self, rec, path: str, msg: m.Odometry) -> bool:
         p, stamp = msg.pose2d, msg.header.stamp
-        if self.stamp is not None and not (self.stamp <= stamp <= self.stamp + self.gap):
-            # Odometry that went back in time (a simulator started again) or was silent for a while (the robot
-            # agent restarted, as in `zenav demo` between worlds): a new run, whose odom frame has nothing to do
-            # with the old trail's, so the old trail is cleared from here on and a new one starts.
+        if self.restarted or (self.stamp is not None and stamp < self.stamp):  # (or a simulated clock went back)
             rec.log(path, rr.Clear(recursive=True))
-            self.points, self.index = [], self.index + 1
+            self.points, self.index, self.restarted = [], self.index + (1 if self.points else 0), False
         self.stamp = stamp
         if self.points and np.hypot(p.x - self.points[-1][0], p.y - self.points[-1][1]) < self.min_step:
             return False

@@ -68,6 +68,7 @@ class Monitor(TextEvents):
         self.stats = MonitorStats()
         self._last_text: dict[str, str] = {}
         self._trail = L.OdomTrail()
+        self._odom_node: list = [None, 0]  # the node publishing odom (its name) and its process id
         self._tf = TFBuffer(cache_time=10.0, tolerance=0.2)  # every transform received (before throttling)
         self._lock = threading.RLock()
         self._prefix = f"zenav/{robot}/"
@@ -137,7 +138,8 @@ class Monitor(TextEvents):
             try:
                 for observe in self.observers:
                     observe(topic, msg)
-                self.handle(topic, msg)
+                att = sample.attachment  # the publishing node's name
+                self.handle(topic, msg, att.to_bytes().decode(errors="replace") if att is not None else None)
             except Exception as e:  # noqa: BLE001 - a bad message or logging bug must not kill the monitor
                 self.stats.errors += 1
                 log.warning("could not log %s (%s): %s", topic, type(msg).__name__, e)
@@ -197,7 +199,8 @@ class Monitor(TextEvents):
             self.stats.throttled = self.throttle.dropped
 
     # -- dispatch --------------------------------------------------------------------------------
-    def handle(self, topic: str, msg) -> None:
+    def handle(self, topic: str, msg, sender: str | None = None) -> None:
+        """Log one message; ``sender``: the publishing node's name (the bus's attachment), if known."""
         kind = type(msg).__name__
         rec, sub = self.rec, self._submit
         if kind in IGNORED:
@@ -245,6 +248,7 @@ class Monitor(TextEvents):
         elif isinstance(msg, m.Odometry):
             if topic != "odom":  # the simulator's ground_truth (map frame) or another source: no trail, no
                 return            # speed plot (interleaved with odom's, they drew a smear metres off the path)
+            self._odom_node[0] = sender or self._odom_node[0]
 
             def odom() -> None:
                 self._trail.log(rec, "world/odom_trail", msg)
@@ -261,6 +265,10 @@ class Monitor(TextEvents):
             self._move_base_status(topic, msg)
         elif isinstance(msg, m.NodeState):
             self._node_state(topic, msg)
+            if msg.node == self._odom_node[0] and msg.pid:  # odometry's node in a new process: a new trail
+                if self._odom_node[1] not in (0, msg.pid):
+                    self._trail.restart()
+                self._odom_node[1] = msg.pid
         elif isinstance(msg, m.CostmapSensors):
             self._sensors(topic, msg)
             for s in msg.sources:  # age of each source's last reading: gaps show as saw teeth

@@ -3,8 +3,8 @@
   - a scan is placed with the transform at *its* stamp, in the fixed frame (odom), as rviz does, not in its
     own frame (where Rerun would move it with the newest transform: a scan taken before a turn was drawn
     turned with the robot, a line of points metres outside the room);
-  - the odometry trail starts again when odometry restarts (the demo's next world): the old trail is
-    cleared, not joined to the new one.
+  - the odometry trail starts again when odometry restarts (its node in a new process, as in the demo's next
+    world, or a simulated clock going back): the old trail is cleared, not joined to the new one.
 """
 
 from __future__ import annotations
@@ -68,16 +68,25 @@ def test_a_scan_without_its_transform_yet_is_drawn_in_its_own_frame(tmp_path):
 
 def drive(mon: Monitor, stamps, xs) -> None:
     for t, x in zip(stamps, xs):
-        mon.handle("odom", m.Odometry(m.Header(t, "odom"), "base_link", Pose2D(x, 0.0, 0.0).to_transform()))
+        mon.handle("odom", m.Odometry(m.Header(t, "odom"), "base_link", Pose2D(x, 0.0, 0.0).to_transform()),
+                   sender="sim")
         mon.flush_pending(flush_all=True)
 
 
 def test_the_trail_starts_again_when_odometry_restarts(tmp_path):
     rec, mon = recording(tmp_path, "trail_restart")
+
+    def state(node: str, pid: int, t: float) -> None:
+        mon.handle("agent/robot/state", m.NodeState(m.Header(t), node, "RUNNING", pid))
+
+    state("sim", 100, 0.5)
     drive(mon, [1.0, 1.1, 1.2], [0.0, 0.1, 0.2])
-    drive(mon, [1.3, 1.4], [0.3, 0.4])  # steady: the same trail
-    drive(mon, [20.0, 20.1], [0.0, 0.1])  # silent for 18.6 s: the robot agent started again (next world)
-    drive(mon, [0.5, 0.6], [5.0, 5.1])  # back in time: a simulator started again
+    state("depth_to_scan", 101, 1.25)  # another node: nothing to do with odometry
+    state("sim", 100, 1.25)  # the same process
+    drive(mon, [1.3, 1.4], [0.3, 0.4])  # the same trail
+    state("sim", 200, 4.0)  # the odometry's node in a new process (the demo's next world, a driver restarted)
+    drive(mon, [5.0, 5.1], [0.0, 0.1])
+    drive(mon, [0.5, 0.6], [5.0, 5.1])  # back in time: a simulated clock started again
     rows = close(rec, mon, tmp_path, "trail_restart")
     clears = [r for r in rows.get("/world/odom_trail", []) if r.get("Clear:is_recursive")]
     assert len(clears) == 2, rows.get("/world/odom_trail")
