@@ -220,13 +220,14 @@ class OdomTrail:
 
     def restart(self) -> None:
         """The odometry's source started again (a driver or simulator restarted, as in `zenav demo` between
-        worlds): its odom frame has nothing to do with the old trail's, which the next point clears."""
+        worlds): its odom frame has nothing to do with the old trail's, which the next point empties."""
         self.restarted = True
 
     def log(self, rec, path: str, msg: m.Odometry) -> bool:
         p, stamp = msg.pose2d, msg.header.stamp
         if self.restarted or (self.stamp is not None and stamp < self.stamp):  # (or a simulated clock went back)
-            rec.log(path, rr.Clear(recursive=True))
+            for k in range(self.index + 1):  # emptied, not cleared: a Clear drops the entity's frame too, and
+                rec.log(f"{path}/{k}", _frame(rec, msg.header), rr.LineStrips3D([]))  # Rerun reports it unplaced
             self.points, self.index, self.restarted = [], self.index + (1 if self.points else 0), False
         self.stamp = stamp
         if self.points and np.hypot(p.x - self.points[-1][0], p.y - self.points[-1][1]) < self.min_step:

@@ -36,29 +36,52 @@ def open_recording(args, robot: str, history_limit: str):
     return rec, "spawned the Rerun viewer"
 
 
-def map_view(msg) -> tuple[tuple[float, float], float]:
-    """(centre, eye height) of a top-down view fitted to the map as it is drawn: its known part (SLAM's
-    100 m grid is mostly unknown; deploy.monitor.loggers.known_part)."""
-    from deploy.monitor.layout import fit_height
+Box = tuple[float, float, float, float]  # x0, y0, x1, y1 (metres, map frame)
+
+
+def map_box(msg) -> Box:
+    """The map as it is drawn: its known part (SLAM's 100 m grid is mostly unknown; loggers.known_part)."""
     from deploy.monitor.loggers import known_part
 
     data, origin = known_part(msg.data, msg.origin, msg.resolution)
     w, h = data.shape[1] * msg.resolution, data.shape[0] * msg.resolution
-    return (origin.x + w / 2, origin.y + h / 2), fit_height(w, h)  # (map origins are not rotated in practice)
+    return origin.x, origin.y, origin.x + w, origin.y + h  # (map origins are not rotated in practice)
+
+
+def map_view(box: Box) -> tuple[tuple[float, float], float]:
+    """(centre, eye height) of a top-down view fitted to ``box``."""
+    from deploy.monitor.layout import fit_height
+
+    return ((box[0] + box[2]) / 2, (box[1] + box[3]) / 2), fit_height(box[2] - box[0], box[3] - box[1])
+
+
+def needs_fit(fitted: Box | None, box: Box) -> bool:
+    """Fit the view again: the first map, a map that outgrew the fitted one (SLAM), or one much smaller than
+    it (another world: `zenav demo` switches from the room to the corridor). A map that stays the same, or
+    grows inside the view, keeps it: a new blueprint resets the user's camera, and the server keeps each one."""
+    if fitted is None:
+        return True
+    area = (box[2] - box[0]) * (box[3] - box[1])
+    grown = box[0] < fitted[0] or box[1] < fitted[1] or box[2] > fitted[2] or box[3] > fitted[3]
+    return grown or area < 0.5 * (fitted[2] - fitted[0]) * (fitted[3] - fitted[1])
 
 
 def fit_view_to_map(rec, args):
-    """An observer that sends the blueprint again, the map view fitted to the map, when it first arrives."""
+    """An observer that sends the blueprint again, the map view fitted to the map, when it first arrives and
+    when it no longer fits (needs_fit)."""
     from common.messages import OccupancyGrid
     from deploy.monitor.layout import blueprint
 
-    done = []
+    fitted: list[Box] = []
 
     def observe(topic: str, msg) -> None:
-        if done or topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
+        if topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
             return
-        done.append(True)
-        centre, height = map_view(msg)
+        box = map_box(msg)
+        if not needs_fit(fitted[-1] if fitted else None, box):
+            return
+        fitted.append(box)
+        centre, height = map_view(box)
         rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre, height=height),
                            make_active=True)
 
@@ -87,22 +110,23 @@ def robots_blueprint(maps: dict[str, tuple]) -> object:
 
 def fit_robots_views(rec):
     """For a robot pattern: an observer sending the side-by-side blueprint again when a robot first shows
-    up and when its map first arrives (its view fitted to the map)."""
+    up and when its map first arrives or no longer fits (needs_fit; its view fitted to the map)."""
     from common.messages import OccupancyGrid
     from deploy.monitor.layout import DEFAULT_HEIGHT
 
     maps: dict[str, tuple] = {}
-    fitted: set[str] = set()
+    fitted: dict[str, Box] = {}
 
     def observe(topic: str, msg) -> None:
         robot, _, topic = topic.partition("/")
-        fit = topic == "map" and isinstance(msg, OccupancyGrid) and msg.width > 0 and robot not in fitted
+        box = map_box(msg) if topic == "map" and isinstance(msg, OccupancyGrid) and msg.width > 0 else None
+        fit = box is not None and needs_fit(fitted.get(robot), box)
         if robot in maps and not fit:
             return
         maps[robot] = ((0.0, 0.0), DEFAULT_HEIGHT)
         if fit:
-            fitted.add(robot)
-            maps[robot] = map_view(msg)
+            fitted[robot] = box
+            maps[robot] = map_view(box)
         rec.send_blueprint(robots_blueprint(maps), make_active=True)
 
     return observe

@@ -88,9 +88,14 @@ def test_the_trail_starts_again_when_odometry_restarts(tmp_path):
     drive(mon, [5.0, 5.1], [0.0, 0.1])
     drive(mon, [0.5, 0.6], [5.0, 5.1])  # back in time: a simulated clock started again
     rows = close(rec, mon, tmp_path, "trail_restart")
-    clears = [r for r in rows.get("/world/odom_trail", []) if r.get("Clear:is_recursive")]
-    assert len(clears) == 2, rows.get("/world/odom_trail")
-    last = {e: np.array(r[-1]["LineStrips3D:strips"][0])[:, 0].round(2).tolist()
-            for e, r in rows.items() if e.startswith("/world/odom_trail/")}
-    assert last == {"/world/odom_trail/0": [0.0, 0.1, 0.2, 0.3, 0.4], "/world/odom_trail/1": [0.0, 0.1],
-                    "/world/odom_trail/2": [5.0, 5.1]}, last
+    strips = {e: [r["LineStrips3D:strips"] for r in rs if r.get("LineStrips3D:strips") is not None]
+              for e, rs in rows.items() if e.startswith("/world/odom_trail/")}
+    drawn = {e: [np.array(v[0])[:, 0].round(2).tolist() for v in s if v] for e, s in strips.items()}
+    assert {e: d[-1] for e, d in drawn.items()} == {
+        "/world/odom_trail/0": [0.0, 0.1, 0.2, 0.3, 0.4], "/world/odom_trail/1": [0.0, 0.1],
+        "/world/odom_trail/2": [5.0, 5.1]}, drawn
+    # each restart empties every older segment (in its frame, so Rerun still places it): 0 twice, 1 once
+    assert {e: sum(1 for v in s if not v) for e, s in strips.items()} == {
+        "/world/odom_trail/0": 2, "/world/odom_trail/1": 1, "/world/odom_trail/2": 0}
+    assert all(r.get("CoordinateFrame:frame") == ["odom"] for e, rs in rows.items()
+               if e.startswith("/world/odom_trail/") for r in rs if r.get("LineStrips3D:strips") is not None)

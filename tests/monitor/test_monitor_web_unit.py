@@ -156,3 +156,15 @@ def test_the_particle_cloud_is_logged_as_arrows_with_its_covariance_ellipse(tmp_
     assert arrows and 300 <= len(arrows[-1]) <= 400
     strips = values(rows["/world/particlecloud/covariance"], "LineStrips3D:strips")
     assert strips and len(strips[-1]) == 1
+
+
+def test_the_map_view_is_fitted_again_only_when_the_map_no_longer_fits():
+    from deploy.monitor.viewer import needs_fit
+
+    room = (-3.3, -2.55, 3.3, 2.55)
+    assert needs_fit(None, room)  # the first map
+    assert not needs_fit(room, room)  # the same map logged again (keyframes, SLAM's updates)
+    assert not needs_fit(room, (-3.0, -2.0, 3.0, 2.5))  # grown inside the view, or a little smaller
+    assert needs_fit(room, (-4.3, -2.8, 4.3, 2.8))  # the demo's corridor, wider than the room
+    assert needs_fit(room, (-3.3, -2.55, 3.3, 2.6))  # SLAM's map grew past the view
+    assert needs_fit((-20.0, -20.0, 20.0, 20.0), room)  # another, much smaller world
