@@ -15,11 +15,14 @@ seconds a screenshot is taken:
 The whole map in view is checked too: the map's extent must lie inside the view, with a margin.
 
     python bench/monitor_live.py [--warmup 20] [--samples 12] [--monitor-arg=--rate=LaserScan=2 ...]
-    python bench/monitor_live.py --demo --samples 40     # zenav demo --serve-web, across its world switch
+    python bench/monitor_live.py --demo --warmup 0 --samples 40   # zenav demo --serve-web, across its world switch
+    python bench/monitor_live.py --warmup 120 --shot docs/monitor-web.png   # the README's picture
 
 Ends with monitor_out_mb_s=… viewer_lag_s=… (the median of the samples) viewer_lag_max_s=… viewer_catchup_s=…
 (from the viewer being up until every later sample is under 5 s behind: the history a late page takes in)
-viewer_lag_live_s=… (the median from then on) robot_found=k/n robot_on_track=k/n map_in_view=k/n
+viewer_lag_live_s=… (the median from then on) viewer_pose_ago_s=… panel_pose_ago_s=… (how long ago ground truth was
+where Rerun's map view / our map panel draws the robot, within 0.15 m; the median of the last 5 samples; 20 = not
+within 20 s) robot_found=k/n robot_on_track=k/n map_in_view=k/n
 """
 
 from __future__ import annotations
@@ -81,6 +84,19 @@ def locate(img: np.ndarray, box, world_box) -> tuple[tuple[float, float] | None,
     return (float(wx), float(wy)), inside
 
 
+def drawn_ago(truth: np.ndarray, where, t_cap: float, near_m: float = 0.15, window_s: float = 20.0) -> float:
+    """How long before the capture ``t_cap`` ground truth was within ``near_m`` of the drawn position, the
+    nearest such time to the capture (``truth`` rows: wall time received, stamp, x, y; negative: received
+    after the capture); ``window_s`` when it was nowhere near within that many seconds either side."""
+    rows = truth[np.abs(truth[:, 0] - t_cap) < window_s]
+    close = rows[np.hypot(rows[:, 2] - where[0], rows[:, 3] - where[1]) < near_m]
+    return float((t_cap - close[np.argmin(np.abs(t_cap - close[:, 0])), 0])) if len(close) else window_s
+
+
+def median(v) -> float:
+    return float(np.median(v)) if len(v) else float("inf")
+
+
 def page_map_box(page: Page) -> tuple[float, float, float, float]:
     """The map's (x0, y0, x1, y1) in metres, as the page has it now (the demo switches worlds)."""
     mp = page.js("JSON.stringify({x: zenav.map.origin.x, y: zenav.map.origin.y, w: zenav.map.width,"
@@ -106,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--every", type=float, default=4.0, help="seconds between screenshots")
     ap.add_argument("--demo", action="store_true",
                     help="watch `zenav demo --serve-web` (the room, then the corridor) instead of the patrol")
+    ap.add_argument("--shot", type=Path, help="also write the last screenshot here (the README's picture)")
     ap.add_argument("--monitor-arg", action="append", default=[], help="extra argument for both monitors")
     a = ap.parse_args(argv)
     from common.bus import Node
@@ -156,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
                   "the page with the Rerun viewer")
         t_ready = time.monotonic()
         lags, found, in_view, on_track, since, taken = [], 0, 0, 0, [], 0
+        drawn: list = []  # (capture time, where Rerun's map view draws the robot, where our map panel does)
         for k in range(a.samples):
             if a.demo and "the run is over" in procs[0].log():
                 print(f"the demo's run is over after {k} samples", file=sys.stderr)
@@ -172,8 +190,10 @@ def main(argv: list[str] | None = None) -> int:
             if where is None:
                 print(f"sample {k + 1}: robot not found on screen; map in view: {inside}", file=sys.stderr)
                 continue
-            found += 1
+            panel = json.loads(page.js("JSON.stringify(zenav.state && zenav.state.pose)") or "null")
             recent = np.array([r for r in truth if r[0] > t_cap - 120.0] or truth)
+            drawn.append((t_cap, where, (panel["x"], panel["y"]) if panel else None))
+            found += 1
             off = float(np.min(np.hypot(recent[:, 2] - where[0], recent[:, 3] - where[1])))
             on_track += off < 0.15
             # the lag: how far the viewer's time cursor (the stamp timeline, followed live) is behind the
@@ -190,12 +210,24 @@ def main(argv: list[str] | None = None) -> int:
             if not a.demo else float("nan")
         lag = float(np.median(lags)) if lags else float("inf")
         catchup, live_lag = catch_up(since, lags)
+        # how long ago ground truth was where each draws the robot, with the ground truth received since (the
+        # bench's own subscriber may get it later than the monitor)
+        time.sleep(2.0)
+        track = np.array(truth)
+        rerun_ago = [drawn_ago(track, w, t) for t, w, _ in drawn]
+        panel_ago = [drawn_ago(track, p, t) for t, _, p in drawn if p is not None]
+        print("ground truth was where Rerun draws the robot ... s before each capture: "
+              + " ".join(f"{v:.1f}" for v in rerun_ago) + "; where our panel draws it: "
+              + " ".join(f"{v:.1f}" for v in panel_ago), file=sys.stderr)
         print(f"monitor_out_mb_s={out_mb_s:.3f} viewer_lag_s={lag:.1f} "
               f"viewer_lag_max_s={max(lags) if lags else float('inf'):.1f} viewer_catchup_s={catchup:.0f} "
-              f"viewer_lag_live_s={live_lag:.1f} robot_found={found}/{taken} "
+              f"viewer_lag_live_s={live_lag:.1f} viewer_pose_ago_s={median(np.abs(rerun_ago[-5:])):.1f} "
+              f"panel_pose_ago_s={median(np.abs(panel_ago[-5:])):.1f} robot_found={found}/{taken} "
               f"robot_on_track={on_track}/{taken} map_in_view={in_view}/{taken}")
-        (tmp / "last.png").write_bytes(page.screenshot())
-        print(f"last screenshot: {tmp / 'last.png'}", file=sys.stderr)
+        shot = page.screenshot()
+        for path in (tmp / "last.png", *([a.shot] if a.shot else [])):
+            path.write_bytes(shot)
+            print(f"last screenshot: {path}", file=sys.stderr)
     finally:
         if page is not None:
             page.close()

@@ -14,11 +14,12 @@ from common.argtypes import nonneg, port
 
 KEYFRAME_S = 10.0  # with --serve-web: rarely logged entities (the latched map) logged again this often
 # with --serve-web: Rerun's gRPC history buffer, what a page opened later takes in before it shows the robot
-# as it is (the viewer follows the newest data it has taken in). With 512 MiB a page opened a minute in was a
-# minute late; 4 MiB is about 30 s at the web rates (bench/monitor_live.py, issue 31: once, the view then
-# caught up to 0.5 s; in other runs it stayed 15-55 s behind). The map and the goal are logged again every
-# KEYFRAME_S, so the history always holds them.
-HISTORY_LIMIT = "4MiB"
+# as it is (the viewer follows the newest data it has taken in, and takes it in slowly without a GPU). With
+# 512 MiB a page opened a minute in was a minute late for good; 2 MiB is about 17 s at the web rates, taken in
+# within 21 s by a page opened a minute in (4 MiB: 26-45 s; bench/monitor_live.py, issue 31). It must hold
+# more than KEYFRAME_S: the map and the goal are logged again that often, so the history always holds them.
+# What a late page lacks is the odometry trail's older part.
+HISTORY_LIMIT = "2MiB"
 
 DESCRIPTION = """\
 Join the bus as a Zenoh peer (on any machine: robot, master or a laptop) and log one robot's
@@ -75,7 +76,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "dropped beyond it, the newest state of every entity stays")
     p.add_argument("--history-limit", default=HISTORY_LIMIT,
                    help="with --serve-web: the history this process keeps for pages opened later (Rerun's gRPC "
-                        "buffer; at the demo's rates about 1 MB/s is offered): the oldest is dropped beyond it, "
+                        "buffer; at the web rates about 0.12 MB/s): the oldest is dropped beyond it, "
                         f"the map and goal are logged again every {KEYFRAME_S:.0f} s so a late page still gets "
                         "them (default %(default)s)")
     p.set_defaults(func=run)
