@@ -152,11 +152,17 @@ def test_the_rerun_view_and_our_panel_show_the_block_where_it_is(tmp_path):
         bright = {k: float(img[int(c["y"]), int(c["x"])].mean()) for k, c in ours.items()}
         assert bright["block"] < 40 and bright["mirror_y"] > 200 and bright["mirror_x"] > 200, bright
 
-        # The odometry trail, on screen where the robot drove: odom's poses through map -> odom, and nothing
-        # where the simulator's ground truth (the map frame, set off on purpose) says it was.
+        # The whole map in Rerun's map view (left of the local view, below the view's title, above the time panel)
         def to_screen(x: float, y: float) -> tuple[float, float]:
             return green[0] + (x - pts["block"][0]) * px_per_m, green[1] - (y - pts["block"][1]) * px_per_m
 
+        view_right = split + 0.6 * (img.shape[1] - split)
+        corners = [to_screen(grid.origin.x + i * w, grid.origin.y + j * h) for i in (0, 1) for j in (0, 1)]
+        assert all(split < cx < view_right and 100 < cy < 0.75 * img.shape[0] for cx, cy in corners), \
+            f"the map's corners {corners} not all inside the map view (x {split}..{view_right:.0f})"
+
+        # The odometry trail, on screen where the robot drove: odom's poses through map -> odom, and nothing
+        # where the simulator's ground truth (the map frame, set off on purpose) says it was.
         def trail_pixels() -> tuple[np.ndarray, np.ndarray]:
             img = rgb(page.screenshot())
             r, g, b = (img[..., k].astype(int) for k in range(3))

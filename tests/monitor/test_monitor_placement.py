@@ -57,6 +57,25 @@ def test_a_scan_is_drawn_with_the_transform_at_its_stamp_in_the_odom_frame(tmp_p
     assert np.allclose(between, want, atol=1e-3), (between, want)
 
 
+def test_a_scan_that_arrives_before_the_odometry_of_its_instant_waits_for_it(tmp_path):
+    rec, mon = recording(tmp_path, "scan_waits")
+    mon.handle("tf", tf(1.0, "odom", "laser", Pose2D(0.0, 0.0, 0.0)))
+    beam = np.array([2.0], np.float32)
+    mon.handle("scan", m.LaserScan(m.Header(1.5, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0, ranges=beam))
+    mon.flush_pending()  # not logged yet: TF ends at 1.0
+    assert mon.stats.by_entity.get("world/scan", 0) == 0
+    mon.handle("tf", tf(2.0, "odom", "laser", Pose2D(1.0, 0.0, 0.0)))
+    mon.flush_pending()  # now it is
+    assert mon.stats.by_entity.get("world/scan", 0) == 1
+    mon.handle("scan", m.LaserScan(m.Header(9.0, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0, ranges=beam))
+    mon.flush_pending()  # waits (at most PLACE_WAIT_S; close() flushes everything)
+    assert mon.stats.by_entity.get("world/scan", 0) == 1
+    rows = [r for r in close(rec, mon, tmp_path, "scan_waits")["/world/scan"] if r.get("Points3D:positions")]
+    placed = {r["CoordinateFrame:frame"][0]: np.array(r["Points3D:positions"][0]) for r in rows}
+    assert np.allclose(placed["odom"], [2.5, 0.0, 0.0], atol=1e-4), placed  # halfway, 1.5 between 1.0 and 2.0
+    assert np.allclose(placed["laser"], [2.0, 0.0, 0.0]), placed  # 9.0: TF never got there, drawn as it is
+
+
 def test_a_scan_without_its_transform_yet_is_drawn_in_its_own_frame(tmp_path):
     rec, mon = recording(tmp_path, "scan_no_tf")
     mon.handle("scan", m.LaserScan(m.Header(1.0, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0,
