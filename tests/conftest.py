@@ -75,8 +75,19 @@ def _switch_interval():
 
 def pytest_configure(config):
     """A suite started in the background by a non-interactive shell inherits SIGINT ignored, and so would
-    every process the tests start (nodes an agent stops with SIGINT, tools a test stops with Ctrl-C)."""
+    every process the tests start (nodes an agent stops with SIGINT, tools a test stops with Ctrl-C).
+
+    Each xdist worker picks loopback ports from its own slice of common.ports' range (and so do the processes
+    its tests start, through the environment): two workers picking the same free port a second apart made one
+    test's master fail with "Address already in use" (ci105)."""
     import signal
+
+    from common.ports import HIGH, LOW
+
+    worker, count = os.environ.get("PYTEST_XDIST_WORKER", ""), int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    if worker.startswith("gw") and count > 1:
+        k, width = int(worker[2:]), (HIGH - LOW) // count
+        os.environ["ZENAV_PORT_RANGE"] = f"{LOW + k * width}-{LOW + (k + 1) * width}"
 
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
