@@ -105,7 +105,7 @@ def scan_points(msg: m.LaserScan) -> np.ndarray:
     return np.column_stack((r[ok] * np.cos(a[ok]), r[ok] * np.sin(a[ok]), np.zeros(ok.sum())))
 
 
-Fixed = tuple[str, Transform]  # (a fixed frame, the transform from the sensor's frame into it at the stamp)
+Fixed = tuple[str, Transform]  # (a fixed frame, the transform from the sensor's frame into it: placement.py)
 
 
 def _placed(rec, header: m.Header, pts: np.ndarray, fixed: Fixed | None) -> tuple[rr.CoordinateFrame, np.ndarray]:

@@ -16,7 +16,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import threading
-import time
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -27,19 +26,17 @@ from common import messages as m
 from common.bus_topics import fetch_latched
 from common.codec import DecodeError, decode
 from common.live_keys import LiveKey, live_key
-from common.tf_buffer import ExtrapolationError, TFBuffer, TFError
 from deploy.monitor import loggers as L
 from deploy.monitor.events import STATUS_NAMES, TextEvents
 from deploy.monitor.keyframes import Keyframes
 from deploy.monitor.layout import blueprint  # noqa: F401 - re-exported for callers
 from deploy.monitor.pacing import DEFAULT_RATES, StampTimeline, Throttle  # noqa: F401
+from deploy.monitor.placement import Placement
 
 log = logging.getLogger("zenav.monitor")
 
 IGNORED = {"CameraInfo", "Empty"}
 PLAN_COLORS = {"local_plan": (0, 200, 255)}
-FIXED_FRAME = "odom"  # scans and clouds are drawn in it, as rviz's fixed frame (continuous, unlike map)
-PLACE_WAIT_S = 0.5  # a scan waits this long (wall) for TF to reach its stamp, then is drawn in its own frame
 
 
 @dataclass
@@ -71,8 +68,7 @@ class Monitor(TextEvents):
         self._last_text: dict[str, str] = {}
         self._trail = L.OdomTrail()
         self._odom_node: list = [None, 0]  # the node publishing odom (its name) and its process id
-        self._tf = TFBuffer(cache_time=10.0)  # every transform received (before throttling)
-        self._awaiting: dict[str, tuple] = {}  # sensor entity -> (first seen, header, submit): waiting for TF
+        self._placement = Placement()  # scans and clouds drawn with the transform at their stamp
         self._lock = threading.RLock()
         self._prefix = f"zenav/{robot}/"
         self._queried: set[str] = set()
@@ -147,40 +143,6 @@ class Monitor(TextEvents):
                 self.stats.errors += 1
                 log.warning("could not log %s (%s): %s", topic, type(msg).__name__, e)
 
-    # -- sensor placement ------------------------------------------------------------------------
-    def _remember_tf(self, msg: m.TFMessage, static: bool) -> None:
-        for ts in msg.transforms:
-            with contextlib.suppress(ValueError):  # a malformed edge is the TF logger's to report
-                self._tf.set_transform(ts, static=static)
-
-    def _place(self, entity: str, header: m.Header, submit: Callable[[], None]) -> None:
-        """Submit a sensor message now if TF reaches its stamp, else when it does (flush_pending; the newest per
-        entity, at most PLACE_WAIT_S): a scan usually arrives before the odometry of its instant, and placed with
-        an older transform it would land where the robot was, not where it is (and differ between runs)."""
-        if self._placeable(header):
-            self._awaiting.pop(entity, None)
-            submit()
-        else:
-            first = self._awaiting.get(entity, (time.monotonic(),))[0]
-            self._awaiting[entity] = (first, header, submit)
-
-    def _placeable(self, header: m.Header) -> bool:
-        try:
-            self._tf.lookup(FIXED_FRAME, header.frame_id, header.stamp)
-            return True
-        except ExtrapolationError:  # not yet
-            return False
-        except TFError:  # never (no such frame, not connected): drawn in its own frame at once
-            return True
-
-    def _at_stamp(self, header: m.Header) -> L.Fixed | None:
-        """(fixed frame, transform from ``header``'s frame into it at its stamp); None while TF does not have it
-        (the points are then drawn in their own frame, moved by the newest transform)."""
-        try:
-            return FIXED_FRAME, self._tf.lookup(FIXED_FRAME, header.frame_id, header.stamp).transform
-        except TFError:
-            return None
-
     # -- pacing ----------------------------------------------------------------------------------
     def _set_time(self, stamp: float | None) -> None:
         self.rec.reset_time()  # time is per thread: never inherit another message's stamp
@@ -213,11 +175,8 @@ class Monitor(TextEvents):
             if self._views:
                 self.stats.throttled = sum(v.throttle.dropped for v in self._views.values())
                 return
-            now = time.monotonic()
-            for entity, (first, header, submit) in list(self._awaiting.items()):
-                if flush_all or now - first > PLACE_WAIT_S or self._placeable(header):
-                    del self._awaiting[entity]
-                    submit()
+            for submit in self._placement.due(flush_all):
+                submit()
             for entity, (stamp, fn) in self.throttle.due(flush_all) + self.keyframes.due():
                 try:
                     self._emit(entity, stamp, fn)
@@ -238,7 +197,7 @@ class Monitor(TextEvents):
             return
         if isinstance(msg, m.TFMessage):
             static = topic == "tf_static"
-            self._remember_tf(msg, static)
+            self._placement.remember(msg, static)
             for ts in msg.transforms:
                 child = L.frame_name(ts.child_frame_id, "")
                 if not child:
@@ -258,12 +217,12 @@ class Monitor(TextEvents):
             m.PolygonStamped: L.log_polygon, m.PoseStamped: L.log_pose,
         }
         sensors = {m.LaserScan: L.log_scan, m.PointCloud: L.log_cloud}
-        if type(msg) in sensors:  # placed with the transform at its stamp, once TF has it (_place)
+        if type(msg) in sensors:  # placed with the transform at its stamp, once TF has it (placement.py)
             entity, log_it = "world/" + topic, sensors[type(msg)]
 
             def placed() -> None:
-                log_it(rec, entity, msg, fixed=self._at_stamp(msg.header))
-            self._place(entity, msg.header, lambda: sub(entity, topic, kind, stamp, placed))
+                log_it(rec, entity, msg, fixed=self._placement.at_stamp(msg.header))
+            self._placement.place(entity, msg.header, lambda: sub(entity, topic, kind, stamp, placed))
         elif type(msg) in spatial:
             entity = "world/" + topic
             sub(entity, topic, kind, stamp, lambda: spatial[type(msg)](rec, entity, msg))
