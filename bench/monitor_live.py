@@ -43,19 +43,11 @@ sys.path.insert(0, str(REPO))
 
 from testkit.nav_stack import MASTER_DIR, ROBOT_CONFIG, NavProc  # noqa: E402
 from testkit.wait import free_port, wait_until  # noqa: E402
-from testkit.webrig import ZENAV, Page, map_mask, rgb  # noqa: E402
+from testkit.webrig import ZENAV, Page, map_mask, rerun_map_view, rgb  # noqa: E402
 
 PATROL = REPO / "deploy" / "missions" / "room_patrol.yaml"
 LIVE_S = 5.0  # issue 31: "Rerun's latency indicator under 5 s"
 FOOTPRINT_RGB = (60, 120, 255)  # deploy/monitor/loggers.log_polygon
-
-
-def rerun_map_view(img: np.ndarray) -> tuple[int, int, int, int]:
-    """Rerun's map view in the page (style.css: 41 px bar, our panel 44 % wide; the map view is 3/5 of the
-    viewer's width, below Rerun's top bar and the view's title, above the time panel)."""
-    h, w = img.shape[:2]
-    split = int(0.44 * w)
-    return split + 4, 41 + 60, split + int(0.6 * (w - split)) - 4, h - 50
 
 
 def locate(img: np.ndarray, box, world_box) -> tuple[tuple[float, float] | None, bool]:

@@ -182,6 +182,15 @@ def rgb(png: bytes) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=np.int16)
 
 
+def rerun_map_view(img: np.ndarray, split: int | None = None) -> tuple[int, int, int, int]:
+    """Rerun's map view (x0, y0, x1, y1) in a screenshot of the page: right of our panel (``split``: the
+    Rerun panel's left edge; style.css makes our panel 44 % wide), the blueprint's first column (3 of 5 of
+    the viewer's width: deploy/monitor/layout.py), below the 41 px bar, Rerun's top bar and the view's title."""
+    h, w = img.shape[:2]
+    split = int(0.44 * w) if split is None else split
+    return split + 4, 41 + 60, split + int(0.6 * (w - split)) - 4, h - 50
+
+
 def map_mask(img: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
     """The pixels of ``box`` (x0, y0, x1, y1) in the map's colours: free (white / light grey), unknown (our
     panel's grey, Rerun's grey-green), the costmap's yellow band. Walls are thin and left out (black is

@@ -96,7 +96,7 @@ def test_the_rerun_view_and_our_panel_show_the_block_where_it_is(tmp_path):
     from deploy.monitor.layout import blueprint, fit_height
     from deploy.monitor.web_assets import ensure_assets
     from deploy.monitor.webserver import WebServer
-    from testkit.webrig import Page, rgb
+    from testkit.webrig import Page, rerun_map_view, rgb
     from tests.support import free_port
 
     grid, block = asymmetric_grid()
@@ -156,10 +156,10 @@ def test_the_rerun_view_and_our_panel_show_the_block_where_it_is(tmp_path):
         def to_screen(x: float, y: float) -> tuple[float, float]:
             return green[0] + (x - pts["block"][0]) * px_per_m, green[1] - (y - pts["block"][1]) * px_per_m
 
-        view_right = split + 0.6 * (img.shape[1] - split)
+        view_left, _, view_right, _ = rerun_map_view(img, split)
         corners = [to_screen(grid.origin.x + i * w, grid.origin.y + j * h) for i in (0, 1) for j in (0, 1)]
-        assert all(split < cx < view_right and 100 < cy < 0.75 * img.shape[0] for cx, cy in corners), \
-            f"the map's corners {corners} not all inside the map view (x {split}..{view_right:.0f})"
+        assert all(view_left < cx < view_right and 100 < cy < 0.75 * img.shape[0] for cx, cy in corners), \
+            f"the map's corners {corners} not all inside the map view (x {view_left}..{view_right})"
 
         # The odometry trail, on screen where the robot drove: odom's poses through map -> odom, and nothing
         # where the simulator's ground truth (the map frame, set off on purpose) says it was.
@@ -167,7 +167,7 @@ def test_the_rerun_view_and_our_panel_show_the_block_where_it_is(tmp_path):
             img = rgb(page.screenshot())
             r, g, b = (img[..., k].astype(int) for k in range(3))
             ys, xs = np.nonzero((r > 200) & (g > 150) & (g < 230) & (b < 80))  # the trail's (250, 200, 0)
-            keep = (xs > split) & (xs < split + 0.6 * (img.shape[1] - split))  # the map view, not the local one
+            keep = (xs > view_left) & (xs < view_right)  # the map view, not the local one
             return xs[keep], ys[keep]
 
         def near(xs, ys, path: np.ndarray, tol_px: float) -> np.ndarray:
