@@ -67,7 +67,8 @@ class Monitor(TextEvents):
         self.stats = MonitorStats()
         self._last_text: dict[str, str] = {}
         self._trail = L.OdomTrail()
-        self._odom_node: list = [None, 0]  # the node publishing odom (its name) and its process id
+        self._odom_node: str | None = None  # the node publishing odom (the bus's attachment)
+        self._odom_pid = 0  # ... and its process, as its agent last said (NodeState)
         self._placement = Placement()  # scans and clouds drawn with the transform at their stamp
         self._lock = threading.RLock()
         self._prefix = f"zenav/{robot}/"
@@ -237,7 +238,7 @@ class Monitor(TextEvents):
         elif isinstance(msg, m.Odometry):
             if topic != "odom":  # the simulator's ground_truth (map frame) or another source: no trail, no
                 return            # speed plot (interleaved with odom's, they drew a smear metres off the path)
-            self._odom_node[0] = sender or self._odom_node[0]
+            self._odom_node = sender or self._odom_node
 
             def odom() -> None:
                 self._trail.log(rec, "world/odom_trail", msg)
@@ -254,10 +255,10 @@ class Monitor(TextEvents):
             self._move_base_status(topic, msg)
         elif isinstance(msg, m.NodeState):
             self._node_state(topic, msg)
-            if msg.node == self._odom_node[0] and msg.pid:  # odometry's node in a new process: a new trail
-                if self._odom_node[1] not in (0, msg.pid):
+            if msg.node == self._odom_node and msg.pid:  # odometry's node in a new process: a new trail
+                if self._odom_pid not in (0, msg.pid):
                     self._trail.restart()
-                self._odom_node[1] = msg.pid
+                self._odom_pid = msg.pid
         elif isinstance(msg, m.CostmapSensors):
             self._sensors(topic, msg)
             for s in msg.sources:  # age of each source's last reading: gaps show as saw teeth

@@ -72,15 +72,15 @@ def fit_view_to_map(rec, args):
     from common.messages import OccupancyGrid
     from deploy.monitor.layout import blueprint
 
-    fitted: list[Box] = []
+    fitted: list[Box | None] = [None]  # the box the view was last fitted to
 
     def observe(topic: str, msg) -> None:
         if topic != "map" or not isinstance(msg, OccupancyGrid) or msg.width == 0:
             return
         box = map_box(msg)
-        if not needs_fit(fitted[-1] if fitted else None, box):
+        if not needs_fit(fitted[0], box):
             return
-        fitted.append(box)
+        fitted[0] = box
         centre, height = map_view(box)
         rec.send_blueprint(blueprint(follow=getattr(args, "follow", False), centre=centre, height=height),
                            make_active=True)
