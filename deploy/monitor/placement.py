@@ -58,8 +58,8 @@ class Placement:
             return True
         except ExtrapolationError:  # not yet
             return False
-        except TFError:  # never (no such frame, not connected): drawn in its own frame at once
-            return True
+        except TFError:  # not connected yet (the sensor's static transform can come after its first scans, as
+            return self.fixed_frame not in self.tf.frames()  # in a playback), or never: no fixed frame at all
 
     def at_stamp(self, header: m.Header) -> tuple[str, Transform] | None:
         """(fixed frame, transform from ``header``'s frame into it at its stamp); None when TF does not have it

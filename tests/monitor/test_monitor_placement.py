@@ -76,6 +76,24 @@ def test_a_scan_that_arrives_before_the_odometry_of_its_instant_waits_for_it(tmp
     assert np.allclose(placed["laser"], [2.0, 0.0, 0.0]), placed  # 9.0: TF never got there, drawn as it is
 
 
+def test_a_scan_before_its_sensors_static_transform_waits_for_it(tmp_path):
+    """A playback's first scans can arrive before the laser's latched static transform: placed in their own
+    frame then, they differed from the live run's at equal stamps (ci108)."""
+    rec, mon = recording(tmp_path, "scan_static_later")
+    mon.handle("tf", tf(1.0, "odom", "base_link", Pose2D(0.0, 0.0, 0.0)))
+    mon.handle("tf", tf(2.0, "odom", "base_link", Pose2D(0.0, 0.0, 0.0)))
+    mon.handle("scan", m.LaserScan(m.Header(1.5, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0,
+                                   ranges=np.array([2.0], np.float32)))
+    mon.flush_pending()
+    assert mon.stats.by_entity.get("world/scan", 0) == 0  # odom is known, the laser not yet connected to it
+    mon.handle("tf_static", m.TFMessage((m.TransformStamped(m.Header(0.0, "base_link"), "laser",
+                                                            Transform(Vector3(0.1, 0.0, 0.0))),)))
+    mon.flush_pending()
+    row = next(r for r in close(rec, mon, tmp_path, "scan_static_later")["/world/scan"] if r.get("Points3D:positions"))
+    assert row["CoordinateFrame:frame"] == ["odom"]
+    assert np.allclose(row["Points3D:positions"][0], [2.1, 0.0, 0.0], atol=1e-4)
+
+
 def test_a_scan_without_its_transform_yet_is_drawn_in_its_own_frame(tmp_path):
     rec, mon = recording(tmp_path, "scan_no_tf")
     mon.handle("scan", m.LaserScan(m.Header(1.0, "laser"), 0.0, 0.0, 0.1, range_min=0.1, range_max=5.0,
