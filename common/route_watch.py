@@ -22,6 +22,14 @@ declared again too, on the same doubling wait. When data flows again within ``RE
 declaration, the node logs the repair as a warning (a route was lost; which topic, from whom, for how
 long) and counts it (``Node.routes.repairs``); data that comes back later was a pause of the publisher
 (move_base's cmd_vel between goals), not a repair.
+
+A subscription that has received *nothing* has no stream to watch, yet its route can be lost from the start:
+in a loaded CI run move_base planned for 10 s on "no global costmap received yet" while the costmap node
+published at 10 Hz and the test's own subscriber received it. So a subscription still unfed ``UNFED_WAIT_S``
+after it was added is declared again if some publisher announces its topic (a liveliness token), on the same
+doubling wait; its first message within ``REPAIR_WINDOW_S`` of such a declaration is logged and counted as a
+repair. An announced publisher that simply has not published yet (a goal tool) costs a declaration at 5, 15,
+35 s, then one a minute — each a gap of microseconds in which its message could be missed.
 """
 
 from __future__ import annotations
@@ -42,6 +50,7 @@ SILENT_MIN_S = 2.0
 MAX_WAIT_S = 60.0
 UNSEEN_WAIT_S = 10.0  # silence after which a publisher whose token is not seen is declared for anyway
 CHECK_EVERY_S = 0.5
+UNFED_WAIT_S = 5.0  # a subscription that has received nothing this long while its topic is announced is doubted
 REPAIR_WINDOW_S = 1.0  # data back this soon after a declaration: the declaration repaired the route (else
 # the publisher had only paused, e.g. move_base's cmd_vel between goals)
 
@@ -94,12 +103,14 @@ class RouteWatch:
         self.subs: list[Watched] = []
         self.repairs = 0
         self.doubts: dict[tuple[str, str], _Doubt] = {}  # (topic, publisher) -> a silent stream
+        self.unfed: dict[int, tuple[Watched, _Doubt]] = {}  # id(subscription) -> a subscription fed nothing yet
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True, name=f"routes:{node_name}")
         self._thread.start()
 
     def add(self, sub: Watched) -> None:
         self.subs.append(sub)
+        self.unfed[id(sub)] = (sub, _Doubt(silent_from=time.monotonic(), next_at=time.monotonic() + UNFED_WAIT_S))
 
     def close(self) -> None:
         self._stop.set()
@@ -110,6 +121,11 @@ class RouteWatch:
         while not self._stop.wait(CHECK_EVERY_S):
             for sub in list(self.subs):
                 try:
+                    if id(sub) in self.unfed:
+                        if sub.closed:
+                            del self.unfed[id(sub)]
+                        else:
+                            self.look_unfed(sub, time.monotonic())
                     if not sub.closed:
                         for who, (n, last, period, resumed) in list(sub.sources.items()):
                             self.look(sub, who.decode(errors="replace"), n, last, period, resumed,
@@ -152,6 +168,32 @@ class RouteWatch:
         doubt.next_at = now + min(limit * 2 ** doubt.attempts, MAX_WAIT_S)
         log.debug("[%s] '%s' from %s silent for %.1f s, the publisher alive: subscription declared again",
                   self.node_name, sub.topic, publisher, silence)
+
+    def look_unfed(self, sub: Watched, now: float) -> None:
+        """A subscription that has received nothing since it was added (see the module's text)."""
+        _, doubt = self.unfed[id(sub)]
+        if sub.sources:  # fed at last
+            del self.unfed[id(sub)]
+            first = min(src[3] for src in list(sub.sources.values()))
+            if doubt.attempts and 0.0 <= first - doubt.declared_at <= REPAIR_WINDOW_S:
+                self.repairs += 1
+                log.warning("[%s] route repaired: '%s' received nothing for %.1f s though announced, then its "
+                            "first message %.2f s after the subscription was declared again (attempt %d)",
+                            self.node_name, sub.topic, first - doubt.silent_from, first - doubt.declared_at,
+                            doubt.attempts)
+            return
+        if now < doubt.next_at:
+            return
+        if not self._alive("*", sub.topic):
+            doubt.decision, doubt.next_at = "not announced", now + UNFED_WAIT_S
+            return
+        sub.redeclare()
+        doubt.declared_at = time.monotonic()
+        doubt.attempts += 1
+        doubt.decision = f"declared again ({doubt.attempts})"
+        doubt.next_at = now + min(UNFED_WAIT_S * 2 ** doubt.attempts, MAX_WAIT_S)
+        log.debug("[%s] '%s' fed nothing for %.1f s though announced: subscription declared again",
+                  self.node_name, sub.topic, now - doubt.silent_from)
 
     def _alive(self, publisher: str, topic: str) -> bool:
         """Whether the publisher's liveliness token for ``topic`` is known to this session now."""

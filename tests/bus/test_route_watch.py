@@ -105,3 +105,29 @@ def test_a_lost_stream_whose_token_lookup_is_lost_too_is_declared_again_after_th
         wait_for(lambda: listener.routes.repairs == 1, 10, "the repair counted")
     finally:
         stop.set()
+
+
+def test_a_subscription_whose_route_is_lost_before_its_first_message_is_declared_again(node_pair, monkeypatch):
+    """Nothing received yet, so no stream to watch: the subscription is declared again once its topic is
+    announced (the publisher's token) and nothing came for UNFED_WAIT_S; the first message is then a repair."""
+    monkeypatch.setattr(route_watch, "UNFED_WAIT_S", 1.0)
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text)
+    sub._sub.undeclare()  # the fault, before any message
+    pub = talker.publisher("chatter")
+    stop = threading.Event()
+    _stream(stop, lambda: pub.publish(Text(data="hello")))
+    try:
+        wait_for(lambda: sub.received >= 20, 30, "the stream whose route was lost before its first message")
+        wait_for(lambda: listener.routes.repairs == 1, 10, "the repair counted")
+        assert not listener.routes.unfed
+    finally:
+        stop.set()
+
+
+def test_a_subscription_whose_topic_nobody_announces_is_not_declared_again(node_pair, monkeypatch):
+    monkeypatch.setattr(route_watch, "UNFED_WAIT_S", 0.5)
+    listener = node_pair("listener")
+    sub = listener.subscribe("nobody_publishes_this", Text)
+    wait_for(lambda: listener.routes.unfed[id(sub)][1].decision == "not announced", 30, "the watch to look")
+    assert listener.routes.unfed[id(sub)][1].attempts == 0
