@@ -141,8 +141,14 @@ def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
     assert 0.6 * len(sa) - 3 <= len(sb) <= counts["scan"], (len(sa), len(sb), counts["scan"])
     common = sorted(set(sa) & set(sb))
     assert len(common) >= min(len(sa), len(sb)) // 4, (len(sa), len(sb), len(common))
+    # Equal where both monitors had the same transforms around the stamp. TF is published best effort, so on
+    # a loaded machine the live monitor or the recorder can miss one odom sample (20 ms): the scans beside it
+    # are then placed by interpolating over 40 ms, off by a millimetre or two (1.3 mm in a CI run). A scan
+    # placed with another instant's transform (one sample off at 0.5 m/s: 1 cm) stays caught.
+    exact = [s for s in common if np.allclose(sa[s], sb[s], atol=1e-6)]
+    assert len(exact) >= 0.8 * len(common), (len(exact), len(common))
     for s in common:
-        assert np.allclose(sa[s], sb[s], atol=1e-6), s
+        assert np.allclose(sa[s], sb[s], atol=5e-3), (s, np.abs(np.asarray(sa[s]) - sb[s]).max())
 
     # Global plans: the monitor shows the same strips for the same plan stamps.
     pa = {r["stamp"]: r["LineStrips3D:strips"] for r in in_span(a["/world/move_base/global_plan"],
