@@ -206,3 +206,31 @@ def test_a_robot_that_backed_off_the_known_map_still_searches_from_the_free_spac
     # the full (uncropped) grid gives the search the same answer
     full = Grid(np.where(slam < 0, NO_INFORMATION, FREE).astype(np.uint8), RES, (0.0, 0.0))
     assert search(full, robot, min_frontier_size=0.0, inscribed_radius=0.0)[0].size == 40
+
+
+def test_a_robot_whose_free_region_is_a_small_pocket_searches_across_the_band_along_walls():
+    """The mall, 71 %: the robot's free region (6.9 m^2) was parted from the rest of SLAM's map (689 m^2) by a
+    band nearer a wall than the inscribed radius, with no wall across it; one frontier was seen from there.
+    A pocket (under POCKET_SHARE of the known free area) is searched across that band; a LETHAL wall still
+    parts, and a region that is not a small share is searched as it is."""
+    g = np.full((40, 40), FREE, np.uint8)
+    g[:, 35:] = NO_INFORMATION  # the frontier, far east
+    g[0:6, 0:6] = FREE
+    g[6:8, 0:8] = INSCRIBED  # the band: no wall, but nearer one than the robot's radius
+    g[0:8, 6:8] = INSCRIBED
+    pocket_robot = (0.25, 0.25)
+    grid = Grid(g, RES, (0.0, 0.0))
+    assert reachable(grid, pocket_robot).sum() == 36
+    fs = search(grid, pocket_robot, min_frontier_size=0.0, inscribed_radius=0.0)
+    assert fs and fs[0].centroid[0] > 3.4  # the east frontier, seen across the band
+    assert all(grid.cell(*f.goal) is not None and g[grid.cell(*f.goal)] < INSCRIBED for f in fs)
+    walled = g.copy()
+    walled[6, 0:8] = walled[0:7, 6] = LETHAL  # a wall across the band: the pocket stays a pocket
+    assert not search(Grid(walled, RES, (0.0, 0.0)), pocket_robot, min_frontier_size=0.0, inscribed_radius=0.0)
+    big = g.copy()
+    big[0:6, 0:6] = NO_INFORMATION
+    big[0:30, 0:30] = FREE  # the robot's region is most of the known free area now ...
+    big[30:32, 0:32] = INSCRIBED
+    big[0:32, 30:32] = INSCRIBED  # ... and the band parts it from a strip with the east frontier
+    fs_big = search(Grid(big, RES, (0.0, 0.0)), pocket_robot, min_frontier_size=0.0, inscribed_radius=0.0)
+    assert not fs_big
