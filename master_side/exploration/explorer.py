@@ -6,8 +6,9 @@ target is chosen, the cheapest frontier not on the blacklist (within ``blacklist
 blacklisted centroid), when there is none yet, when move_base reached the goal (``goal_reached``), when
 the frontier is gone (explored), or when its ``min_distance`` has not shrunk for ``progress_timeout`` s
 (blacklisted; a frontier still there after its goal was reached keeps the clock it had, as explore_lite
-keeps its previous goal's). explore_lite picks the cheapest every cycle: as SLAM's map grew, frontiers
-of near-equal cost traded places and the robot was sent back and forth across office02. A goal
+keeps its previous goal's, and is blacklisted when its goal is reached a second time with it no nearer).
+explore_lite picks the cheapest every cycle: as SLAM's map grew, frontiers of near-equal cost traded
+places and the robot was sent back and forth across office02. A goal
 move_base aborts is blacklisted too (``goal_failed``). No frontier left (or all blacklisted) for
 ``done_timeout`` s: done; meanwhile ``wait`` (explore_lite ends on one search: a last frontier blacklisted
 early ended a run in the mall at 2.5 % known; the node looks around while it waits, and SLAM's map grows).
@@ -74,7 +75,9 @@ class Explorer:
     goal: tuple[float, float] | None = None  # where the robot was sent for it
     _best_distance: float = math.inf
     _last_progress: float = 0.0
-    _reached: tuple[float, float] | None = None  # the goal move_base last reached
+    _reached: tuple[float, float] | None = None  # the goal move_base last reached (until the next choice)
+    _reached_at: tuple[float, float] | None = None  # the goal last reached, kept
+    _reaches: int = 0  # how many times in a row a goal there was reached
     _idle_since: float | None = None  # when the search last began to find nothing to go to
 
     def blacklisted(self, point: tuple[float, float]) -> bool:
@@ -129,13 +132,15 @@ class Explorer:
             # The frontier of a goal just reached, still there (the sensor did not see it from the goal, or
             # SLAM did not take a scan while the robot stood): its progress clock runs on, as explore_lite's
             # for its previous goal. Reset here, it was sent again every second for good (the mall).
+            # Reached there twice and no nearer: standing there once more shows nothing new (the mall: the same
+            # goal went out every second until the progress timeout, the robot standing still for 30 s).
             again = reached is not None and math.dist(pick.goal, reached) <= self.params.commit_radius
             if again and pick.min_distance >= self._best_distance:
-                if now - self._last_progress > self.params.progress_timeout:
+                if now - self._last_progress > self.params.progress_timeout or self._reaches >= 2:
                     self.blacklist.append(pick.centroid)
                     continue
             else:
-                self._last_progress, self._best_distance = now, pick.min_distance
+                self._last_progress, self._best_distance, self._reaches = now, pick.min_distance, 0
             self.target, self.goal = pick.centroid, pick.goal
             return Decision("send", pick.centroid, pick)
         why = "no frontier left" if not frontiers else f"all {len(frontiers)} frontiers blacklisted"
@@ -144,7 +149,10 @@ class Explorer:
     def goal_reached(self) -> None:
         """move_base reached the goal: the next plan chooses afresh (the same frontier, if it is still the
         best, keeps its progress clock)."""
-        self._reached = self.goal
+        same = (self.goal is not None and self._reached_at is not None
+                and math.dist(self.goal, self._reached_at) <= self.params.commit_radius)
+        self._reaches = self._reaches + 1 if same else 1
+        self._reached = self._reached_at = self.goal
         self.target = self.goal = None
 
     def goal_failed(self, target: tuple[float, float]) -> None:
