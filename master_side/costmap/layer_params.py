@@ -23,9 +23,6 @@ class StaticLayerParams:
     lethal_cost_threshold: int = param(100, lo=0, hi=255, doc="occupancy at or above this is LETHAL")
     unknown_cost_value: int = param(-1, lo=-1, hi=255, doc="map value meaning unknown")
     trinary_costmap: bool = param(True, doc="free/lethal/unknown only (else scale occupancy)")
-    footprint_clearing_enabled: bool = param(
-        False, doc="zenav: leave the map's cells under the robot's footprint out (ROS's StaticLayer has no such "
-                   "key): a map SLAM is still correcting can put a wall under the robot")
 
 
 @dataclass(frozen=True)

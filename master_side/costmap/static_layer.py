@@ -6,10 +6,6 @@ Fixed-window costmaps take the map's size, resolution and origin; a rolling cost
 the map under its window (the map may be in another frame: give ``map_to_global``, and ``place`` the map
 again whenever that transform changes — every update, as ROS's StaticLayer looks it up in updateCosts:
 a local costmap in ``odom`` moves against ``map`` as localisation corrects the odometry's drift).
-
-``footprint_clearing_enabled`` (zenav's, off by default as ROS has no such key) leaves the map's cells under
-the robot's footprint out of the master, as the obstacle layer frees its own: a map SLAM is still correcting
-shifts by a few centimetres, and a wall it moves under the robot would reject every trajectory for good.
 """
 
 from __future__ import annotations
@@ -20,7 +16,6 @@ from common.geometry import Pose2D
 from common.messages import OccupancyGrid
 from master_side.costmap.cost_values import FREE, LETHAL, NO_INFORMATION
 from master_side.costmap.costmap2d import Costmap2D, Window, update_with_max, update_with_true_overwrite
-from master_side.costmap.footprint import transform_footprint
 from master_side.costmap.layer import Bounds, Layer, register_layer
 from master_side.costmap.layer_params import StaticLayerParams
 
@@ -47,7 +42,6 @@ class StaticLayer(Layer):
         self.map_to_global = Pose2D()
         self._new_map = False
         self._lut = occupancy_lut(params)
-        self.footprint_world = np.zeros((0, 2))
 
     def set_map(self, grid: OccupancyGrid, map_to_global: Pose2D | None = None) -> bool:
         """A new map (``map_to_global``: pose of the map frame in the costmap's frame, rolling only);
@@ -71,9 +65,6 @@ class StaticLayer(Layer):
     def update_bounds(self, robot_pose: Pose2D, bounds: Bounds) -> Bounds:
         if self.map is None:
             return bounds
-        if self.params.footprint_clearing_enabled and len(self.layered.footprint):
-            self.footprint_world = transform_footprint(self.layered.footprint, robot_pose)
-            bounds = bounds.expand_points(self.footprint_world[:, 0], self.footprint_world[:, 1])
         if self.layered.rolling_window:  # the window moves every cycle: copy all of it (as ROS)
             m = self.layered.master
             return bounds.expand(m.origin_x, m.origin_y, m.origin_x + m.size_in_meters_x,
@@ -99,10 +90,6 @@ class StaticLayer(Layer):
         ok = ok.reshape(gx.shape)
         values = np.full(gx.shape, NO_INFORMATION, np.uint8)
         values[ok] = self.map.data[my.reshape(gx.shape)[ok], mx.reshape(gx.shape)[ok]]
-        if self.params.footprint_clearing_enabled and len(self.footprint_world):
-            cx, cy = master.polygon_cells(self.footprint_world)
-            inside = (cx >= window.x0) & (cx < window.xn) & (cy >= window.y0) & (cy < window.yn)
-            values[cy[inside] - window.y0, cx[inside] - window.x0] = FREE
         dst = master.data[window.slices]
         if self.params.use_maximum:
             take = (values != NO_INFORMATION) & ((dst == NO_INFORMATION) | (values > dst))

@@ -95,22 +95,6 @@ def test_static_layer_in_a_rolling_window_copies_the_map_under_the_window():
     assert lc.master.get_cost(3.3, 2.0) == FREE
 
 
-@pytest.mark.parametrize("clearing", [False, True])
-def test_a_rolling_static_layer_leaves_the_cells_under_the_robot_out_when_asked(clearing):
-    """SLAM's map in a local costmap (zenav's footprint_clearing_enabled on the static layer): a wall the map
-    puts under the robot (a correction of a few cm) is left out; walls beside it stay."""
-    data = np.zeros((40, 40), np.int8)
-    data[20, 10:30] = 100  # a wall along y = 2.05 in the map frame
-    grid = OccupancyGrid(Header(0.0, "map"), 0.1, Pose2D(0.0, 0.0, 0.0), data)
-    lc = layered(2.0, 0.05, rolling=True, robot_radius=0.2)
-    st = lc.add_layer(StaticLayer("static", StaticLayerParams(footprint_clearing_enabled=clearing)))
-    st.set_map(grid)
-    lc.update_map(Pose2D(2.0, 2.0, 0.0))  # the robot stands on the wall
-    assert lc.master.get_cost(2.0, 2.05) == (FREE if clearing else LETHAL)
-    assert lc.master.get_cost(1.6, 2.05) == LETHAL  # 0.4 m away: beyond the 0.2 m footprint
-    assert lc.master.get_cost(2.6, 2.05) == LETHAL
-
-
 def test_a_rolling_static_layer_follows_its_map_frame_when_placed_again():
     """Localisation moves map against odom: the walls in a local costmap move with it (ROS's StaticLayer
     looks map -> global_frame up in every update; the node and the in-process stack call ``place``)."""
