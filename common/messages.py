@@ -234,6 +234,17 @@ class Collision:
     y: float = 0.0
 
 
+@register("BumperState")
+@dataclass(frozen=True)
+class BumperState:
+    """p2os_msgs/BumperState: each segment of the front and rear bumpers, pressed or not (a Pioneer's SIP
+    stall/bump bytes). Segments are numbered from the robot's left end (+y) to its right end."""
+
+    header: Header = Header()
+    front_bumpers: tuple[bool, ...] = ()
+    rear_bumpers: tuple[bool, ...] = ()
+
+
 @register("SpawnBox")
 @dataclass(frozen=True)
 class SpawnBox:

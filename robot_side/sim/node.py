@@ -22,6 +22,7 @@ Published (all stamps sim time; sim time starts at the wall time at start unless
     camera/depth/camera_info    CameraInfo      with every depth image
     ground_truth                Odometry        map -> base_link, ground_truth_rate (evaluation only)
     collision (latched)         Collision       on each new collision (count since start)
+    bumper_state                BumperState     bumper_rate, when set: the segments a contact pressed since the last
     motor_state (latched)       MotorState      motor_state_rate (1 Hz) + on change
     battery_state               BatteryState    battery_rate (1 Hz), a slowly draining fake
 
@@ -43,10 +44,13 @@ import threading
 import time
 from typing import Any
 
+import numpy as np
+
 from common.config import ConfigError, load_params
 from common.geometry import Pose2D
-from common.messages import BatteryState, Clock, Header, MotorState, SpawnBox, Twist
+from common.messages import BatteryState, BumperState, Clock, Header, MotorState, SpawnBox, Twist
 from common.tf import StaticTFBroadcaster, TFBroadcaster, TFListener
+from robot_side.bumpers.geometry import BumperParams, PressLatch
 from robot_side.sim.mounts_node import CAMERA_LINK, SensorMounts
 from robot_side.sim.node_params import SIMULATOR_KEYS, SimNodeParams
 from robot_side.sim.simulator import Pacer, Simulator, resolve_world
@@ -120,6 +124,8 @@ class SimNode:
         self._odom_tick, self._gt_tick = _Tick(p.odom_rate), _Tick(p.ground_truth_rate)
         self._motor_tick, self._battery_tick = _Tick(p.motor_state_rate), _Tick(p.battery_rate)
         self._collisions = sim.base.collisions
+        self.bumpers = PressLatch(BumperParams()) if p.bumper_rate > 0 else None
+        self.pub_bumper, self._bumper_tick = pub("bumper_state"), _Tick(p.bumper_rate)
         self._motors_sent: bool | None = None
         self.mounts = SensorMounts(node, sim, p, self.static, self.offset)
         self.static.send(self.mounts.transforms())
@@ -244,6 +250,12 @@ class SimNode:
                 log.warning("collision #%d at (%.2f, %.2f) in %s; robot at (%.2f, %.2f, %.2f rad)", c.count, c.x, c.y,
                             c.header.frame_id, g.x, g.y, g.theta)
                 out.append((self.pub_collision, _restamp(c, off)))
+            if self.bumpers is not None:
+                if sim.base.in_contact and sim.base.contact is not None:
+                    self.bumpers.note(tuple(sim.base.pose.inverse().apply(np.array([sim.base.contact]))[0]))
+                if self._bumper_tick(t):
+                    out.append((self.pub_bumper, BumperState(Header(t + off, sim.base.p.base_frame_id),
+                                                             *self.bumpers.take())))
             if self._motor_tick(t) or sim.base.motors_enabled != self._motors_sent:
                 out.append((self.pub_motor, self._motor_msg()))
             if self._battery_tick(t):

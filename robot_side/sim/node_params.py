@@ -28,6 +28,9 @@ class SimNodeParams:
     battery_drain_per_hour: float = param(0.25, lo=0.0, hi=100.0, doc="charge fraction lost per sim hour")
     battery_empty_voltage: float = param(11.0, lo=0.0, hi=100.0, unit="V", doc="voltage at 0 %")
     battery_full_voltage: float = param(12.8, lo=0.0, hi=100.0, unit="V", doc="voltage at 100 % (12 V SLA)")
+    bumper_rate: float = param(0.0, lo=0.0, hi=100.0, unit="Hz",
+                               doc="bumper_state (the P3-AT's bumpers, robot_side/bumpers/geometry.py), each the "
+                                   "segments pressed since the last; 0: no bumpers (a P2OS SIP cycle: 10)")
     mount_tf: bool = param(True, doc="publish base_link->laser and base_link->camera_link from the sensor "
                                      "mounts; false when a static transform node owns those edges (the "
                                      "sim then publishes camera_link->camera_depth_frame so that the chain "
