@@ -63,6 +63,7 @@ class FakeP2OSRobot:
         self.theta = start_theta
         self.battery_v = battery_v
         self.stalled = (False, False)
+        self.bumpers = (0, 0)  # (front, rear) pressed-segment bits, segment i in bit i (SIP bits 1-7)
         self.vel_mm_s = 0.0  # commanded, as received (VEL / VEL2)
         self.rvel_deg_s = 0.0  # commanded, as received (RVEL / VEL2)
         self.motors_enabled = False
@@ -198,8 +199,10 @@ class FakeP2OSRobot:
                    x_raw=round(self.x_mm / m.dist_conv_factor) & 0x7FFF,
                    y_raw=round(self.y_mm / m.dist_conv_factor) & 0x7FFF,
                    th_raw=theta_to_raw(self.theta, m), lvel_raw=round(left), rvel_raw=round(right),
-                   battery_dv=round(self.battery_v * 10), stall_bump_left=int(self.stalled[0]),
-                   stall_bump_right=int(self.stalled[1]), control=theta_to_raw(self.theta, m), flags=flags)
+                   battery_dv=round(self.battery_v * 10),
+                   stall_bump_left=int(self.stalled[0]) | self.bumpers[1] << 1,
+                   stall_bump_right=int(self.stalled[1]) | self.bumpers[0] << 1,
+                   control=theta_to_raw(self.theta, m), flags=flags)
 
     def commands(self, cmd: int) -> list[tuple[float, int | bytes | None]]:
         """(time, argument) of every ``cmd`` received so far."""

@@ -13,6 +13,9 @@ Published (wall-clock stamps)::
     tf                   TFMessage      odom -> base_link, with every odom message
     motor_state (latched) MotorState    1 Hz + on change (the SIP's motors-enabled flag)
     battery_state        BatteryState   1 Hz (SIP voltage; percentage linear between the empty/full volts)
+    bumper_state         BumperState    every SIP: 5 front and 5 rear segments (ARIA's robot parameters for a
+                                        Pioneer 3), segment i from SIP bit i + 1 (p2os_driver's order; which
+                                        end is segment 0 on a real P3-AT is not checked here)
 
 Subscribed: ``cmd_vel`` (Twist -> VEL mm/s + RVEL deg/s, clamped; zero after ``cmd_vel_timeout``) and
 ``cmd_motor_state`` (MotorState -> ENABLE). Motors are enabled on start unless ``motors_on_start`` is
@@ -25,12 +28,13 @@ import logging
 import threading
 
 from common.config import ConfigError, load_params
-from common.messages import BatteryState, Header, MotorState, Odometry, TransformStamped, Twist
+from common.messages import BatteryState, BumperState, Header, MotorState, Odometry, TransformStamped, Twist
 from common.tf import TFBroadcaster
 from robot_side.device_node import DeviceNode, start_or_exit
 from robot_side.p2os.driver import BaseState, P2OSConnectionError, P2OSDriver, P2OSParams, open_port
 
 log = logging.getLogger("zenav.p2os")
+BUMPER_SEGMENTS = 5  # per bumper, front and rear (ARIA's robot parameters for the Pioneer 3)
 
 
 def load(cfg: dict | None, source: str) -> P2OSParams:
@@ -48,6 +52,7 @@ class P2OSNode(DeviceNode):
         self.tf = TFBroadcaster(node)
         self.pub_motor = node.publisher("motor_state", latched=True, background=True)  # never waits on the link
         self.pub_battery = node.publisher("battery_state")
+        self.pub_bumper = node.publisher("bumper_state")
         self._lock = threading.Lock()
         self._motors_sent: bool | None = None
         self._motor_t = self._battery_t = -1e9
@@ -92,6 +97,9 @@ class P2OSNode(DeviceNode):
             span = p.battery_full_voltage - p.battery_empty_voltage
             frac = min(1.0, max(0.0, (r.battery_voltage - p.battery_empty_voltage) / span))
             self.pub_battery.publish(BatteryState(Header(now, p.base_frame_id), r.battery_voltage, frac))
+        self.pub_bumper.publish(BumperState(Header(now, p.base_frame_id),
+                                            tuple(bool(r.bumpers >> i & 1) for i in range(BUMPER_SEGMENTS)),
+                                            tuple(bool(r.bumpers >> (8 + i) & 1) for i in range(BUMPER_SEGMENTS))))
         if r.left_stalled or r.right_stalled:
             log.debug("wheel stall: left %s right %s", r.left_stalled, r.right_stalled)
 

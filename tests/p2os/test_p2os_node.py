@@ -9,7 +9,7 @@ import sys
 import pytest
 import yaml
 
-from common.messages import BatteryState, MotorState, Odometry, TFMessage, Twist
+from common.messages import BatteryState, BumperState, MotorState, Odometry, TFMessage, Twist
 from robot_side.p2os import protocol as P
 from robot_side.p2os.fake_robot import FakeP2OSRobot
 from tests.sim_e2e.conftest import Proc, free_port, wait_until
@@ -52,6 +52,7 @@ def test_node_publishes_the_simulators_topics_and_drives_the_device(bus, fake, t
     tf = node.subscribe("tf", TFMessage)
     motor = node.subscribe("motor_state", MotorState)
     battery = node.subscribe("battery_state", BatteryState)
+    bumpers = node.subscribe("bumper_state", BumperState)
     proc = _node(tmp_path, env, {"port": path, "pulse": 1.0, "cmd_vel_timeout": 0.5})
     try:
         o = odom.wait_first(30)
@@ -64,6 +65,12 @@ def test_node_publishes_the_simulators_topics_and_drives_the_device(bus, fake, t
         b = battery.wait_first(10)
         assert b.voltage == pytest.approx(12.6)
         assert 0.0 < b.percentage < 1.0
+        robot.bumpers = (0b00001, 0b10000)  # the front's segment 0 and the rear's segment 4 pressed
+        pressed = wait_until(lambda: (x := bumpers.latest()) is not None and any(x.rear_bumpers) and x, 10,
+                             "a bumper press")
+        assert pressed.front_bumpers == (True, False, False, False, False)
+        assert pressed.rear_bumpers == (False, False, False, False, True)
+        robot.bumpers = (0, 0)
 
         cmd = node.publisher("cmd_vel")
         wait_until(lambda: cmd._pub.matching_status.matching, 10, "the node's cmd_vel subscription")
