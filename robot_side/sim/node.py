@@ -125,7 +125,8 @@ class SimNode:
         self._motor_tick, self._battery_tick = _Tick(p.motor_state_rate), _Tick(p.battery_rate)
         self._collisions = sim.base.collisions
         self.bumpers = PressLatch(BumperParams()) if p.bumper_rate > 0 else None
-        self.pub_bumper, self._bumper_tick = pub("bumper_state"), _Tick(p.bumper_rate)
+        self.pub_bumper = pub("bumper_state") if self.bumpers is not None else None
+        self._bumper_tick = _Tick(p.bumper_rate)
         self._motors_sent: bool | None = None
         self.mounts = SensorMounts(node, sim, p, self.static, self.offset)
         self.static.send(self.mounts.transforms())
@@ -250,7 +251,7 @@ class SimNode:
                 log.warning("collision #%d at (%.2f, %.2f) in %s; robot at (%.2f, %.2f, %.2f rad)", c.count, c.x, c.y,
                             c.header.frame_id, g.x, g.y, g.theta)
                 out.append((self.pub_collision, _restamp(c, off)))
-            if self.bumpers is not None:
+            if self.bumpers is not None and self.pub_bumper is not None:
                 if sim.base.in_contact and sim.base.contact is not None:
                     self.bumpers.note(tuple(sim.base.pose.inverse().apply(np.array([sim.base.contact]))[0]))
                 if self._bumper_tick(t):
