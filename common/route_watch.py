@@ -103,14 +103,15 @@ class RouteWatch:
         self.subs: list[Watched] = []
         self.repairs = 0
         self.doubts: dict[tuple[str, str], _Doubt] = {}  # (topic, publisher) -> a silent stream
-        self.unfed: dict[int, tuple[Watched, _Doubt]] = {}  # id(subscription) -> a subscription fed nothing yet
+        self.unfed: dict[int, _Doubt] = {}  # id(subscription) -> its doubt, while it has been fed nothing
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, daemon=True, name=f"routes:{node_name}")
         self._thread.start()
 
     def add(self, sub: Watched) -> None:
         self.subs.append(sub)
-        self.unfed[id(sub)] = (sub, _Doubt(silent_from=time.monotonic(), next_at=time.monotonic() + UNFED_WAIT_S))
+        now = time.monotonic()
+        self.unfed[id(sub)] = _Doubt(silent_from=now, next_at=now + UNFED_WAIT_S)
 
     def close(self) -> None:
         self._stop.set()
@@ -161,17 +162,22 @@ class RouteWatch:
         if silence < UNSEEN_WAIT_S and not self._alive(publisher, sub.topic):
             doubt.decision, doubt.next_at = "publisher gone", now + limit
             return
+        self._declare_again(sub, doubt, now, limit)
+        log.debug("[%s] '%s' from %s silent for %.1f s, the publisher alive: subscription declared again",
+                  self.node_name, sub.topic, publisher, silence)
+
+    @staticmethod
+    def _declare_again(sub: Watched, doubt: _Doubt, now: float, wait: float) -> None:
+        """Declare ``sub`` again; the next look after ``wait`` doubled per attempt (at most MAX_WAIT_S)."""
         sub.redeclare()
         doubt.declared_at = time.monotonic()
         doubt.attempts += 1
         doubt.decision = f"declared again ({doubt.attempts})"
-        doubt.next_at = now + min(limit * 2 ** doubt.attempts, MAX_WAIT_S)
-        log.debug("[%s] '%s' from %s silent for %.1f s, the publisher alive: subscription declared again",
-                  self.node_name, sub.topic, publisher, silence)
+        doubt.next_at = now + min(wait * 2 ** doubt.attempts, MAX_WAIT_S)
 
     def look_unfed(self, sub: Watched, now: float) -> None:
         """A subscription that has received nothing since it was added (see the module's text)."""
-        _, doubt = self.unfed[id(sub)]
+        doubt = self.unfed[id(sub)]
         if sub.sources:  # fed at last
             del self.unfed[id(sub)]
             first = min(src[3] for src in list(sub.sources.values()))
@@ -187,11 +193,7 @@ class RouteWatch:
         if not self._alive("*", sub.topic):
             doubt.decision, doubt.next_at = "not announced", now + UNFED_WAIT_S
             return
-        sub.redeclare()
-        doubt.declared_at = time.monotonic()
-        doubt.attempts += 1
-        doubt.decision = f"declared again ({doubt.attempts})"
-        doubt.next_at = now + min(UNFED_WAIT_S * 2 ** doubt.attempts, MAX_WAIT_S)
+        self._declare_again(sub, doubt, now, UNFED_WAIT_S)
         log.debug("[%s] '%s' fed nothing for %.1f s though announced: subscription declared again",
                   self.node_name, sub.topic, now - doubt.silent_from)
 

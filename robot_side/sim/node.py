@@ -124,8 +124,8 @@ class SimNode:
         self._odom_tick, self._gt_tick = _Tick(p.odom_rate), _Tick(p.ground_truth_rate)
         self._motor_tick, self._battery_tick = _Tick(p.motor_state_rate), _Tick(p.battery_rate)
         self._collisions = sim.base.collisions
-        self.bumpers = PressLatch(BumperParams()) if p.bumper_rate > 0 else None
-        self.pub_bumper = pub("bumper_state") if self.bumpers is not None else None
+        # (the presses since the last report, its publisher) when the robot has bumpers
+        self.bumpers = (PressLatch(BumperParams()), pub("bumper_state")) if p.bumper_rate > 0 else None
         self._bumper_tick = _Tick(p.bumper_rate)
         self._motors_sent: bool | None = None
         self.mounts = SensorMounts(node, sim, p, self.static, self.offset)
@@ -251,12 +251,12 @@ class SimNode:
                 log.warning("collision #%d at (%.2f, %.2f) in %s; robot at (%.2f, %.2f, %.2f rad)", c.count, c.x, c.y,
                             c.header.frame_id, g.x, g.y, g.theta)
                 out.append((self.pub_collision, _restamp(c, off)))
-            if self.bumpers is not None and self.pub_bumper is not None:
+            if self.bumpers is not None:
+                latch, pub_bumper = self.bumpers
                 if sim.base.in_contact and sim.base.contact is not None:
-                    self.bumpers.note(tuple(sim.base.pose.inverse().apply(np.array([sim.base.contact]))[0]))
+                    latch.note(tuple(sim.base.pose.inverse().apply(np.array([sim.base.contact]))[0]))
                 if self._bumper_tick(t):
-                    out.append((self.pub_bumper, BumperState(Header(t + off, sim.base.p.base_frame_id),
-                                                             *self.bumpers.take())))
+                    out.append((pub_bumper, BumperState(Header(t + off, sim.base.p.base_frame_id), *latch.take())))
             if self._motor_tick(t) or sim.base.motors_enabled != self._motors_sent:
                 out.append((self.pub_motor, self._motor_msg()))
             if self._battery_tick(t):

@@ -129,5 +129,5 @@ def test_a_subscription_whose_topic_nobody_announces_is_not_declared_again(node_
     monkeypatch.setattr(route_watch, "UNFED_WAIT_S", 0.5)
     listener = node_pair("listener")
     sub = listener.subscribe("nobody_publishes_this", Text)
-    wait_for(lambda: listener.routes.unfed[id(sub)][1].decision == "not announced", 30, "the watch to look")
-    assert listener.routes.unfed[id(sub)][1].attempts == 0
+    wait_for(lambda: listener.routes.unfed[id(sub)].decision == "not announced", 30, "the watch to look")
+    assert listener.routes.unfed[id(sub)].attempts == 0
