@@ -321,7 +321,8 @@ def main(argv: list[str] | None = None) -> int:
                          "the reported figures use none)")
     ap.add_argument("--odom-noise", choices=("ros", "measured"), default="ros",
                     help="ros: ROS amcl's default odom_alpha1..4 (0.2); measured: fitted to the log's odometry "
-                         f"against SLAM's trajectory on its first {MEASURE_SHARE:.0%} (zenav slam odom-noise), "
+                         f"against SLAM's trajectory on its first {MEASURE_SHARE * 100:.0f} %% "
+                         "(zenav slam odom-noise), "
                          "as a user calibrates a robot")
     a = ap.parse_args(argv)
     sets = parse_sets(a.set)

@@ -3,14 +3,20 @@ included) and the global 50 m x 50 m at 0.1 m fully re-inflated. Run: python ben
 
 from __future__ import annotations
 
+import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from common.geometry import Pose2D
-from master_side.costmap.cost_values import LETHAL
-from master_side.costmap.layered import LayeredCostmap
-from master_side.costmap.params import load_costmap_config
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from common.geometry import Pose2D  # noqa: E402
+from master_side.costmap.cost_values import LETHAL  # noqa: E402
+from master_side.costmap.layered import LayeredCostmap  # noqa: E402
+from master_side.costmap.params import load_costmap_config  # noqa: E402
 
 COMMON = {  # the tutorial's costmap_common_params.yaml
     "obstacle_range": 5.0, "raytrace_range": 6.0, "max_obstacle_height": 1.0, "min_obstacle_height": 0.05,
@@ -85,6 +91,7 @@ def bench_global(cycles: int = 8) -> tuple[list[float], list[float]]:
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     local = bench_local()
     inflate, cycle = bench_global()
     print(f"{'case':<44}{'median ms':>10}{'p90 ms':>10}{'max ms':>10}")

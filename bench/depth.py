@@ -8,17 +8,23 @@ Ends with: vga_scan_ms=... qvga_scan_ms=... virtual8_merge_ms=...  (medians)
 
 from __future__ import annotations
 
+import argparse
 import math
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from common.geometry import Transform
-from common.messages import CameraInfo, DepthImage, Header
-from robot_side.depth.cloud import DepthToCloud
-from robot_side.depth.depth_to_scan import DepthToScan, DepthToScanParams
-from robot_side.depth.merger import MergerParams, merge_scans
-from robot_side.depth.virtualizer import Virtualizer, VirtualizerParams, tutorial_planes
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from common.geometry import Transform  # noqa: E402
+from common.messages import CameraInfo, DepthImage, Header  # noqa: E402
+from robot_side.depth.cloud import DepthToCloud  # noqa: E402
+from robot_side.depth.depth_to_scan import DepthToScan, DepthToScanParams  # noqa: E402
+from robot_side.depth.merger import MergerParams, merge_scans  # noqa: E402
+from robot_side.depth.virtualizer import Virtualizer, VirtualizerParams, tutorial_planes  # noqa: E402
 
 CAM = Transform.from_xyz_rpy(0.0, 0.0, 0.5, 0.0, 0.0, 0.0)  # base_link <- camera_link
 OPTICAL = CAM.compose(Transform.from_xyz_rpy(0.0, 0.0, 0.0, -math.pi / 2, 0.0, -math.pi / 2))
@@ -51,6 +57,7 @@ def timeit(fn, n: int) -> np.ndarray:
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     vga, vga_info = frame(640, 480)
     qvga, qvga_info = frame(320, 240)
     rows: list[tuple[str, np.ndarray]] = []

@@ -10,14 +10,20 @@ URG-04LX MD and the S300's standard telegram)
 
 from __future__ import annotations
 
+import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from robot_side.lasers.fake_hokuyo import FakeHokuyo
-from robot_side.lasers.fake_s300 import FakeS300
-from robot_side.lasers.s300 import S300Params, telegram_to_scan
-from robot_side.lasers.scip import SensorParams, decode_scan
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from robot_side.lasers.fake_hokuyo import FakeHokuyo  # noqa: E402
+from robot_side.lasers.fake_s300 import FakeS300  # noqa: E402
+from robot_side.lasers.s300 import S300Params, telegram_to_scan  # noqa: E402
+from robot_side.lasers.scip import SensorParams, decode_scan  # noqa: E402
 
 # PP values of the two Hokuyo families (URG-04LX: the SensorParams default; UST-10LX: 0.25 deg, 270 deg)
 URG = SensorParams()
@@ -42,6 +48,7 @@ def scip_reply(model: str, sym: str, sensor: SensorParams) -> bytes:
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter).parse_args()
     rows: list[tuple[str, int, int, np.ndarray]] = []
     for label, model, sym, sensor in (("Hokuyo URG-04LX MD (3-char)", "URG-04LX", "MD", URG),
                                       ("Hokuyo URG-04LX ME (+intensity)", "URG-04LX", "ME", URG),

@@ -9,6 +9,7 @@ Run: python bench/sim.py   (targets: scan < 1 ms, VGA depth < 5 ms)
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 from pathlib import Path
@@ -84,7 +85,10 @@ def mujoco(seconds: float = 20.0) -> None:
 
 
 def main() -> None:
-    if "--engine" in sys.argv[1:] and sys.argv[sys.argv.index("--engine") + 1] == "mujoco":
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--engine", choices=("kinematic", "mujoco"), default="kinematic",
+                    help="kinematic: the sensors' cost in our own engine; mujoco: a physics step with sensors")
+    if ap.parse_args().engine == "mujoco":
         mujoco()
         return
     world = load_world(WORLDS_DIR / "room.yaml")

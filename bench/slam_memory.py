@@ -14,9 +14,12 @@ import sys
 import time
 from pathlib import Path
 
-from master_side.slam.gridslam import GridSlam
-from master_side.slam.logs import read_log
-from master_side.slam.params import load_gmapping
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO))
+
+from master_side.slam.gridslam import GridSlam  # noqa: E402
+from master_side.slam.logs import read_log  # noqa: E402
+from master_side.slam.params import load_gmapping  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "datasets" / "slam"
 
