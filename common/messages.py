@@ -20,7 +20,7 @@ __all__ = [
     "Costmap", "Path", "PoseStamped", "TransformStamped", "TFMessage", "GoalStatus", "MotorState",
     "BatteryState", "Clock", "PolygonStamped", "Text", "Empty", "Collision", "NodeState", "Scalar",
     "MoveBaseStatus", "PlanRequest", "PlanResult", "MoveBaseGoal", "ObservationSourceStatus", "CostmapSensors",
-    "CollisionMonitorState", "SpawnBox", "TopicStats", "NodeStats", "empty_f32",
+    "CollisionMonitorState", "SonarArray", "SpawnBox", "TopicStats", "NodeStats", "empty_f32",
 ]
 
 
@@ -243,6 +243,16 @@ class BumperState:
     header: Header = Header()
     front_bumpers: tuple[bool, ...] = ()
     rear_bumpers: tuple[bool, ...] = ()
+
+
+@register("SonarArray")
+@dataclass(frozen=True)
+class SonarArray:
+    """p2os_msgs/SonarArray: the latest range of each sonar, indexed by sonar number, metres (ranges_count
+    is ``len(ranges)``). A sonar with no echo reports its maximum range."""
+
+    header: Header = Header()
+    ranges: tuple[float, ...] = ()
 
 
 @register("SpawnBox")

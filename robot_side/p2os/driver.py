@@ -45,7 +45,7 @@ class P2OSParams:
     port: str = param("/dev/ttyUSB0", doc="serial device, or a pyserial URL (loop://, socket://h:p)")
     baud: int = param(9600, choices=(9600, 19200, 38400, 57600, 115200), doc="serial baud rate")
     pulse: float = param(1.0, lo=0.05, hi=1.9, unit="s", doc="PULSE keepalive period (robot watchdog 2 s)")
-    use_sonar: bool = param(False, doc="switch the sonar arrays on (readings are decoded, not published)")
+    use_sonar: bool = param(False, doc="switch the sonar arrays on; the node publishes the readings on sonar")
     motors_on_start: bool = param(True, doc="ENABLE the motors after connecting")
     cmd_vel_timeout: float = param(0.25, lo=0.0, hi=60.0, unit="s", doc="command zero when cmd_vel is older")
     cmd_vel_topic: str = param("cmd_vel", doc="velocity commands (safety/cmd_vel behind the collision monitor)")

@@ -71,6 +71,7 @@ class FakeP2OSRobot:
         self.drop_echoes = list(drop_echoes)  # SYNC numbers whose next echo is lost on the line
         self.opened = False
         self.sonar_on = False
+        self.sonar_mm: dict[int, float] = {}  # sonar number -> range (mm) sent in each SIP while sonar is on
         # (monotonic time, command, argument) of every command once synchronised
         self.received: list[tuple[float, int, int | bytes | None]] = []
         self.sips_sent = 0
@@ -202,7 +203,9 @@ class FakeP2OSRobot:
                    battery_dv=round(self.battery_v * 10),
                    stall_bump_left=int(self.stalled[0]) | self.bumpers[1] << 1,
                    stall_bump_right=int(self.stalled[1]) | self.bumpers[0] << 1,
-                   control=theta_to_raw(self.theta, m), flags=flags)
+                   control=theta_to_raw(self.theta, m), flags=flags,
+                   sonars=tuple((i, round(mm / m.range_conv_factor)) for i, mm in sorted(self.sonar_mm.items()))
+                   if self.sonar_on else ())
 
     def commands(self, cmd: int) -> list[tuple[float, int | bytes | None]]:
         """(time, argument) of every ``cmd`` received so far."""

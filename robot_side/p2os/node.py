@@ -16,6 +16,9 @@ Published (wall-clock stamps)::
     bumper_state         BumperState    every SIP: 5 front and 5 rear segments (ARIA's robot parameters for a
                                         Pioneer 3), segment i from SIP bit i + 1 (p2os_driver's order; which
                                         end is segment 0 on a real P3-AT is not checked here)
+    sonar                SonarArray     every SIP with ``use_sonar``: each sonar's latest range (m, by sonar
+                                        number; a SIP carries the sonars fired since the last; +inf for one
+                                        not heard from yet), for robot_side/sonar/node.py
 
 Subscribed: ``cmd_vel`` (Twist -> VEL mm/s + RVEL deg/s, clamped; zero after ``cmd_vel_timeout``) and
 ``cmd_motor_state`` (MotorState -> ENABLE). Motors are enabled on start unless ``motors_on_start`` is
@@ -25,10 +28,20 @@ false (the tutorial's ``rostopic pub /cmd_motor_state ... 1`` is not needed).
 from __future__ import annotations
 
 import logging
+import math
 import threading
 
 from common.config import ConfigError, load_params
-from common.messages import BatteryState, BumperState, Header, MotorState, Odometry, TransformStamped, Twist
+from common.messages import (
+    BatteryState,
+    BumperState,
+    Header,
+    MotorState,
+    Odometry,
+    SonarArray,
+    TransformStamped,
+    Twist,
+)
 from common.tf import TFBroadcaster
 from robot_side.device_node import DeviceNode, start_or_exit
 from robot_side.p2os.driver import BaseState, P2OSConnectionError, P2OSDriver, P2OSParams, open_port
@@ -63,6 +76,8 @@ class P2OSNode(DeviceNode):
         except Exception:
             self.driver.close()
             raise
+        self.pub_sonar = node.publisher("sonar") if p.use_sonar else None
+        self._sonar = [math.inf] * info.model.sonar_count
         node.log.info("p2os: %s (%s %s) on %s, %d baud, pulse %g s, motors %s on start, %s timeout %g s",
                       info.name, info.robot_class, info.subclass, p.port, p.baud, p.pulse,
                       "enabled" if p.motors_on_start else "left", p.cmd_vel_topic, p.cmd_vel_timeout)
@@ -100,6 +115,11 @@ class P2OSNode(DeviceNode):
         self.pub_bumper.publish(BumperState(Header(now, p.base_frame_id),
                                             tuple(bool(r.bumpers >> i & 1) for i in range(BUMPER_SEGMENTS)),
                                             tuple(bool(r.bumpers >> (8 + i) & 1) for i in range(BUMPER_SEGMENTS))))
+        if self.pub_sonar is not None:
+            for i, rng in r.sonar_ranges:
+                if 0 <= i < len(self._sonar):
+                    self._sonar[i] = rng
+            self.pub_sonar.publish(SonarArray(Header(now, p.base_frame_id), tuple(self._sonar)))
         if r.left_stalled or r.right_stalled:
             log.debug("wheel stall: left %s right %s", r.left_stalled, r.right_stalled)
 

@@ -16,7 +16,7 @@ import numpy as np
 from common.config import ConfigError, load_params, param
 from common.geometry import Pose2D
 from common.messages import Header, LaserScan
-from robot_side.sim.raycast import candidates, expand_pairs, ray_square, safe_inverse, surface_cells
+from robot_side.sim.raycast import SurfaceCells, candidates, expand_pairs, ray_square, safe_inverse, surface_cells
 from robot_side.sim.world import World
 
 __all__ = ["LaserParams", "Laser", "LASER_PRESETS", "load_laser_params"]
@@ -85,9 +85,14 @@ def load_laser_params(mapping: dict | None, source: str = "<config>", section: s
 class Laser:
     """Renders ``LaserScan`` messages of a ``World`` from a robot pose."""
 
-    def __init__(self, world: World, params: LaserParams = LaserParams()):
+    def __init__(self, world: World, params: LaserParams = LaserParams(), cells: SurfaceCells | None = None):
+        """``cells``: the world's surface cells at this mount height when already computed (several
+        sensors at one height share them: a sonar ring)."""
         self.world, self.p = world, params
-        self.refresh()
+        if cells is None:
+            self.refresh()
+        else:
+            self.cells = cells
         self.angles = params.angle_min + params.angle_increment * np.arange(params.samples)
         self.rng = np.random.default_rng(params.seed)
         self.scan_time = 1.0 / params.rate

@@ -20,6 +20,7 @@ Published (all stamps sim time; sim time starts at the wall time at start unless
     scan (laser.topic)          LaserScan       laser.rate, when a laser is configured (a Jackal: front/scan)
     camera/depth/image          DepthImage      depth_camera.rate / (data_skip + 1), when configured
     camera/depth/camera_info    CameraInfo      with every depth image
+    sonar (sonar.topic)         SonarArray      sonar.rate, when a sonar ring is configured (robot_side/sim/sonar.py)
     ground_truth                Odometry        map -> base_link, ground_truth_rate (evaluation only)
     collision (latched)         Collision       on each new collision (count since start)
     bumper_state                BumperState     bumper_rate, when set: the segments a contact pressed since the last
@@ -121,6 +122,7 @@ class SimNode:
         self.pub_scan = pub(sim.laser.p.topic) if sim.laser else None
         self.pub_depth = pub("camera/depth/image") if sim.camera else None
         self.pub_info = pub("camera/depth/camera_info") if sim.camera else None
+        self.pub_sonar = pub(sim.sonar.p.topic) if sim.sonar else None
         self._odom_tick, self._gt_tick = _Tick(p.odom_rate), _Tick(p.ground_truth_rate)
         self._motor_tick, self._battery_tick = _Tick(p.motor_state_rate), _Tick(p.battery_rate)
         self._collisions = sim.base.collisions
@@ -263,6 +265,8 @@ class SimNode:
                 out.append((self.pub_battery, self._battery(t + off)))
             if "laser" in due:
                 out.append((self.pub_scan, _restamp(sim.scan(), off)))
+            if "sonar" in due:
+                out.append((self.pub_sonar, _restamp(sim.sonar_reading(), off)))
             if "depth_camera" in due:
                 img, info = sim.depth_frame()
                 out.append((self.pub_info, _restamp(info, off)))

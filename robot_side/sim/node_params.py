@@ -9,7 +9,8 @@ from common.config import param
 __all__ = ["SimNodeParams", "SIMULATOR_KEYS"]
 
 # keys of the node's mapping that go to ``Simulator.from_config``; every other key is a SimNodeParams field
-SIMULATOR_KEYS = ("world", "start", "world_params", "sim", "base", "laser", "depth_camera", "engine", "physics")
+SIMULATOR_KEYS = ("world", "start", "world_params", "sim", "base", "laser", "depth_camera", "sonar", "engine",
+                  "physics")
 
 
 @dataclass(frozen=True)

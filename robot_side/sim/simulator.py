@@ -30,6 +30,7 @@ from common.messages import (
     LaserScan,
     MotorState,
     Odometry,
+    SonarArray,
     TransformStamped,
     Twist,
 )
@@ -42,7 +43,9 @@ from robot_side.sim.depth_camera import (
 from robot_side.sim.laser import Laser, LaserParams, load_laser_params
 from robot_side.sim.mujoco_scene import import_mujoco
 from robot_side.sim.physics_params import ENGINES, PhysicsParams
+from robot_side.sim.sonar import SimSonar, SimSonarParams
 from robot_side.sim.world import World, WorldParams, load_world, parse_pose
+from robot_side.sonar.geometry import SonarRingParams
 
 __all__ = ["SimulatorParams", "Simulator", "Pacer", "WORLDS_DIR", "resolve_world"]
 
@@ -78,7 +81,9 @@ class Simulator:
 
     def __init__(self, world: World, base: BaseParams = _BASE, laser: LaserParams | None = _LASER,
                  depth_camera: DepthCameraParams | None = _CAMERA, params: SimulatorParams = _SIM,
-                 start: Pose2D | None = None, physics: PhysicsParams = _PHYS):
+                 start: Pose2D | None = None, physics: PhysicsParams = _PHYS,
+                 sonar: tuple[SonarRingParams, SimSonarParams] | None = None):
+        """``sonar``: the ring's geometry and the simulated sonars' parameters; None: no sonars."""
         if params.seed is not None:
             base = dataclasses.replace(base, seed=params.seed)
             laser = laser and dataclasses.replace(laser, seed=params.seed + 1)
@@ -96,28 +101,39 @@ class Simulator:
             self.base = MujocoBase(world, base, physics, start)
             self.laser = RayLaser(self.base, laser) if laser is not None else None
             self.camera = RayDepthCamera(self.base, depth_camera) if depth_camera is not None else None
+
+            def fan(lp: LaserParams, _first: Laser | None) -> Laser:
+                return RayLaser(self.base, lp)
         else:
             self.base = DiffDriveBase(world, base, start)
             self.laser = Laser(world, laser) if laser is not None else None
             self.camera = DepthCamera(world, depth_camera) if depth_camera is not None else None
+
+            def fan(lp: LaserParams, first: Laser | None) -> Laser:
+                return Laser(world, lp, cells=None if first is None else first.cells)
+        self.sonar = SimSonar(sonar[0], sonar[1], fan) if sonar is not None else None
         self.time = 0.0
         self._periods = {}
         if self.laser:
             self._periods["laser"] = 1.0 / laser.rate
         if self.camera:
             self._periods["depth_camera"] = 1.0 / depth_camera.publish_rate
+        if sonar is not None:
+            self._periods["sonar"] = 1.0 / sonar[1].rate
         # tick 0 is t = 0, before the first step: the first reading is at one period, then every period
         self._last_tick = {k: 0 for k in self._periods}
 
     @classmethod
     def from_config(cls, cfg: dict, source: str = "<config>") -> Simulator:
-        """Build from a node mapping: world, start, world_params, sim, base, laser, depth_camera, engine,
-        physics (``engine: mujoco`` is short for ``sim: {engine: mujoco}``; ``physics``: PhysicsParams).
+        """Build from a node mapping: world, start, world_params, sim, base, laser, depth_camera, sonar,
+        engine, physics (``engine: mujoco`` is short for ``sim: {engine: mujoco}``; ``physics``: PhysicsParams).
 
         ``laser`` / ``depth_camera``: a mapping of params (``laser.model`` picks a preset), or null/false to
-        leave the sensor out; absent means defaults.
+        leave the sensor out; absent means defaults. ``sonar``: absent, null or false for none; a mapping of
+        ``SimSonarParams`` and ``SonarRingParams`` keys (``{}``: the P3-AT's ring) for a sonar ring.
         """
-        known = {"world", "start", "world_params", "sim", "base", "laser", "depth_camera", "engine", "physics"}
+        known = {"world", "start", "world_params", "sim", "base", "laser", "depth_camera", "sonar", "engine",
+                 "physics"}
         for k in cfg:
             if k not in known:
                 raise ConfigError(source, str(k), f"unknown key (known keys: {', '.join(sorted(known))})")
@@ -141,8 +157,15 @@ class Simulator:
                 import_mujoco()
             except RuntimeError as e:
                 raise ConfigError(source, "engine", str(e)) from None
+        sonar = None
+        if cfg.get("sonar") not in (None, False):
+            sonar_cfg = cfg["sonar"] if isinstance(cfg["sonar"], dict) else {}
+            ring_keys = [f.name for f in dataclasses.fields(SonarRingParams)]
+            sim_keys = [f.name for f in dataclasses.fields(SimSonarParams)]
+            sonar = (load_params(SonarRingParams, sonar_cfg, source, "sonar", ignore=sim_keys),
+                     load_params(SimSonarParams, sonar_cfg, source, "sonar", ignore=ring_keys))
         return cls(world, load_base_params(cfg.get("base"), source), sensor("laser", load_laser_params),
-                   sensor("depth_camera", load_depth_camera_params), params, physics=physics)
+                   sensor("depth_camera", load_depth_camera_params), params, physics=physics, sonar=sonar)
 
     # ------------------------------------------------------------------ time
     def step(self, dt: float | None = None) -> list[str]:
@@ -166,7 +189,7 @@ class Simulator:
             from robot_side.sim.world_shapes import Box
 
             self.base.add_box(Box(cx, cy, sx, sy, yaw, height))
-        for sensor in (self.laser, self.camera):
+        for sensor in (self.laser, self.camera, self.sonar):
             if sensor is not None:
                 sensor.refresh()
 
@@ -190,6 +213,11 @@ class Simulator:
         if self.camera is None:
             raise RuntimeError("no depth camera configured")
         return self.camera.frame(self.base.pose, self.time), self.camera.camera_info(self.time)
+
+    def sonar_reading(self) -> SonarArray:
+        if self.sonar is None:
+            raise RuntimeError("no sonar configured")
+        return self.sonar.reading(self.base.pose, self.time)
 
     def odometry(self) -> Odometry:
         return self.base.odometry(self.time)

@@ -3,13 +3,14 @@ device on a pty, on a private loopback Zenoh bus: it publishes what the simulate
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 
 import pytest
 import yaml
 
-from common.messages import BatteryState, BumperState, MotorState, Odometry, TFMessage, Twist
+from common.messages import BatteryState, BumperState, MotorState, Odometry, SonarArray, TFMessage, Twist
 from robot_side.p2os import protocol as P
 from robot_side.p2os.fake_robot import FakeP2OSRobot
 from tests.sim_e2e.conftest import Proc, free_port, wait_until
@@ -53,7 +54,9 @@ def test_node_publishes_the_simulators_topics_and_drives_the_device(bus, fake, t
     motor = node.subscribe("motor_state", MotorState)
     battery = node.subscribe("battery_state", BatteryState)
     bumpers = node.subscribe("bumper_state", BumperState)
-    proc = _node(tmp_path, env, {"port": path, "pulse": 1.0, "cmd_vel_timeout": 0.5})
+    sonar = node.subscribe("sonar", SonarArray)
+    robot.sonar_mm = {11: 450.0, 3: 1200.0}  # the rear's middle-right sonar and the front's middle-left
+    proc = _node(tmp_path, env, {"port": path, "pulse": 1.0, "cmd_vel_timeout": 0.5, "use_sonar": True})
     try:
         o = odom.wait_first(30)
         assert o is not None, proc.log()
@@ -71,6 +74,12 @@ def test_node_publishes_the_simulators_topics_and_drives_the_device(bus, fake, t
         assert pressed.front_bumpers == (True, False, False, False, False)
         assert pressed.rear_bumpers == (False, False, False, False, True)
         robot.bumpers = (0, 0)
+        s = sonar.wait_first(10)
+        assert s is not None and s.header.frame_id == "base_link"
+        assert len(s.ranges) == 16
+        assert s.ranges[11] == pytest.approx(0.45) and s.ranges[3] == pytest.approx(1.2)
+        assert all(math.isinf(r) for i, r in enumerate(s.ranges) if i not in (3, 11))  # never heard from
+        assert robot.sonar_on
 
         cmd = node.publisher("cmd_vel")
         wait_until(lambda: cmd._pub.matching_status.matching, 10, "the node's cmd_vel subscription")

@@ -8,7 +8,17 @@ import time
 import numpy as np
 
 from common.geometry import OPTICAL_FROM_LINK
-from common.messages import BatteryState, BumperState, CameraInfo, Clock, DepthImage, LaserScan, MotorState, Odometry
+from common.messages import (
+    BatteryState,
+    BumperState,
+    CameraInfo,
+    Clock,
+    DepthImage,
+    LaserScan,
+    MotorState,
+    Odometry,
+    SonarArray,
+)
 from common.tf import TFListener
 from robot_side.sim.base import BaseParams
 from tests.sim_e2e.conftest import Recorder, open_world, publisher_matched, wait_until
@@ -40,13 +50,17 @@ def test_stale_cmd_vel_stops_the_robot_within_the_timeout_in_sim_time(bus, sim, 
 def test_driving_into_a_wall_reports_a_collision_and_never_goes_through(bus, sim, tmp_path):
     node, _ = bus
     bumpers = Recorder(node, "bumper_state", BumperState)
-    proc = sim({"world": str(open_world(tmp_path, wall_x=1.5)), "speed": 2.0, "bumper_rate": 10.0})
+    sonar = Recorder(node, "sonar", SonarArray)
+    proc = sim({"world": str(open_world(tmp_path, wall_x=1.5)), "speed": 2.0, "bumper_rate": 10.0, "sonar": {}})
     check_wall_collision(Rig(node, proc), wall_x=1.5, resolution=0.05)
     # the bumpers, as a P2OS SIP reports them: the front's middle segment pressed while it pushed, and nothing
     # once it stood still (each report holds the presses since the last)
     wait_until(lambda: (b := bumpers.last()) is not None and not any(b.front_bumpers), 10, "the bumper released")
     states = bumpers.msgs()
     assert any(b.front_bumpers == (False, False, True, False, False) and not any(b.rear_bumpers) for b in states)
+    # the front sonars heard the wall close in: 1.25 m ahead of them at the start, within a few cm at contact
+    ahead = [min(m.ranges[3], m.ranges[4]) for m in sonar.msgs()]
+    assert len(ahead) > 10 and ahead[0] > 1.0 and min(ahead) < 0.1, ahead[:3] + ahead[-3:]
 
 
 def test_speed_5_runs_ten_sim_seconds_in_about_two_wall_seconds(bus, sim, tmp_path):

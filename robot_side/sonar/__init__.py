@@ -1,0 +1,1 @@
+"""A Pioneer's sonar ring: its geometry, and the points that put its echoes in a costmap."""

@@ -1,0 +1,141 @@
+"""The sonar ring (robot_side/sonar, robot_side/sim/sonar.py): the P3-AT's geometry, echoes as points in the
+base frame, the simulated ring in both engines, a costmap marked behind the robot and cleared along a sonar
+with no echo, and the sonar_cloud node on a real loopback bus."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from common.config import ConfigError
+from common.geometry import Pose2D
+from common.messages import Header, PointCloud, SonarArray
+from master_side.costmap.cost_values import FREE_SPACE, LETHAL
+from master_side.costmap.costmap2d import Costmap2D
+from master_side.costmap.layered import LayeredCostmap
+from robot_side.sim.simulator import Simulator
+from robot_side.sonar.geometry import P3AT_SONARS, SonarRingParams, sonar_points
+from tests.support import free_port, wait_until
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "costmap"))
+from costmap_helpers import obstacle_layer  # noqa: E402
+
+RING = SonarRingParams()  # the P3-AT's 16 sonars, 15 deg cones, 5 m
+
+
+def test_the_p3at_ring_is_eight_front_and_eight_rear_mirrored_left_to_right():
+    assert [n for n, *_ in P3AT_SONARS] == list(range(16))
+    front, rear = P3AT_SONARS[:8], P3AT_SONARS[8:]
+    assert all(x > 0 for _, x, _, _ in front) and all(x < 0 for _, x, _, _ in rear)
+    for (_, x, y, h), (_, x2, y2, h2) in zip(front, reversed(front)):
+        assert (x, y, h) == (x2, -y2, -h2)
+    assert [h for *_, h in rear] == [-90, -130, -150, -170, 170, 150, 130, 90]  # right to left behind
+
+
+def test_an_echo_is_a_point_on_the_sonars_axis_and_no_echo_gives_none():
+    ranges = [RING.range_max] * 16
+    ranges[11], ranges[0] = 0.5, 1.0
+    pts = sonar_points(RING, ranges, z=0.2)
+    assert pts.dtype == np.float32 and pts.shape == (2, 3)
+    x, y, h = RING.units[11]
+    assert np.allclose(pts[1], [x + 0.5 * math.cos(h), y + 0.5 * math.sin(h), 0.2], atol=1e-6)
+    assert np.allclose(pts[0], [0.147, 0.136 + 1.0, 0.2], atol=1e-6)  # sonar 0 looks left (+y)
+    assert len(sonar_points(RING, ranges, use=(8, 9, 10))) == 0  # not the rear sonars that echoed
+    assert len(sonar_points(RING, ranges, use=(11,))) == 1
+    with_far = sonar_points(RING, ranges, max_range=RING.range_max * 1.001)  # no-echo readings kept too
+    assert len(with_far) == 16
+    bad = [math.inf, math.nan, -1.0, 0.0] + [RING.range_max] * 12
+    assert len(sonar_points(RING, bad)) == 0
+
+
+@pytest.mark.parametrize("engine", ["kinematic", "mujoco"])
+def test_the_simulated_ring_hears_a_box_behind_the_robot_where_the_laser_cannot_see(engine):
+    if engine == "mujoco":
+        pytest.importorskip("mujoco")
+    sim = Simulator.from_config({"world": "room", "start": [-1.0, 0.0, 0.0], "laser": None, "depth_camera": None,
+                                 "engine": engine, "sonar": {"noise_std": 0.0}})
+    before = sim.sonar_reading()
+    assert len(before.ranges) == 16 and before.header.frame_id == "base_link"
+    sim.add_box(-1.0 - 0.254 - 0.4 - 0.1, 0.0, 0.2, 1.0, 0.5)  # 1 m wide, its face 0.4 m behind the rear
+    after = sim.sonar_reading().ranges
+    # sonars 11 and 12 (x = -0.241, heading +-170 deg) hear the face 0.413 m away along the cone's nearest ray
+    for i in (11, 12):
+        assert after[i] == pytest.approx(0.413 / math.cos(math.radians(10 - 7.5)), abs=0.01), (i, after)
+    for i in range(8):  # the front ring hears nothing new
+        assert after[i] == pytest.approx(before.ranges[i], abs=1e-6)
+
+
+def test_sonar_parameters_out_of_range_name_the_key():
+    with pytest.raises(ConfigError) as e:
+        Simulator.from_config({"world": "room", "laser": None, "depth_camera": None, "sonar": {"fov": 5.0}},
+                              "robot.yaml")
+    assert "sonar.fov" in str(e.value) and "robot.yaml" in str(e.value)
+    with pytest.raises(ConfigError) as e:
+        Simulator.from_config({"world": "room", "laser": None, "depth_camera": None, "sonar": {"rayz": 3}})
+    assert "rayz" in str(e.value)
+
+
+def test_an_echo_behind_marks_the_costmap_and_a_sonar_without_echo_clears_along_its_axis():
+    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True)
+    layer = obstacle_layer(lc, data_type="PointCloud", obstacle_range=1.5, raytrace_range=3.0,
+                           min_obstacle_height=0.0)
+    robot = Pose2D(0.0, 0.0, 0.0)
+    ranges = [RING.range_max] * 16
+    ranges[11] = 0.6
+    pts = sonar_points(RING, ranges, z=0.2, max_range=RING.range_max * 1.001).astype(float)
+    layer.add_observation("scan", pts, np.array([0.0, 0.0, 0.2]), 0.0)
+    lc.update_map(robot)
+    hit = pts[np.argmin(np.hypot(pts[:, 0] + 0.8, pts[:, 1]))]
+    assert lc.master.get_cost(hit[0], hit[1]) == LETHAL
+    far = [p for p in pts if np.hypot(p[0], p[1]) > 4.0]
+    assert len(far) == 15 and all(lc.master.get_cost(p[0] * 0.3, p[1] * 0.3) != LETHAL for p in far)
+    # the obstacle goes: sonar 11 hears nothing, and its axis is cleared
+    ranges[11] = RING.range_max
+    pts = sonar_points(RING, ranges, z=0.2, max_range=RING.range_max * 1.001).astype(float)
+    layer.add_observation("scan", pts, np.array([0.0, 0.0, 0.2]), 1.0)
+    lc.update_map(robot)
+    assert lc.master.get_cost(hit[0], hit[1]) == FREE_SPACE
+
+
+@pytest.fixture
+def peers(robot_name):
+    from common.bus import Node
+    from common.zenoh_config import BusConfig
+
+    ep = (f"tcp/127.0.0.1:{free_port()}",)
+    a = Node("sonar_test", config=BusConfig(robot=robot_name, listen=ep, multicast=False), use_sim_time=False)
+    b = Node("sonar_cloud", config=BusConfig(robot=robot_name, connect=ep, multicast=False), use_sim_time=False)
+    yield a, b
+    b.close()
+    a.close()
+
+
+def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
+    from robot_side.sonar.node import start
+
+    test, host = peers
+    handles = start(host, {"use": [8, 9, 10, 11, 12, 13, 14, 15], "include_no_echo": False}, "sonar.yaml")
+    try:
+        clouds = test.subscribe("sonar_pointcloud", PointCloud)
+        pub = test.publisher("sonar")
+        ranges = [RING.range_max] * 16
+        ranges[3], ranges[12] = 0.5, 0.7  # a front echo (not used) and a rear one
+
+        def got():
+            pub.publish(SonarArray(Header(12.5, "base_link"), tuple(ranges)))
+            c = clouds.latest()
+            return c if c is not None and len(c.points) else None
+
+        cloud = wait_until(got, 20, "a sonar point cloud")
+        assert cloud.header == Header(12.5, "base_link")
+        assert cloud.points.shape == (1, 3)
+        assert np.allclose(cloud.points[0], sonar_points(RING, ranges, use=(12,))[0])
+    finally:
+        handles.close()
+    with pytest.raises(ConfigError) as e:
+        start(host, {"use": "rear"}, "sonar.yaml")
+    assert "use" in str(e.value)
