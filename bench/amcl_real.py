@@ -15,7 +15,8 @@ Then every scan with its odometry goes into ``Amcl`` in one process, with ROS am
 
 AMCL's pose at a scan is map_to_odom() ∘ odometry after that scan. Figures per run:
 - relations error: the Kümmerle relations metric (``zenav slam eval``'s) on AMCL's pose at every scan of the
-  whole log, the first unconverged seconds included;
+  whole log, the first unconverged seconds included; "tracked": the same over the relations that begin once
+  AMCL has converged (see below), the error while it tracks;
 - absolute error against SLAM's own trajectory (the map's frame), after convergence: mean and 95th percentile;
 - converged: the absolute error under 0.3 m and 0.2 rad; converge time: data time from the first scan to the
   first scan from which it stays converged for 10 s of data; lost: after that, 10 s of data in which it is
@@ -90,6 +91,7 @@ class RunFigures:
     updates: int
     trans_mean_m: float  # relations metric, whole log
     rot_mean_deg: float
+    trans_tracked_m: float  # relations metric over the relations after convergence (nan if never converged)
     abs_mean_m: float  # against SLAM, after convergence (nan if never)
     abs_p95_m: float
     converge_s: float  # inf = never converged
@@ -221,7 +223,13 @@ def figures(mode: str, start: str, seed: int, poses: np.ndarray, updates: int, c
     def since_start(k: int | None) -> float:
         return float(ref.stamps[k] - ref.stamps[0]) if k is not None else math.inf
 
-    return RunFigures(mode, start, seed, updates, s["trans_mean_m"], s["rot_mean_deg"], float(np.mean(after)),
+    tracked = math.nan
+    if c.first is not None:
+        t_conv = ref.stamps[c.first]
+        later = [r for r in relations if min(r.t1, r.t2) >= t_conv]
+        if later:
+            tracked = evaluate(ref.stamps, poses, later).summary()["trans_mean_m"]
+    return RunFigures(mode, start, seed, updates, s["trans_mean_m"], s["rot_mean_deg"], tracked, float(np.mean(after)),
                       float(np.percentile(after, 95)), since_start(c.first), since_start(c.lost),
                       100.0 * c.out_share, cpu_s)
 
@@ -258,9 +266,11 @@ def print_table(name: str, ref: SlamRef, rows: list[RunFigures], scans: int, dat
     print(f"\n{name}: {scans} scans, {data_s:.0f} s of data; SLAM's own relations error "
           f"{ref.trans_mean_m:.4f} m / {ref.rot_mean_deg:.3f} deg")
     print(f"{'mode':6} {'start':16} {'seed':>4} {'updates':>7} {'rel trans m':>11} {'rel rot deg':>11} "
+          f"{'tracked m':>9} "
           f"{'abs mean m':>10} {'abs p95 m':>9} {'converge s':>10} {'lost s':>7} {'out %':>5} {'cpu s':>6}")
     for r in rows:
         print(f"{r.mode:6} {r.start:16} {r.seed:4d} {r.updates:7d} {r.trans_mean_m:11.4f} {r.rot_mean_deg:11.3f} "
+              f"{r.trans_tracked_m:9.4f} "
               f"{r.abs_mean_m:10.4f} {r.abs_p95_m:9.4f} {r.converge_s:10.1f} {r.lost_s:7.1f} {r.out_pct:5.1f} "
               f"{r.cpu_s:6.1f}")
 
@@ -282,12 +292,15 @@ def summary_line(results: dict[str, tuple[SlamRef, list[RunFigures]]]) -> str:
 
     track, glob = runs("track"), runs("global")
     keys = {"amcl_real_trans_mean_m": mean([r.trans_mean_m for r in track]),
+            "amcl_real_trans_tracked_m": mean([r.trans_tracked_m for r in track if math.isfinite(r.trans_tracked_m)]),
             "amcl_real_converge_s": median([r.converge_s for r in track]),
             "amcl_real_global_success": ok(glob), "amcl_real_track_success": ok(track)}
     for name, (ref, _) in results.items():
         tr, gl = runs("track", (name,)), runs("global", (name,))
         keys[f"{name}_slam_trans_mean_m"] = f"{ref.trans_mean_m:.4f}"
         keys[f"{name}_track_trans_mean_m"] = mean([r.trans_mean_m for r in tr])
+        keys[f"{name}_track_trans_tracked_m"] = mean([r.trans_tracked_m for r in tr
+                                                      if math.isfinite(r.trans_tracked_m)])
         keys[f"{name}_track_abs_p95_m"] = mean([r.abs_p95_m for r in tr], ".3f")
         keys[f"{name}_track_converge_s"] = median([r.converge_s for r in tr])
         keys[f"{name}_track_success"] = ok(tr)

@@ -43,6 +43,11 @@ class ObservationSourceParams:
     obstacle_min_range: float = param(0.0, lo=0.0, unit="m", doc="(nav2) mark only beyond this")
     raytrace_min_range: float = param(0.0, lo=0.0, unit="m", doc="(nav2) clear only beyond this")
     inf_is_valid: bool = param(False, doc="LaserScan: +inf means free out to range_max")
+    min_mark_separation: float = param(0.0, lo=0.0, hi=5.0, unit="m",
+                                       doc="(zenav) mark a point only where no obstacle is marked in the layer "
+                                           "within this distance (0: always): an imprecise sensor (a sonar's "
+                                           "echo may be anywhere across its cone) then adds only what the "
+                                           "other sources have not seen, not a second, displaced wall")
     marking: bool = param(True)
     clearing: bool = param(False)
 

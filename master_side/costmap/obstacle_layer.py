@@ -98,8 +98,21 @@ class ObstacleLayer(CostmapLayer):
     def _mark(self, obs: Observation, bounds: Bounds) -> Bounds:
         p = self._marking_points(obs)
         mx, my, ok = self.costmap.world_to_map(p[:, 0], p[:, 1])
+        if obs.source.min_mark_separation > 0:
+            ok &= self._unmarked_around(mx, my, obs.source.min_mark_separation)
         self.costmap.data[my[ok], mx[ok]] = LETHAL
         return bounds.expand_points(p[ok, 0], p[ok, 1])
+
+    def _unmarked_around(self, mx: np.ndarray, my: np.ndarray, radius: float) -> np.ndarray:
+        """Per cell: no LETHAL cell of this layer within ``radius`` (a square window; meant for sparse sources,
+        one window per point)."""
+        data, k = self.costmap.data, int(np.ceil(radius / self.costmap.resolution))
+        h, w = data.shape
+        out = np.ones(len(mx), bool)
+        for i, (x, y) in enumerate(zip(mx.tolist(), my.tolist())):
+            if 0 <= x < w and 0 <= y < h:
+                out[i] = not (data[max(0, y - k):y + k + 1, max(0, x - k):x + k + 1] == LETHAL).any()
+        return out
 
     def _raytrace(self, obs: Observation, bounds: Bounds) -> Bounds:
         cm = self.costmap

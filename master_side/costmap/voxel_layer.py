@@ -13,7 +13,7 @@ import numpy as np
 from master_side.costmap.cost_values import FREE, LETHAL, NO_INFORMATION
 from master_side.costmap.costmap2d import shift_array
 from master_side.costmap.layer import Bounds, register_layer
-from master_side.costmap.layer_params import VoxelLayerParams
+from master_side.costmap.layer_params import ObservationSourceParams, VoxelLayerParams
 from master_side.costmap.observation import Observation
 from master_side.costmap.obstacle_layer import ObstacleLayer
 from master_side.costmap.raytrace import trace_cells
@@ -23,6 +23,13 @@ from master_side.costmap.raytrace import trace_cells
 class VoxelLayer(ObstacleLayer):
     Params = VoxelLayerParams
     params: VoxelLayerParams
+
+    def __init__(self, name: str, params, sources: dict[str, ObservationSourceParams] | None = None):
+        super().__init__(name, params, sources)
+        for n, src in (sources or {}).items():
+            if src.min_mark_separation > 0:
+                raise ValueError(f"{name}: source {n!r}: min_mark_separation is an ObstacleLayer option; "
+                                 "the voxel layer marks voxels")
 
     def match_size(self) -> None:
         super().match_size()

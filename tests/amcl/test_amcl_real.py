@@ -46,3 +46,5 @@ def test_amcl_tracking_from_1_m_and_30_deg_off_converges_on_the_intel_log(intel_
     assert len(relations) >= 30
     assert f.trans_mean_m < 0.08, f
     assert f.rot_mean_deg < 1.5, f
+    # once converged (the relations that begin after it), the track is no worse than over the whole slice
+    assert math.isfinite(f.trans_tracked_m) and f.trans_tracked_m <= f.trans_mean_m + 0.01, f

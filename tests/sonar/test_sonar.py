@@ -139,3 +139,29 @@ def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
     with pytest.raises(ConfigError) as e:
         start(host, {"use": "rear"}, "sonar.yaml")
     assert "use" in str(e.value)
+
+
+def test_a_sonar_echo_marks_only_where_nothing_is_marked_near_it():
+    """min_mark_separation: an echo 4 cm inside a wall the laser has marked adds nothing (a displaced second
+    wall narrowed office02's passages until no trajectory was left); an echo where nothing is marked does."""
+    from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams, VoxelLayerParams
+    from master_side.costmap.obstacle_layer import ObstacleLayer
+    from master_side.costmap.voxel_layer import VoxelLayer
+
+    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True)
+    laser = ObservationSourceParams(data_type="LaserScan", obstacle_range=2.5, raytrace_range=3.0,
+                                    min_obstacle_height=-1.0)
+    sonar = ObservationSourceParams(data_type="PointCloud", obstacle_range=1.5, raytrace_range=3.0,
+                                    min_obstacle_height=0.0, min_mark_separation=0.2)
+    layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=False),
+                                       {"laser": laser, "sonar": sonar}))
+    wall = np.column_stack((np.full(41, 0.5), np.linspace(-0.5, 0.5, 41), np.zeros(41)))  # y from -0.5 to 0.5
+    layer.add_observation("laser", wall, np.array([0.0, 0.0, 0.3]), 0.0)
+    echoes = np.array([[0.46, 0.1, 0.2], [-0.6, 0.3, 0.2]])  # inside the laser's wall; alone behind the robot
+    layer.add_observation("sonar", echoes, np.array([0.0, 0.0, 0.2]), 0.0)
+    lc.update_map(Pose2D(0.0, 0.0, 0.0))
+    assert lc.master.get_cost(0.5, 0.1) == LETHAL  # the laser's wall
+    assert lc.master.get_cost(0.46, 0.1) != LETHAL  # the displaced echo beside it: not marked
+    assert lc.master.get_cost(-0.6, 0.3) == LETHAL  # the echo nothing else saw
+    with pytest.raises(ValueError, match="min_mark_separation"):
+        VoxelLayer("voxels", VoxelLayerParams(), {"sonar": sonar})
