@@ -18,12 +18,17 @@ from common.tf_buffer import ExtrapolationError, TFBuffer, TFError
 
 FIXED_FRAME = "odom"  # rviz's fixed frame for the drawing: continuous, unlike map
 PLACE_WAIT_S = 0.5  # a scan waits this long (wall) for TF to reach its stamp, then is drawn in its own frame
+# ... and this long for its frame to be connected to the fixed frame at all: the sensor's latched static
+# transform can come seconds after the first scans on a loaded machine (a CI run: 0.5 s was not enough, and an
+# early scan of a recording was drawn 0.35 m below and 0.1 m behind where its playback drew it)
+CONNECT_WAIT_S = 3.0
 
 
 class Placement:
     def __init__(self, fixed_frame: str = FIXED_FRAME, wait_s: float = PLACE_WAIT_S,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 clock: Callable[[], float] = time.monotonic, connect_wait_s: float = CONNECT_WAIT_S) -> None:
         self.fixed_frame, self.wait_s, self.clock = fixed_frame, wait_s, clock
+        self.connect_wait_s = connect_wait_s
         self.tf = TFBuffer(cache_time=10.0)
         self._awaiting: dict[str, tuple[float, m.Header, Callable[[], None]]] = {}  # entity -> (since, ...)
 
@@ -34,8 +39,9 @@ class Placement:
 
     def place(self, entity: str, header: m.Header, submit: Callable[[], None]) -> None:
         """``submit`` now if TF reaches ``header``'s stamp, else from ``due`` when it does (the newest per entity,
-        at most ``wait_s``): a scan usually arrives before the odometry of its instant, and placed with an older
-        transform it would land where the robot was (and differ between a run and its playback)."""
+        at most ``wait_s``, or ``connect_wait_s`` while its frame is not connected to the fixed frame): a scan
+        usually arrives before the odometry of its instant, and placed with an older transform it would land
+        where the robot was (and differ between a run and its playback)."""
         if self.placeable(header):
             self._awaiting.pop(entity, None)
             submit()
@@ -47,7 +53,7 @@ class Placement:
         """The submits whose transform has come, or whose wait is over (all with ``flush_all``)."""
         now, out = self.clock(), []
         for entity, (since, header, submit) in list(self._awaiting.items()):
-            if flush_all or now - since > self.wait_s or self.placeable(header):
+            if flush_all or self.placeable(header) or now - since > self._wait(header):
                 del self._awaiting[entity]
                 out.append(submit)
         return out
@@ -60,6 +66,16 @@ class Placement:
             return False
         except TFError:  # not connected yet (the sensor's static transform can come after its first scans, as
             return self.fixed_frame not in self.tf.frames()  # in a playback), or never: no fixed frame at all
+
+    def _wait(self, header: m.Header) -> float:
+        """How long a message not yet placeable may wait: longer while its frame is not connected at all."""
+        try:
+            self.tf.lookup(self.fixed_frame, header.frame_id, header.stamp)
+        except ExtrapolationError:
+            return self.wait_s
+        except TFError:
+            return self.connect_wait_s
+        return self.wait_s
 
     def at_stamp(self, header: m.Header) -> tuple[str, Transform] | None:
         """(fixed frame, transform from ``header``'s frame into it at its stamp); None when TF does not have it

@@ -102,7 +102,7 @@ class Simulator:
             self.laser = RayLaser(self.base, laser) if laser is not None else None
             self.camera = RayDepthCamera(self.base, depth_camera) if depth_camera is not None else None
 
-            def fan(lp: LaserParams, _first: Laser | None) -> Laser:
+            def fan(lp: LaserParams, first: Laser | None) -> Laser:  # MuJoCo's rays share nothing
                 return RayLaser(self.base, lp)
         else:
             self.base = DiffDriveBase(world, base, start)

@@ -136,3 +136,29 @@ def test_the_trail_starts_again_when_odometry_restarts(tmp_path):
         "/world/odom_trail/0": 2, "/world/odom_trail/1": 1, "/world/odom_trail/2": 0}
     assert all(r.get("CoordinateFrame:frame") == ["odom"] for e, rs in rows.items()
                if e.startswith("/world/odom_trail/") for r in rs if r.get("LineStrips3D:strips") is not None)
+
+
+def test_a_scan_whose_frame_is_not_connected_yet_waits_longer_than_one_ahead_of_tf():
+    """A loaded machine can deliver the sensor's latched static transform seconds after the first scans (a CI
+    run: more than 0.5 s): such a scan waits CONNECT_WAIT_S, one merely ahead of the odometry PLACE_WAIT_S."""
+    from deploy.monitor.placement import CONNECT_WAIT_S, PLACE_WAIT_S, Placement
+
+    now = [100.0]
+    pl = Placement(clock=lambda: now[0])
+    pl.remember(tf(1.0, "odom", "base_link", Pose2D(0.0, 0.0, 0.0)), static=False)
+    done: list[str] = []
+    pl.place("scan", m.Header(1.0, "laser"), lambda: done.append("unconnected"))
+    pl.place("cloud", m.Header(5.0, "base_link"), lambda: done.append("ahead"))
+    assert done == []
+    now[0] += PLACE_WAIT_S + 0.1
+    for submit in pl.due():
+        submit()
+    assert done == ["ahead"]  # drawn as it is: TF did not reach its stamp in time
+    now[0] += CONNECT_WAIT_S - PLACE_WAIT_S - 0.2
+    assert pl.due() == []  # still waiting for the laser's static transform
+    pl.remember(m.TFMessage((m.TransformStamped(m.Header(0.0, "base_link"), "laser",
+                                                Transform(Vector3(0.1, 0.0, 0.0))),)), static=True)
+    for submit in pl.due():
+        submit()
+    assert done == ["ahead", "unconnected"]
+    assert pl.at_stamp(m.Header(1.0, "laser")) is not None  # and now it can be placed
