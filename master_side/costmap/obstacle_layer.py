@@ -58,12 +58,14 @@ class ObstacleLayer(CostmapLayer):
 
     # -- cycle -----------------------------------------------------------------------------------
     def update_bounds(self, robot_pose: Pose2D, bounds: Bounds) -> Bounds:
+        clearing_footprint = self.params.footprint_clearing_enabled and len(self.layered.footprint)
+        self.footprint_world = (transform_footprint(self.layered.footprint, robot_pose) if clearing_footprint
+                                else np.zeros((0, 2)))
         for obs in self._observations("clearing"):
             bounds = self._raytrace(obs, bounds)
         for obs in self._observations("marking"):
             bounds = self._mark(obs, bounds)
-        if self.params.footprint_clearing_enabled and len(self.layered.footprint):
-            self.footprint_world = transform_footprint(self.layered.footprint, robot_pose)
+        if clearing_footprint:
             bounds = bounds.expand_points(self.footprint_world[:, 0], self.footprint_world[:, 1])
         return bounds
 
@@ -105,13 +107,19 @@ class ObstacleLayer(CostmapLayer):
 
     def _unmarked_around(self, mx: np.ndarray, my: np.ndarray, radius: float) -> np.ndarray:
         """Per cell: no LETHAL cell of this layer within ``radius`` (a square window; meant for sparse sources,
-        one window per point)."""
-        data, k = self.costmap.data, int(np.ceil(radius / self.costmap.resolution))
-        h, w = data.shape
+        one window per point). Marks under the footprint do not count: footprint clearing erases them this
+        cycle (a wall within the padding, beside the robot, would otherwise hide the echo of the same wall
+        behind the robot's corner, outside the footprint: office02's rear-corner scrapes)."""
+        lethal = self.costmap.data == LETHAL
+        if len(self.footprint_world):
+            fx, fy = self.costmap.polygon_cells(self.footprint_world)
+            lethal[fy, fx] = False
+        k = int(np.ceil(radius / self.costmap.resolution))
+        h, w = lethal.shape
         out = np.ones(len(mx), bool)
         for i, (x, y) in enumerate(zip(mx.tolist(), my.tolist())):
             if 0 <= x < w and 0 <= y < h:
-                out[i] = not (data[max(0, y - k):y + k + 1, max(0, x - k):x + k + 1] == LETHAL).any()
+                out[i] = not lethal[max(0, y - k):y + k + 1, max(0, x - k):x + k + 1].any()
         return out
 
     def _raytrace(self, obs: Observation, bounds: Bounds) -> Bounds:

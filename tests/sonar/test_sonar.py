@@ -165,3 +165,29 @@ def test_a_sonar_echo_marks_only_where_nothing_is_marked_near_it():
     assert lc.master.get_cost(-0.6, 0.3) == LETHAL  # the echo nothing else saw
     with pytest.raises(ValueError, match="min_mark_separation"):
         VoxelLayer("voxels", VoxelLayerParams(), {"sonar": sonar})
+
+
+def test_marks_under_the_footprint_do_not_hide_an_echo_beside_the_robots_corner():
+    """A wall 0.03 m beside the robot lies under its padded footprint, which the layer frees each update; an echo
+    of the same wall just behind the rear corner (outside the footprint) must still mark, or nothing stops the
+    planner sweeping the corner into it (office02: five rear-corner contacts in 20 s along one wall)."""
+    from master_side.costmap.footprint import pad_footprint
+    from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams
+    from master_side.costmap.obstacle_layer import ObstacleLayer
+
+    body = np.array([[0.254, 0.254], [-0.254, 0.254], [-0.254, -0.254], [0.254, -0.254]])
+    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True,
+                        footprint=pad_footprint(body, 0.04))
+    laser = ObservationSourceParams(data_type="LaserScan", obstacle_range=2.5, raytrace_range=3.0,
+                                    min_obstacle_height=-1.0)
+    sonar = ObservationSourceParams(data_type="PointCloud", obstacle_range=1.5, raytrace_range=3.0,
+                                    min_obstacle_height=0.0, min_mark_separation=0.2)
+    layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=True),
+                                       {"laser": laser, "sonar": sonar}))
+    beside = np.column_stack((np.linspace(-0.2, 0.2, 17), np.full(17, -0.284), np.zeros(17)))  # 0.03 m off
+    layer.add_observation("laser", beside, np.array([0.1, 0.0, 0.3]), 0.0)
+    echo = np.array([[-0.32, -0.27, 0.2]])  # sonar 9's echo of that wall, behind the rear right corner
+    layer.add_observation("sonar", echo, np.array([0.0, 0.0, 0.2]), 0.0)
+    lc.update_map(Pose2D(0.0, 0.0, 0.0))
+    assert lc.master.get_cost(0.0, -0.284) == FREE_SPACE  # under the padded footprint: freed (as ROS)
+    assert lc.master.get_cost(-0.32, -0.27) == LETHAL  # the echo outside it stays
