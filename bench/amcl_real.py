@@ -16,7 +16,7 @@ Then every scan with its odometry goes into ``Amcl`` in one process, with ROS am
 AMCL's pose at a scan is map_to_odom() ∘ odometry after that scan. Figures per run:
 - relations error: the Kümmerle relations metric (``zenav slam eval``'s) on AMCL's pose at every scan of the
   whole log, the first unconverged seconds included; "tracked": the same over the relations that begin once
-  AMCL has converged (see below), the error while it tracks;
+  AMCL has converged (see below), spells over the bounds afterwards included;
 - absolute error against SLAM's own trajectory (the map's frame), after convergence: mean and 95th percentile;
 - converged: the absolute error under 0.3 m and 0.2 rad; converge time: data time from the first scan to the
   first scan from which it stays converged for 10 s of data; lost: after that, 10 s of data in which it is

@@ -249,7 +249,7 @@ class BumperState:
 @dataclass(frozen=True)
 class SonarArray:
     """p2os_msgs/SonarArray: the latest range of each sonar, indexed by sonar number, metres (ranges_count
-    is ``len(ranges)``). A sonar with no echo reports its maximum range."""
+    is ``len(ranges)``). A sonar with no echo reports its maximum range; +inf: not heard from yet (P2OS)."""
 
     header: Header = Header()
     ranges: tuple[float, ...] = ()

@@ -20,7 +20,8 @@ FIXED_FRAME = "odom"  # rviz's fixed frame for the drawing: continuous, unlike m
 PLACE_WAIT_S = 0.5  # a scan waits this long (wall) for TF to reach its stamp, then is drawn in its own frame
 # ... and this long for its frame to be connected to the fixed frame at all: the sensor's latched static
 # transform can come seconds after the first scans on a loaded machine (a CI run: 0.5 s was not enough, and an
-# early scan of a recording was drawn 0.35 m below and 0.1 m behind where its playback drew it)
+# early scan of a recording was drawn 0.35 m below and 0.1 m behind where its playback drew it). A sensor whose
+# frame never connects is then drawn in its own frame once per CONNECT_WAIT_S (the newest message each time).
 CONNECT_WAIT_S = 3.0
 
 

@@ -45,7 +45,8 @@ class ObservationSourceParams:
     inf_is_valid: bool = param(False, doc="LaserScan: +inf means free out to range_max")
     min_mark_separation: float = param(0.0, lo=0.0, hi=5.0, unit="m",
                                        doc="(zenav) mark a point only where no obstacle is marked in the layer "
-                                           "within this distance (0: always): an imprecise sensor (a sonar's "
+                                           "within this distance along x and y (a square window; marks under "
+                                           "the footprint do not count; 0: always): an imprecise sensor (a sonar's "
                                            "echo may be anywhere across its cone) then adds only what the "
                                            "other sources have not seen, not a second, displaced wall")
     marking: bool = param(True)

@@ -63,7 +63,8 @@ class ObstacleLayer(CostmapLayer):
                                 else np.zeros((0, 2)))
         for obs in self._observations("clearing"):
             bounds = self._raytrace(obs, bounds)
-        for obs in self._observations("marking"):
+        # sources with min_mark_separation last: they mark only where the others have not, this cycle included
+        for obs in sorted(self._observations("marking"), key=lambda o: o.source.min_mark_separation > 0):
             bounds = self._mark(obs, bounds)
         if clearing_footprint:
             bounds = bounds.expand_points(self.footprint_world[:, 0], self.footprint_world[:, 1])

@@ -10,7 +10,7 @@ from common.config import load_params
 from common.log_util import RateLimitedLog
 
 
-def split_params(cfg: dict | None, source: str, *classes: type) -> list[Any]:
+def split_params(cfg: dict | None, source: str, *classes: type, section: str = "") -> list[Any]:
     """Load one YAML mapping into several parameter dataclasses (each key goes to the class that has it).
 
     Keys known to none of them are left to the last class, so load_params reports them as unknown.
@@ -28,7 +28,7 @@ def split_params(cfg: dict | None, source: str, *classes: type) -> list[Any]:
                 break
         else:
             owned[-1][key] = value
-    return [load_params(cls, data, source=source) for cls, data in zip(classes, owned)]
+    return [load_params(cls, data, source=source, section=section) for cls, data in zip(classes, owned)]
 
 
 class Handles:

@@ -48,6 +48,7 @@ from robot_side.p2os.driver import BaseState, P2OSConnectionError, P2OSDriver, P
 
 log = logging.getLogger("zenav.p2os")
 BUMPER_SEGMENTS = 5  # per bumper, front and rear (ARIA's robot parameters for the Pioneer 3)
+SONARS = 16  # a Pioneer 3's two rings of 8 (ARIA's p3at / p3dx tables)
 
 
 def load(cfg: dict | None, source: str) -> P2OSParams:
@@ -69,6 +70,9 @@ class P2OSNode(DeviceNode):
         self._lock = threading.Lock()
         self._motors_sent: bool | None = None
         self._motor_t = self._battery_t = -1e9
+        # before connect(): its handshake hands the first SIP to _on_state already
+        self.pub_sonar = node.publisher("sonar") if p.use_sonar else None
+        self._sonar = [math.inf] * SONARS  # grows if a SIP names a higher sonar number
         self.driver = P2OSDriver(port if port is not None else open_port(p.port, p.baud), p,
                                  on_state=self._on_state)
         try:
@@ -76,8 +80,6 @@ class P2OSNode(DeviceNode):
         except Exception:
             self.driver.close()
             raise
-        self.pub_sonar = node.publisher("sonar") if p.use_sonar else None
-        self._sonar = [math.inf] * info.model.sonar_count
         node.log.info("p2os: %s (%s %s) on %s, %d baud, pulse %g s, motors %s on start, %s timeout %g s",
                       info.name, info.robot_class, info.subclass, p.port, p.baud, p.pulse,
                       "enabled" if p.motors_on_start else "left", p.cmd_vel_topic, p.cmd_vel_timeout)
@@ -117,8 +119,9 @@ class P2OSNode(DeviceNode):
                                             tuple(bool(r.bumpers >> (8 + i) & 1) for i in range(BUMPER_SEGMENTS))))
         if self.pub_sonar is not None:
             for i, rng in r.sonar_ranges:
-                if 0 <= i < len(self._sonar):
-                    self._sonar[i] = rng
+                if i >= len(self._sonar):
+                    self._sonar.extend([math.inf] * (i + 1 - len(self._sonar)))
+                self._sonar[i] = rng
             self.pub_sonar.publish(SonarArray(Header(now, p.base_frame_id), tuple(self._sonar)))
         if r.left_stalled or r.right_stalled:
             log.debug("wheel stall: left %s right %s", r.left_stalled, r.right_stalled)

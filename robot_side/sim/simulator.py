@@ -34,6 +34,7 @@ from common.messages import (
     TransformStamped,
     Twist,
 )
+from robot_side.depth.node_util import split_params
 from robot_side.sim.base import BaseParams, DiffDriveBase, load_base_params
 from robot_side.sim.depth_camera import (
     DepthCamera,
@@ -56,7 +57,8 @@ WORLDS_DIR = Path(__file__).resolve().parents[1] / "worlds"
 class SimulatorParams:
     dt: float = param(0.01, lo=1e-4, hi=0.5, unit="s", doc="physics step")
     real_time_factor: float = param(1.0, lo=0.01, hi=1000.0, doc="simulated seconds per wall second")
-    seed: int | None = param(None, lo=0, doc="if set, overrides the base/laser/camera/physics seeds (seed, +1, +2, +3)")
+    seed: int | None = param(None, lo=0,
+                             doc="if set, overrides the base/laser/camera/physics/sonar seeds (seed .. seed+4)")
     map_frame_id: str = param("map", doc="frame of the ground truth (the world)")
     engine: str = param("kinematic", choices=ENGINES,
                         doc="kinematic: exact arcs on the grid (fast, exact geometry); mujoco: rigid-body "
@@ -89,6 +91,7 @@ class Simulator:
             laser = laser and dataclasses.replace(laser, seed=params.seed + 1)
             depth_camera = depth_camera and dataclasses.replace(depth_camera, seed=params.seed + 2)
             physics = dataclasses.replace(physics, seed=params.seed + 3)
+            sonar = sonar and (sonar[0], dataclasses.replace(sonar[1], seed=params.seed + 4))
         self.world, self.params = world, params
         # the engine's base and sensors (robot_side.sim.mujoco_* for MuJoCo): the same methods either way
         self.base: Any
@@ -159,11 +162,11 @@ class Simulator:
                 raise ConfigError(source, "engine", str(e)) from None
         sonar = None
         if cfg.get("sonar") not in (None, False):
-            sonar_cfg = cfg["sonar"] if isinstance(cfg["sonar"], dict) else {}
-            ring_keys = [f.name for f in dataclasses.fields(SonarRingParams)]
-            sim_keys = [f.name for f in dataclasses.fields(SimSonarParams)]
-            sonar = (load_params(SonarRingParams, sonar_cfg, source, "sonar", ignore=sim_keys),
-                     load_params(SimSonarParams, sonar_cfg, source, "sonar", ignore=ring_keys))
+            if not isinstance(cfg["sonar"], dict):
+                raise ConfigError(source, "sonar", f"a mapping of sonar parameters ({{}} for the P3-AT's ring), "
+                                                   f"or null / false for none; got {cfg['sonar']!r}")
+            ring, sim_sonar = split_params(cfg["sonar"], source, SonarRingParams, SimSonarParams, section="sonar")
+            sonar = (ring, sim_sonar)
         return cls(world, load_base_params(cfg.get("base"), source), sensor("laser", load_laser_params),
                    sensor("depth_camera", load_depth_camera_params), params, physics=physics, sonar=sonar)
 

@@ -77,6 +77,9 @@ def test_sonar_parameters_out_of_range_name_the_key():
     with pytest.raises(ConfigError) as e:
         Simulator.from_config({"world": "room", "laser": None, "depth_camera": None, "sonar": {"rayz": 3}})
     assert "rayz" in str(e.value)
+    with pytest.raises(ConfigError) as e:
+        Simulator.from_config({"world": "room", "laser": None, "depth_camera": None, "sonar": 5})
+    assert "sonar" in str(e.value) and "mapping" in str(e.value)
 
 
 def test_an_echo_behind_marks_the_costmap_and_a_sonar_without_echo_clears_along_its_axis():
@@ -91,8 +94,8 @@ def test_an_echo_behind_marks_the_costmap_and_a_sonar_without_echo_clears_along_
     lc.update_map(robot)
     hit = pts[np.argmin(np.hypot(pts[:, 0] + 0.8, pts[:, 1]))]
     assert lc.master.get_cost(hit[0], hit[1]) == LETHAL
-    far = [p for p in pts if np.hypot(p[0], p[1]) > 4.0]
-    assert len(far) == 15 and all(lc.master.get_cost(p[0] * 0.3, p[1] * 0.3) != LETHAL for p in far)
+    far = [p for p in pts if np.hypot(p[0], p[1]) > 4.0]  # the 15 sonars without echo: beyond obstacle_range
+    assert len(far) == 15 and all(lc.master.get_cost(p[0] * 0.35, p[1] * 0.35) != LETHAL for p in far)
     # the obstacle goes: sonar 11 hears nothing, and its axis is cleared
     ranges[11] = RING.range_max
     pts = sonar_points(RING, ranges, z=0.2, max_range=RING.range_max * 1.001).astype(float)
