@@ -134,8 +134,15 @@ def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
     assert (res_a, fmt_a) == (res_b, fmt_b) and np.array_equal(data_a, data_b)
 
     # Scans: comparable counts over the recorded span, equal points at equal stamps.
-    sa = {r["stamp"]: r["Points3D:positions"] for r in in_span(a["/world/scan"], "Points3D:positions")}
-    sb = {r["stamp"]: r["Points3D:positions"] for r in in_span(b["/world/scan"], "Points3D:positions")}
+    rows_a, rows_b = in_span(a["/world/scan"], "Points3D:positions"), in_span(b["/world/scan"], "Points3D:positions")
+    # A scan that reaches a monitor before any odometry is drawn in its own frame (Placement; the live monitor's
+    # TF subscription can be matched after its scan subscription, on a loaded machine seconds after): those are
+    # not the fixed-frame drawing compared here, and they must stay the exception.
+    for rows in (rows_a, rows_b):
+        placed = [r for r in rows if r.get("CoordinateFrame:frame") == ["odom"]]
+        assert len(placed) >= 0.9 * len(rows) - 2, (len(placed), len(rows))
+    sa = {r["stamp"]: r["Points3D:positions"] for r in rows_a if r.get("CoordinateFrame:frame") == ["odom"]}
+    sb = {r["stamp"]: r["Points3D:positions"] for r in rows_b if r.get("CoordinateFrame:frame") == ["odom"]}
     # The monitor throttles scans on wall time, so a playback slowed by a loaded machine passes more
     # of them than the live run did (121 against 83 once): the upper bound is what the log holds.
     assert 0.6 * len(sa) - 3 <= len(sb) <= counts["scan"], (len(sa), len(sb), counts["scan"])
