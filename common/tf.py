@@ -154,14 +154,27 @@ class TFBroadcaster:
         self._pub.close()
 
 
+# A static broadcaster sends its whole set again this often. Latched messages go best effort (common/bus.py):
+# a late listener gets the set by the latched query, but a *change* sent after it joined (the simulator adds
+# camera_link -> camera_depth_frame once it has seen the mount) can be dropped on a congested link, and the
+# listener then kept the old set for good (a CI run: the collision monitor blind for 6 minutes, "two
+# unconnected trees"). ROS 1's static_transform_publisher sent every period_ms for the same reason.
+STATIC_REPUBLISH_S = 2.0
+
+
 class StaticTFBroadcaster:
     """Publishes static transforms on latched ``tf_static``; every send republishes all transforms this
-    broadcaster has sent (keyed by child frame), so a late listener gets them all in one message."""
+    broadcaster has sent (keyed by child frame), so a late listener gets them all in one message; the set
+    goes out again every ``republish_s`` (None: never) once something was sent."""
 
-    def __init__(self, node) -> None:
+    def __init__(self, node, republish_s: float | None = STATIC_REPUBLISH_S) -> None:
         self._pub = node.publisher("tf_static", latched=True)
         self._all: dict[str, TransformStamped] = {}
         self._lock = threading.Lock()
+        self._stop = threading.Event()
+        if republish_s is not None:
+            threading.Thread(target=self._republish, args=(republish_s,), daemon=True,
+                             name="tf_static:republish").start()
 
     def send(self, transforms: TransformStamped | list[TransformStamped]) -> None:
         with self._lock:
@@ -169,8 +182,20 @@ class StaticTFBroadcaster:
                 self._all[ts.child_frame_id] = ts
             self._pub.publish(TFMessage(tuple(self._all.values())))
 
+    def _republish(self, period: float) -> None:
+        while not self._stop.wait(period):
+            with self._lock:
+                if not self._all:
+                    continue
+                try:
+                    self._pub.publish(TFMessage(tuple(self._all.values())))
+                except Exception:  # noqa: BLE001 - the node's session closed under us: nothing left to do
+                    return
+
     def close(self) -> None:
-        self._pub.close()
+        self._stop.set()
+        with self._lock:
+            self._pub.close()
 
 
 def _frames_problem(msg: TFMessage) -> str | None:
