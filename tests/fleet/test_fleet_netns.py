@@ -179,8 +179,9 @@ def _wrong_cmd_vel_does_not_move_robot1(fleet, procs: list) -> None:
     # the counter's result is its last JSON line; its log (stderr, after stdout here) may follow it, e.g. the
     # route watch's "route repaired" for its cmd_vel subscription (a CI run)
     text = output(counter, 100)
-    res = json.loads(next((ln for ln in reversed(text.splitlines()) if ln.startswith("{")), "null") or "{}")
-    assert res, f"the counter gave no result: {text}"
+    line = next((ln for ln in reversed(text.splitlines()) if ln.startswith("{")), None)
+    assert line is not None, f"the counter gave no result: {text}"
+    res = json.loads(line)
     print(f"wrong cmd_vel: robot1 counted {res} ({time.monotonic() - t0:.1f} s)")
     assert "0.3,0.5" not in res["cmd_vel"], f"robot1 received cmd_vel from a wrong identity: {res}"
     assert res["cmd_vel"].get("0.0,0.001", 0) >= 10, f"master1's cmd_vel did not arrive: {res}; {output(right)}"
