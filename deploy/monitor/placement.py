@@ -54,29 +54,27 @@ class Placement:
         """The submits whose transform has come, or whose wait is over (all with ``flush_all``)."""
         now, out = self.clock(), []
         for entity, (since, header, submit) in list(self._awaiting.items()):
-            if flush_all or self.placeable(header) or now - since > self._wait(header):
+            wait = self._wait(header)
+            if flush_all or wait is None or now - since > wait:
                 del self._awaiting[entity]
                 out.append(submit)
         return out
 
     def placeable(self, header: m.Header) -> bool:
-        try:
-            self.tf.lookup(self.fixed_frame, header.frame_id, header.stamp)
-            return True
-        except ExtrapolationError:  # not yet
-            return False
-        except TFError:  # not connected yet (the sensor's static transform can come after its first scans, as
-            return self.fixed_frame not in self.tf.frames()  # in a playback), or never: no fixed frame at all
+        return self._wait(header) is None
 
-    def _wait(self, header: m.Header) -> float:
-        """How long a message not yet placeable may wait: longer while its frame is not connected at all."""
+    def _wait(self, header: m.Header) -> float | None:
+        """None when the message can be drawn now; else how long it may wait for TF: ``wait_s`` for TF to reach
+        its stamp, ``connect_wait_s`` for its frame to be connected to the fixed frame at all (the sensor's
+        static transform can come after its first scans, as in a playback). Without any fixed frame it is
+        drawn at once, in its own frame."""
         try:
             self.tf.lookup(self.fixed_frame, header.frame_id, header.stamp)
-        except ExtrapolationError:
+            return None
+        except ExtrapolationError:  # not yet
             return self.wait_s
-        except TFError:
-            return self.connect_wait_s
-        return self.wait_s
+        except TFError:  # not connected yet, or never: no fixed frame at all
+            return self.connect_wait_s if self.fixed_frame in self.tf.frames() else None
 
     def at_stamp(self, header: m.Header) -> tuple[str, Transform] | None:
         """(fixed frame, transform from ``header``'s frame into it at its stamp); None when TF does not have it

@@ -12,7 +12,7 @@ from common.bus import Node
 from common.config import param
 from common.messages import BumperState, PointCloud
 from robot_side.bumpers.geometry import BumperParams, press_points
-from robot_side.depth.node_util import Handles, split_params
+from robot_side.depth.node_util import Handles, convert_stream, split_params
 
 log = logging.getLogger("zenav.bumper_cloud")
 
@@ -29,20 +29,16 @@ class BumperCloudParams:
 
 def start(node: Node, cfg: dict, source: str) -> Handles:
     p, geometry = split_params(cfg, source, BumperCloudParams, BumperParams)
-    h = Handles()
-    pub = h.add(node.publisher(p.points_topic))
     warned: set[int] = set()
 
-    def on_state(msg: BumperState) -> None:
+    def cloud(msg: BumperState) -> PointCloud:
         for n in {len(msg.front_bumpers), len(msg.rear_bumpers)} - {0, geometry.segments} - warned:
             warned.add(n)
             log.warning("bumper_state has %d segments, this node's geometry %d: the extra ones are ignored",
                         n, geometry.segments)
-        pts = press_points(geometry, msg.front_bumpers, msg.rear_bumpers, p.offset, p.z)
-        pub.publish(PointCloud(msg.header, pts))
+        return PointCloud(msg.header, press_points(geometry, msg.front_bumpers, msg.rear_bumpers, p.offset, p.z))
 
-    h.add(node.subscribe(p.state_topic, BumperState, callback=on_state, mode="queue"))
-    return h
+    return convert_stream(node, p.state_topic, BumperState, p.points_topic, cloud)
 
 
 if __name__ == "__main__":

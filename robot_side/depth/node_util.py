@@ -1,9 +1,10 @@
-"""Small helpers shared by the depth bus adapters (no bus import here)."""
+"""Small helpers shared by the robot-side bus adapters (depth, bumpers, sonar, the simulator); no bus import here."""
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
+from collections.abc import Callable
 from typing import Any
 
 from common.config import load_params
@@ -46,6 +47,14 @@ class Handles:
             with contextlib.suppress(Exception):  # best effort on shutdown
                 item.close()
         self.items = []
+
+
+def convert_stream(node, in_topic: str, in_type: type, out_topic: str, convert: Callable[[Any], Any]) -> Handles:
+    """Publish ``convert(msg)`` on ``out_topic`` for every message of ``in_topic`` (queued: none is skipped)."""
+    h = Handles()
+    pub = h.add(node.publisher(out_topic))
+    h.add(node.subscribe(in_topic, in_type, callback=lambda msg: pub.publish(convert(msg)), mode="queue"))
+    return h
 
 
 def convert_depth_stream(node, image_topic: str, info_topic: str, out_topic: str, convert, log) -> Handles:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from common.bus import Node
 from common.config import param
 from common.messages import PointCloud, SonarArray
-from robot_side.depth.node_util import Handles, split_params
+from robot_side.depth.node_util import Handles, convert_stream, split_params
 from robot_side.sonar.geometry import SonarRingParams, sonar_points
 
 log = logging.getLogger("zenav.sonar_cloud")
@@ -30,22 +30,18 @@ class SonarCloudParams:
 
 def start(node: Node, cfg: dict, source: str) -> Handles:
     p, ring = split_params(cfg, source, SonarCloudParams, SonarRingParams)
-    h = Handles()
-    pub = h.add(node.publisher(p.points_topic))
     warned: set[int] = set()
     limit = ring.range_max * (1.0 + 1e-6) if p.include_no_echo else ring.range_max
 
-    def on_sonar(msg: SonarArray) -> None:
+    def cloud(msg: SonarArray) -> PointCloud:
         n = len(msg.ranges)
         if n != len(ring.units) and n not in warned:
             warned.add(n)
             log.warning("sonar has %d readings, this node's ring %d: the readings without a unit are ignored",
                         n, len(ring.units))
-        pts = sonar_points(ring, msg.ranges, p.use, p.z, max_range=limit)
-        pub.publish(PointCloud(msg.header, pts))
+        return PointCloud(msg.header, sonar_points(ring, msg.ranges, p.use, p.z, max_range=limit))
 
-    h.add(node.subscribe(p.sonar_topic, SonarArray, callback=on_sonar, mode="queue"))
-    return h
+    return convert_stream(node, p.sonar_topic, SonarArray, p.points_topic, cloud)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,11 @@ from common.geometry import Pose2D
 from common.messages import Header, PointCloud, SonarArray
 from master_side.costmap.cost_values import FREE_SPACE, LETHAL
 from master_side.costmap.costmap2d import Costmap2D
+from master_side.costmap.footprint import pad_footprint
+from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams, VoxelLayerParams
 from master_side.costmap.layered import LayeredCostmap
+from master_side.costmap.obstacle_layer import ObstacleLayer
+from master_side.costmap.voxel_layer import VoxelLayer
 from robot_side.sim.simulator import Simulator
 from robot_side.sonar.geometry import P3AT_SONARS, SonarRingParams, sonar_points
 from tests.support import free_port, wait_until
@@ -25,6 +29,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "costmap"))
 from costmap_helpers import obstacle_layer  # noqa: E402
 
 RING = SonarRingParams()  # the P3-AT's 16 sonars, 15 deg cones, 5 m
+# zenav's local costmap while mapping, in short: a laser source and the sonar source filling in
+LASER = ObservationSourceParams(data_type="LaserScan", obstacle_range=2.5, raytrace_range=3.0, min_obstacle_height=-1.0)
+SONAR = ObservationSourceParams(data_type="PointCloud", obstacle_range=1.5, raytrace_range=3.0, min_obstacle_height=0.0,
+                                min_mark_separation=0.2)
+
+
+def laser_and_sonar(footprint: np.ndarray | None = None) -> tuple[LayeredCostmap, ObstacleLayer]:
+    """A 4 m rolling costmap at 0.025 m with one obstacle layer over LASER and SONAR; footprint clearing when a
+    footprint is given."""
+    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True, footprint=footprint)
+    params = ObstacleLayerParams(footprint_clearing_enabled=footprint is not None)
+    return lc, lc.add_layer(ObstacleLayer("obstacles", params, {"laser": LASER, "sonar": SONAR}))
 
 
 def test_the_p3at_ring_is_eight_front_and_eight_rear_mirrored_left_to_right():
@@ -147,17 +163,7 @@ def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
 def test_a_sonar_echo_marks_only_where_nothing_is_marked_near_it():
     """min_mark_separation: an echo 4 cm inside a wall the laser has marked adds nothing (a displaced second
     wall narrowed office02's passages until no trajectory was left); an echo where nothing is marked does."""
-    from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams, VoxelLayerParams
-    from master_side.costmap.obstacle_layer import ObstacleLayer
-    from master_side.costmap.voxel_layer import VoxelLayer
-
-    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True)
-    laser = ObservationSourceParams(data_type="LaserScan", obstacle_range=2.5, raytrace_range=3.0,
-                                    min_obstacle_height=-1.0)
-    sonar = ObservationSourceParams(data_type="PointCloud", obstacle_range=1.5, raytrace_range=3.0,
-                                    min_obstacle_height=0.0, min_mark_separation=0.2)
-    layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=False),
-                                       {"laser": laser, "sonar": sonar}))
+    lc, layer = laser_and_sonar()
     wall = np.column_stack((np.full(41, 0.5), np.linspace(-0.5, 0.5, 41), np.zeros(41)))  # y from -0.5 to 0.5
     layer.add_observation("laser", wall, np.array([0.0, 0.0, 0.3]), 0.0)
     echoes = np.array([[0.46, 0.1, 0.2], [-0.6, 0.3, 0.2]])  # inside the laser's wall; alone behind the robot
@@ -167,26 +173,15 @@ def test_a_sonar_echo_marks_only_where_nothing_is_marked_near_it():
     assert lc.master.get_cost(0.46, 0.1) != LETHAL  # the displaced echo beside it: not marked
     assert lc.master.get_cost(-0.6, 0.3) == LETHAL  # the echo nothing else saw
     with pytest.raises(ValueError, match="min_mark_separation"):
-        VoxelLayer("voxels", VoxelLayerParams(), {"sonar": sonar})
+        VoxelLayer("voxels", VoxelLayerParams(), {"sonar": SONAR})
 
 
 def test_marks_under_the_footprint_do_not_hide_an_echo_beside_the_robots_corner():
     """A wall 0.03 m beside the robot lies under its padded footprint, which the layer frees each update; an echo
     of the same wall just behind the rear corner (outside the footprint) must still mark, or nothing stops the
     planner sweeping the corner into it (office02: five rear-corner contacts in 20 s along one wall)."""
-    from master_side.costmap.footprint import pad_footprint
-    from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams
-    from master_side.costmap.obstacle_layer import ObstacleLayer
-
     body = np.array([[0.254, 0.254], [-0.254, 0.254], [-0.254, -0.254], [0.254, -0.254]])
-    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True,
-                        footprint=pad_footprint(body, 0.04))
-    laser = ObservationSourceParams(data_type="LaserScan", obstacle_range=2.5, raytrace_range=3.0,
-                                    min_obstacle_height=-1.0)
-    sonar = ObservationSourceParams(data_type="PointCloud", obstacle_range=1.5, raytrace_range=3.0,
-                                    min_obstacle_height=0.0, min_mark_separation=0.2)
-    layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=True),
-                                       {"laser": laser, "sonar": sonar}))
+    lc, layer = laser_and_sonar(footprint=pad_footprint(body, 0.04))
     beside = np.column_stack((np.linspace(-0.2, 0.2, 17), np.full(17, -0.284), np.zeros(17)))  # 0.03 m off
     layer.add_observation("laser", beside, np.array([0.1, 0.0, 0.3]), 0.0)
     echo = np.array([[-0.32, -0.27, 0.2]])  # sonar 9's echo of that wall, behind the rear right corner
