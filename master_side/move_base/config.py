@@ -23,7 +23,9 @@ import numpy as np
 from common.config import Problems, include, load_params, strip_frame
 from common.geometry import footprint_radii
 from master_side import ros_params as ros
+from master_side.costmap.footprint import pad_footprint
 from master_side.costmap.params import CostmapConfig, load_costmap_config
+from master_side.move_base.escape import ESCAPE_TYPES, EscapeParams
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.recovery import RotateLimits
 from master_side.planning.local.base import LocalPlannerPlugin
@@ -80,6 +82,11 @@ class MoveBaseConfig:
         return (self.global_costmap or self.local_costmap).costmap.transform_tolerance
 
     @property
+    def bare_footprint(self) -> np.ndarray:
+        """The robot's own outline: the local costmap's footprint with its padding taken off again."""
+        return pad_footprint(self.footprint, -self.local_costmap.costmap.footprint_padding)
+
+    @property
     def circumscribed_radius(self) -> float:
         return float(footprint_radii(self.footprint)[1])
 
@@ -111,6 +118,9 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
     if isinstance(mb.get("recovery_behaviors"), list):
         rec_names |= {str(b.get("name")) for b in mb["recovery_behaviors"] if isinstance(b, dict)}
     namespaces = {k: v for k, v in mb.items() if k in rec_names and isinstance(v, dict)}
+    for b in mb.get("recovery_behaviors") or []:  # an escape's parameters are zenav's: checked before start
+        if isinstance(b, dict) and b.get("type") in ESCAPE_TYPES:
+            _collect(problems, load_params, EscapeParams, namespaces.get(str(b.get("name"))), mb_src, str(b["name"]))
     # keys of the planners / costmaps a move_base namespace may also hold (ROS loads them all into ~)
     nested = {"global_costmap", "local_costmap", "TrajectoryPlannerROS", "DWAPlannerROS", "NavfnROS",
               "GlobalPlanner", *namespaces}

@@ -87,7 +87,8 @@ class MoveBaseNode:
         self._cancelling = 0  # cancels under way: no cycle publishes meanwhile (see cancel())
         self.planner = PlannerThread(self.planning.plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
         recoveries = recoveries_from_params(p, c.recovery_namespaces, source, self._clear_costmaps, self._blocked,
-                                            c.circumscribed_radius, c.rotate)
+                                            c.circumscribed_radius, c.rotate, self._local_view, c.bare_footprint,
+                                            node.log.info)
         self.machine = MoveBaseMachine(p, self.planner, self.controller, recoveries)
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None
@@ -234,6 +235,11 @@ class MoveBaseNode:
                 self.node.call(f"{name}/clear", Scalar(value=reset_distance), timeout=1.0)
             except Exception as e:  # noqa: BLE001 - recovery goes on without it
                 self.node.log.warning("could not clear %s: %s", name, e)
+
+    def _local_view(self):
+        """(local grid, resolution, origin, robot pose in the local frame), or None (an escape's view)."""
+        costmap, pose = self.controller.costmap, self.controller.local_pose
+        return None if costmap is None or pose is None else (*costmap, pose)
 
     def _blocked(self, pose_global: Pose2D, yaws: np.ndarray) -> bool:
         """Would the footprint touch a lethal cell at any of these headings (here, on the local costmap)?"""

@@ -1,5 +1,6 @@
 """Recovery behaviours (pure): costmap reset and in-place rotation, as ROS's clear_costmap_recovery and
-rotate_recovery, and move_base's default list or its ``recovery_behaviors`` parameter.
+rotate_recovery, zenav's escape (``escape.py``), and move_base's default list or its ``recovery_behaviors``
+parameter.
 
 A behaviour has ``name``, ``enabled(params)``, ``start(now)`` and ``step(now, pose, velocity) ->
 (cmd, done)``. Side effects (clearing costmaps, checking the footprint) go through callables the
@@ -17,6 +18,7 @@ import numpy as np
 from common.config import ConfigError, load_params, param
 from common.geometry import Pose2D, normalize_angle
 from master_side.move_base.contracts import Recovery
+from master_side.move_base.escape import ESCAPE_TYPES, EscapeParams, EscapeRecovery, View
 
 CLEAR_TYPES = ("clear_costmap_recovery/ClearCostmapRecovery", "ClearCostmapRecovery")
 ROTATE_TYPES = ("rotate_recovery/RotateRecovery", "RotateRecovery")
@@ -119,9 +121,12 @@ def default_recoveries(params, clear: Callable[..., None], blocked=None, circums
 
 
 def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked=None,
-                           circumscribed_radius: float = 0.0, rotate: RotateLimits = RotateLimits()) -> list:
+                           circumscribed_radius: float = 0.0, rotate: RotateLimits = RotateLimits(),
+                           view: View | None = None, bare_footprint: np.ndarray | None = None,
+                           log: Callable[[str], None] | None = None) -> list:
     """The ``recovery_behaviors`` list ([{name, type}], each name's parameters in ``namespaces``), or the
-    default list when it is not set."""
+    default list when it is not set. An escape needs ``view`` (the local costmap and the robot's pose in
+    it) and the robot's ``bare_footprint`` (unpadded)."""
     spec = params.recovery_behaviors
     if spec is None:
         return default_recoveries(params, clear, blocked, circumscribed_radius, rotate)
@@ -140,7 +145,12 @@ def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked
             out.append(ClearCostmapRecovery(clear, cp.reset_distance, name, cp.affected_maps))
         elif kind in ROTATE_TYPES:
             out.append(RotateRecovery(rotate, blocked, float(ns.get("sim_granularity", 0.017)), name=name))
+        elif kind in ESCAPE_TYPES:
+            ep = load_params(EscapeParams, ns, source, name)
+            fp = np.zeros((0, 2)) if bare_footprint is None else bare_footprint
+            out.append(EscapeRecovery(view or (lambda: None), fp, ep, name, log))
         else:
             raise ConfigError(source, f"recovery_behaviors[{names.index(name)}].type",
-                              f"{kind!r} is not implemented (known: {CLEAR_TYPES[0]}, {ROTATE_TYPES[0]})")
+                              f"{kind!r} is not implemented (known: {CLEAR_TYPES[0]}, {ROTATE_TYPES[0]}, "
+                              f"{ESCAPE_TYPES[0]})")
     return out

@@ -1,0 +1,187 @@
+"""An escape recovery (zenav's; nav2's BackUp and DriveOnHeading are its nearest relatives): when the local
+planner finds no move because the padded footprint touches walls on every trajectory, move the robot by
+one short straight drive (forward or back) or one in-place turn to the nearby pose where its outline is
+farthest from obstacles, checking the robot's bare outline (no padding) along the whole way.
+
+ROS 1's move_base has no recovery that moves the robot out of a tight spot: rotate_recovery ends at once
+when a turn would touch an obstacle, and the costmap resets do not move it. In a narrow doorway, beside
+a wall it has just been told about by a sonar or a bumper, a robot then stands until its goal is aborted.
+
+Pure: ``plan_escape`` takes the local costmap's grid and the robot's pose in its frame; ``EscapeRecovery``
+reads both through a callable the node supplies and commands the move one control cycle at a time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+
+from common.config import param
+from common.geometry import Pose2D, normalize_angle
+from master_side.costmap.cost_values import LETHAL, NO_INFORMATION
+
+ESCAPE_TYPES = ("zenav/EscapeRecovery", "EscapeRecovery")
+
+# (grid, resolution, origin, robot pose in the grid's frame) or None when the local costmap is not known
+View = Callable[[], "tuple[np.ndarray, float, tuple[float, float], Pose2D] | None"]
+
+
+@dataclass(frozen=True)
+class EscapeParams:
+    max_distance: float = param(0.3, lo=0.01, hi=2.0, unit="m", doc="longest straight drive, either way")
+    max_turn: float = param(0.8, lo=0.0, hi=math.pi, unit="rad", doc="largest in-place turn, either way")
+    clearance: float = param(0.15, lo=0.0, hi=2.0, unit="m",
+                             doc="clearance of the outline that counts as free enough: the shortest move that "
+                                 "reaches it wins over a longer move to more")
+    speed: float = param(0.1, lo=0.01, hi=1.0, unit="m/s", doc="straight drive speed")
+    turn_speed: float = param(0.4, lo=0.01, hi=5.0, unit="rad/s", doc="in-place turn speed")
+    time_allowance: float = param(10.0, lo=0.1, hi=300.0, unit="s", doc="the move ends after this long")
+
+
+@dataclass(frozen=True)
+class EscapeMove:
+    """A straight drive of ``distance`` m (negative: backwards) or an in-place turn of ``turn`` rad."""
+
+    distance: float
+    turn: float
+    clearance_before: float
+    clearance_after: float
+
+    def describe(self) -> str:
+        what = (f"{'forward' if self.distance > 0 else 'back'} {abs(self.distance):.2f} m" if self.distance
+                else f"turn {math.degrees(self.turn):+.0f} deg")
+        return f"{what}: clearance {self.clearance_before:.2f} -> {self.clearance_after:.2f} m"
+
+
+def outline_points(footprint: np.ndarray, spacing: float) -> np.ndarray:
+    """The footprint polygon's edges sampled every ``spacing`` (robot frame), corners included."""
+    fp = np.asarray(footprint, float)
+    pts = []
+    for a, b in zip(fp, np.roll(fp, -1, axis=0)):
+        n = max(2, int(math.ceil(float(np.hypot(*(b - a))) / spacing)) + 1)
+        pts.append(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
+    return np.vstack(pts)
+
+
+def _poses_along(pose: Pose2D, distance: float, turn: float, res: float, outline_r: float) -> np.ndarray:
+    """(K, 3) poses from ``pose`` along the move, dense enough that no outline point skips a cell."""
+    if distance:
+        n = max(1, int(math.ceil(abs(distance) / (0.5 * res))))
+        s = np.linspace(0.0, distance, n + 1)[1:]
+        return np.column_stack((pose.x + s * math.cos(pose.theta), pose.y + s * math.sin(pose.theta),
+                                np.full_like(s, pose.theta)))
+    n = max(1, int(math.ceil(abs(turn) * outline_r / (0.5 * res))))
+    a = np.linspace(0.0, turn, n + 1)[1:]
+    return np.column_stack((np.full_like(a, pose.x), np.full_like(a, pose.y), pose.theta + a))
+
+
+def _cells(poses: np.ndarray, outline: np.ndarray, res: float, origin: tuple[float, float]) -> np.ndarray:
+    """(K, M, 2) integer (col, row) of every outline point at every pose."""
+    c, s = np.cos(poses[:, 2])[:, None], np.sin(poses[:, 2])[:, None]
+    x = poses[:, 0:1] + c * outline[None, :, 0] - s * outline[None, :, 1]
+    y = poses[:, 1:2] + s * outline[None, :, 0] + c * outline[None, :, 1]
+    return np.stack((np.floor((x - origin[0]) / res), np.floor((y - origin[1]) / res)), axis=-1).astype(np.int64)
+
+
+def _inside(cells: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    return (cells[..., 0] >= 0) & (cells[..., 1] >= 0) & (cells[..., 0] < shape[1]) & (cells[..., 1] < shape[0])
+
+
+def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
+                params: EscapeParams = EscapeParams()) -> EscapeMove | None:
+    """The shortest straight drive or in-place turn whose end leaves the robot's outline at least
+    ``params.clearance`` from every lethal cell (else the one that leaves it farthest), free for the
+    outline all the way (no lethal or unknown cell, not off the grid). None when no move gains a cell of
+    clearance on where the robot stands."""
+    grid = np.asarray(grid)
+    outline = outline_points(footprint, 0.5 * res)
+    outline_r = float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
+    clear = distance_transform_edt(grid != LETHAL) * res if (grid == LETHAL).any() else np.full(grid.shape, np.inf)
+
+    def clearance(cells: np.ndarray) -> float:
+        ok = _inside(cells, grid.shape)
+        return float(clear[cells[ok, 1], cells[ok, 0]].min()) if ok.any() else 0.0
+
+    here = clearance(_cells(pose.as_array()[None], outline, res, origin)[0])
+    if here >= params.clearance:
+        return None  # free enough where it stands
+    step = max(res, 0.05)
+    dists = np.arange(step, params.max_distance + 1e-9, step)
+    turns = np.arange(0.1, params.max_turn + 1e-9, 0.1)
+    moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
+    best: tuple[tuple[float, float], EscapeMove] | None = None
+    for d, a in moves:
+        poses = _poses_along(pose, float(d), float(a), res, outline_r)
+        cells = _cells(poses, outline, res, origin)
+        if not _inside(cells, grid.shape).all():
+            continue
+        cost = grid[cells[..., 1], cells[..., 0]]
+        if ((cost == LETHAL) | (cost == NO_INFORMATION)).any():
+            continue
+        after = clearance(cells[-1])
+        if after < here + res:
+            continue
+        # the most clearance up to params.clearance, then the least motion (a turn as its outline's arc)
+        key = (min(after, params.clearance), -(abs(d) + abs(a) * outline_r))
+        if best is None or key > best[0]:
+            best = key, EscapeMove(float(d), float(a), here, after)
+    return None if best is None else best[1]
+
+
+class EscapeRecovery:
+    """move_base recovery: plans one escape move on its first tick (``view`` gives the local costmap and
+    the robot's pose in it), then drives it, checking the bare outline a step ahead every tick; done
+    when the move is made, the way ahead is blocked, the time allowance is spent or nothing helps."""
+
+    def __init__(self, view: View, footprint: np.ndarray, params: EscapeParams = EscapeParams(),
+                 name: str = "escape", log: Callable[[str], None] | None = None) -> None:
+        self._view, self.footprint, self.params, self.name = view, np.asarray(footprint, float), params, name
+        self._log = log
+        self.move: EscapeMove | None = None
+        self._start: Pose2D | None = None
+        self._t0 = 0.0
+
+    def enabled(self, params) -> bool:
+        return True
+
+    def start(self, now: float) -> None:
+        self._t0, self.move, self._start = now, None, None
+        view = self._view()
+        if view is not None:
+            grid, res, origin, pose = view
+            self.move, self._start = plan_escape(grid, res, origin, pose, self.footprint, self.params), pose
+        if self._log is not None:
+            self._log(f"{self.name}: {self.move.describe() if self.move else 'no move gains clearance'}")
+
+    def step(self, now: float, pose: Pose2D, velocity) -> tuple[tuple[float, float, float], bool]:
+        stop = (0.0, 0.0, 0.0)
+        view = self._view()
+        if self.move is None or self._start is None or view is None or now - self._t0 > self.params.time_allowance:
+            return stop, True
+        grid, res, origin, here = view
+        m, p = self.move, self.params
+        rel = self._start.between(here)
+        if m.distance:
+            left, ahead = abs(m.distance) - abs(rel.x), math.copysign(min(2 * res, abs(m.distance)), m.distance)
+            cmd, check = (math.copysign(p.speed, m.distance), 0.0, 0.0), (ahead, 0.0)
+        else:
+            left = abs(m.turn) - abs(normalize_angle(rel.theta))
+            ahead = math.copysign(min(0.1, abs(m.turn)), m.turn)
+            cmd, check = (0.0, 0.0, math.copysign(p.turn_speed, m.turn)), (0.0, ahead)
+        if left <= 0.0 or self._blocked(grid, res, origin, here, *check):
+            return stop, True
+        return cmd, False
+
+    def _blocked(self, grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D,
+                 distance: float, turn: float) -> bool:
+        outline = outline_points(self.footprint, 0.5 * res)
+        r = float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
+        cells = _cells(_poses_along(pose, distance, turn, res, r), outline, res, origin)
+        if not _inside(cells, grid.shape).all():
+            return True
+        cost = np.asarray(grid)[cells[..., 1], cells[..., 0]]
+        return bool(((cost == LETHAL) | (cost == NO_INFORMATION)).any())

@@ -1,0 +1,140 @@
+"""zenav's escape recovery on synthetic local costmaps: which move it picks, that its way is free for the
+robot's own outline, and that the recovery drives it and stops."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from common.config import ConfigError
+from common.geometry import Pose2D
+from master_side.costmap.cost_values import FREE, LETHAL
+from master_side.move_base.escape import EscapeParams, EscapeRecovery, outline_points, plan_escape
+from master_side.move_base.params import MoveBaseParams
+from master_side.move_base.recovery import recoveries_from_params
+
+RES = 0.025
+ORIGIN = (-2.0, -2.0)
+# the P3-AT's outline (p3at/costmap_common_params.yaml)
+P3AT = np.array([[0.3302, -0.0508], [0.254, -0.0508], [0.254, -0.254], [-0.254, -0.254], [-0.254, 0.254],
+                 [0.254, 0.254], [0.254, 0.0508], [0.3302, 0.0508]])
+
+
+def grid_with(*boxes: tuple[float, float, float, float]) -> np.ndarray:
+    """A 4 m x 4 m grid centred on the robot, LETHAL in each (x0, y0, x1, y1) box (metres)."""
+    g = np.full((160, 160), FREE, np.uint8)
+    for x0, y0, x1, y1 in boxes:
+        c0, r0 = int((x0 - ORIGIN[0]) / RES), int((y0 - ORIGIN[1]) / RES)
+        c1, r1 = int(math.ceil((x1 - ORIGIN[0]) / RES)), int(math.ceil((y1 - ORIGIN[1]) / RES))
+        g[max(r0, 0):r1, max(c0, 0):c1] = LETHAL
+    return g
+
+
+def min_clearance(grid: np.ndarray, pose: Pose2D) -> float:
+    """Least distance from the outline at ``pose`` to a LETHAL cell centre (brute force)."""
+    rows, cols = np.nonzero(grid == LETHAL)
+    cells = np.column_stack((ORIGIN[0] + (cols + 0.5) * RES, ORIGIN[1] + (rows + 0.5) * RES))
+    pts = pose.apply(outline_points(P3AT, 0.01))
+    return float(np.min(np.hypot(*(pts[:, None, :] - cells[None, :, :]).transpose(2, 0, 1))))
+
+
+def test_a_wall_just_ahead_backs_the_robot_away_from_it():
+    grid = grid_with((0.36, -2.0, 0.5, 2.0))  # a wall 3 cm beyond the nose
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT)
+    assert move is not None and move.turn == 0.0 and move.distance < 0.0
+    # the shortest drive that leaves 0.15 m (within a cell of the grid's own rounding)
+    assert 0.10 <= -move.distance <= 0.2
+    assert move.clearance_after >= 0.15 - RES
+    assert min_clearance(grid, Pose2D(move.distance, 0.0, 0.0)) >= 0.15 - 2 * RES
+
+
+def test_walls_close_front_and_back_leave_no_move():
+    # walls 5 cm beyond the nose and the rear: a drive nears one of them, a turn swings the corners into both
+    grid = grid_with((0.38, -2.0, 0.6, 2.0), (-0.6, -2.0, -0.31, 2.0))
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT) is None
+    # with 0.4 m behind, backing away is the move
+    move = plan_escape(grid_with((0.38, -2.0, 0.6, 2.0), (-0.9, -2.0, -0.65, 2.0)), RES, ORIGIN, Pose2D(), P3AT)
+    assert move is not None and move.distance < 0
+
+
+def test_a_robot_in_the_open_does_not_move():
+    assert plan_escape(grid_with(), RES, ORIGIN, Pose2D(), P3AT) is None
+
+
+def test_the_way_must_be_free_all_along_not_only_at_its_end():
+    # a wall 3 cm behind the rear and a thin post 0.1 m ahead of the nose: driving forward 0.3 m would end in
+    # open space past the post's line only through it, so the escape may not drive through the post
+    grid = grid_with((-0.6, -2.0, -0.285, 2.0), (0.43, -0.05, 0.46, 0.05))
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(max_turn=0.0))
+    assert move is None or move.distance <= 0.43 - 0.3302
+
+
+def test_a_wall_beside_the_rear_corner_is_left_by_the_turn_that_swings_it_away():
+    # a wall behind the left rear corner only (x < -0.1), 3 cm from the left side
+    grid = grid_with((-2.0, 0.284, -0.1, 0.5))
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT)
+    assert move is not None
+    if move.distance == 0.0:  # turning clockwise swings the left rear corner away from the wall
+        assert move.turn < 0.0
+    else:  # driving forward leaves it behind
+        assert move.distance > 0.0
+
+
+class FakeBase:
+    """The robot integrating the escape's commands, and the view the recovery reads."""
+
+    def __init__(self, grid: np.ndarray) -> None:
+        self.grid, self.pose = grid, Pose2D()
+
+    def view(self):
+        return self.grid, RES, ORIGIN, self.pose
+
+    def run(self, rec: EscapeRecovery, dt: float = 0.1, limit: int = 400) -> int:
+        rec.start(0.0)
+        for i in range(limit):
+            (v, _, w), done = rec.step(i * dt, self.pose, (0.0, 0.0, 0.0))
+            if done:
+                return i
+            self.pose = self.pose.compose(Pose2D(v * dt, 0.0, w * dt))
+        raise AssertionError("the escape never ended")
+
+
+def test_the_recovery_drives_the_planned_move_and_stops():
+    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
+    logged: list[str] = []
+    rec = EscapeRecovery(base.view, P3AT, log=logged.append)
+    base.run(rec)
+    assert rec.move is not None and rec.move.distance < 0
+    assert base.pose.x == pytest.approx(rec.move.distance, abs=0.011)  # within one tick at 0.1 m/s
+    assert "back" in logged[0] and "clearance" in logged[0]
+
+
+def test_the_recovery_stops_when_something_appears_in_its_way():
+    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
+    rec = EscapeRecovery(base.view, P3AT)
+    rec.start(0.0)
+    assert rec.move is not None and rec.move.distance < 0
+    base.grid = grid_with((0.36, -2.0, 0.5, 2.0), (-0.6, -2.0, -0.27, 2.0))  # a sonar hears a wall behind
+    cmd, done = rec.step(0.1, base.pose, (0.0, 0.0, 0.0))
+    assert done and cmd == (0.0, 0.0, 0.0)
+
+
+def test_no_costmap_means_no_move():
+    rec = EscapeRecovery(lambda: None, P3AT)
+    rec.start(0.0)
+    assert rec.step(0.0, Pose2D(), (0.0, 0.0, 0.0)) == ((0.0, 0.0, 0.0), True)
+
+
+def test_the_recovery_list_builds_escapes_with_their_parameters_and_rejects_bad_ones():
+    spec = [{"name": "reset", "type": "clear_costmap_recovery/ClearCostmapRecovery"},
+            {"name": "escape", "type": "zenav/EscapeRecovery"}]
+    params = MoveBaseParams(recovery_behaviors=spec)
+    recs = recoveries_from_params(params, {"escape": {"max_distance": 0.2}}, "mb.yaml", lambda *a: None,
+                                  view=lambda: None, bare_footprint=P3AT)
+    assert [r.name for r in recs] == ["reset", "escape"]
+    assert recs[1].params.max_distance == 0.2
+    with pytest.raises(ConfigError) as e:
+        recoveries_from_params(params, {"escape": {"max_distance": 5.0}}, "mb.yaml", lambda *a: None)
+    assert "mb.yaml" in str(e.value) and "max_distance" in str(e.value)
