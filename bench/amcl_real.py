@@ -51,6 +51,9 @@ from common.geometry import Pose2D  # noqa: E402
 from common.messages import OccupancyGrid  # noqa: E402
 from common.robot_logs import CARMEN_MAX_RANGE, ScanRecord  # noqa: E402
 from master_side.localization.amcl import Amcl  # noqa: E402
+from master_side.localization.laser_noise import end_point_distances  # noqa: E402
+from master_side.localization.laser_noise import fit as fit_laser_noise  # noqa: E402
+from master_side.localization.likelihood_field import LikelihoodField  # noqa: E402
 from master_side.localization.odom_noise import fit as fit_odom_noise  # noqa: E402
 from master_side.localization.params import AmclParams, load_amcl_params  # noqa: E402
 from master_side.mapping.map_io import load_map  # noqa: E402
@@ -162,6 +165,17 @@ def measured_odom_noise(records: list[ScanRecord], ref: SlamRef, share: float = 
     return {f"odom_alpha{i}": round(getattr(n, f"alpha{i}"), 4) for i in range(1, 5)}
 
 
+def measured_laser_noise(name: str, records: list[ScanRecord], ref: SlamRef, share: float = MEASURE_SHARE) -> dict:
+    """amcl's laser_sigma_hit measured on the first ``share`` of the log: the scans' end points seen from
+    SLAM's trajectory against SLAM's map (`zenav slam laser-noise`'s fit)."""
+    k = max(int(len(records) * share), 1)
+    p = amcl_params(name)
+    field = LikelihoodField(ref.grid, p.laser_likelihood_max_dist, p.laser_penalize_interior)
+    d = end_point_distances(field, ref.poses[:k], ((r.scan.ranges, r.scan.angles()) for r in records[:k]),
+                            Pose2D(), records[0].scan.range_min, p.laser_max_range)
+    return {"laser_sigma_hit": round(fit_laser_noise(d, p.laser_likelihood_max_dist).sigma_hit, 4)}
+
+
 def tracking_starts(first: Pose2D) -> list[tuple[str, Pose2D]]:
     """SLAM's first pose moved 1 m along each map axis, turned +30° (+x, -x) or -30° (+y, -y)."""
     out = []
@@ -236,7 +250,8 @@ def figures(mode: str, start: str, seed: int, poses: np.ndarray, updates: int, c
 
 # -- the bench ------------------------------------------------------------------------------------------
 def bench_log(name: str, max_scans: int | None, seeds: int, track_seeds: int, out: Path, sets: dict,
-              progress=sys.stderr, odom_noise: str = "ros") -> tuple[SlamRef, list[RunFigures]]:
+              progress=sys.stderr, odom_noise: str = "ros",
+              laser_noise: str = "ros") -> tuple[SlamRef, list[RunFigures]]:
     log, rel_path = SHARED / f"{name}.recon.clf", SHARED / f"{name}.relations"
     progress.write(f"{name}: SLAM map (cached in {out})\n")
     ref = slam_reference(log, rel_path, max_scans, out, progress)
@@ -247,6 +262,10 @@ def bench_log(name: str, max_scans: int | None, seeds: int, track_seeds: int, ou
     if odom_noise == "measured":
         sets = {**measured_odom_noise(records, ref), **sets}
         progress.write(f"{name}: odometry noise measured on the first {MEASURE_SHARE:.0%} of the log: {sets}\n")
+    if laser_noise == "measured":
+        sets = {**measured_laser_noise(name, records, ref), **sets}
+        progress.write(f"{name}: laser noise measured on the first {MEASURE_SHARE:.0%} of the log: "
+                       f"laser_sigma_hit {sets['laser_sigma_hit']}\n")
     params = amcl_params(name, sets)
     runs = [("track", label, seed, start) for seed in range(track_seeds)
             for label, start in tracking_starts(Pose2D(*ref.poses[0]))]
@@ -337,18 +356,22 @@ def main(argv: list[str] | None = None) -> int:
                          f"against SLAM's trajectory on its first {MEASURE_SHARE * 100:.0f} %% "
                          "(zenav slam odom-noise), "
                          "as a user calibrates a robot")
+    ap.add_argument("--laser-noise", choices=("ros", "measured"), default="ros",
+                    help="ros: ROS amcl's default laser_sigma_hit (0.2 m); measured: fitted to the scans' end "
+                         f"points seen from SLAM's trajectory against its map, on the first {MEASURE_SHARE * 100:.0f} "
+                         "%% of the log (zenav slam laser-noise)")
     a = ap.parse_args(argv)
     sets = parse_sets(a.set)
     t0 = time.perf_counter()
     results = {}
     for name in a.datasets:
         ref, rows = bench_log(name, QUICK_SCANS if a.quick else None, a.seeds, a.track_seeds, Path(a.out), sets,
-                              odom_noise=a.odom_noise)
+                              odom_noise=a.odom_noise, laser_noise=a.laser_noise)
         results[name] = (ref, rows)
         print_table(name, ref, rows, len(ref.stamps), ref.stamps[-1] - ref.stamps[0])
     print(f"\nwall {time.perf_counter() - t0:.0f} s, cpu {time.process_time():.0f} s"
           + (f"; amcl overrides {sets}" if sets else ""))
-    print(summary_line(results) + f" odom_noise={a.odom_noise}")
+    print(summary_line(results) + f" odom_noise={a.odom_noise} laser_noise={a.laser_noise}")
     return 0
 
 

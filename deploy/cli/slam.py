@@ -14,21 +14,25 @@ eval --relations REL DIR/trajectory.txt
 odom-noise LOG DIR/trajectory.txt [--model diff|diff-corrected] [--first SHARE]
     amcl's odom_alpha1..4 measured: the odometry's errors against the trajectory over amcl's update
     steps; prints the lines for amcl's parameters (instead of guessing them).
+laser-noise LOG DIR/trajectory.txt [--map DIR/map.yaml] [--laser-max-range M] [--first SHARE]
+    amcl's laser_sigma_hit measured: the deviation of the scans' end points, seen from the trajectory,
+    from the map's obstacles; prints the line for amcl's parameters.
 
 example:
   zenav slam run ../shared/datasets/slam/aces.recon.clf \
       --config master_side/config/gmapping_datasets.yaml --out out/aces
   zenav slam eval --relations ../shared/datasets/slam/aces.relations out/aces/trajectory.txt
   zenav slam odom-noise ../shared/datasets/slam/aces.recon.clf out/aces/trajectory.txt
+  zenav slam laser-noise ../shared/datasets/slam/aces.recon.clf out/aces/trajectory.txt
 """
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
-    p = subparsers.add_parser("slam", help="offline SLAM on a log (run), its evaluation (eval), odometry noise "
-                                           "for amcl (odom-noise)",
+    p = subparsers.add_parser("slam", help="offline SLAM on a log (run), its evaluation (eval), odometry and "
+                                           "laser noise for amcl (odom-noise, laser-noise)",
                               description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("action", choices=("run", "eval", "odom-noise"),
-                   help="run SLAM on a log, evaluate a trajectory, or measure amcl's odometry noise")
+    p.add_argument("action", choices=("run", "eval", "odom-noise", "laser-noise"),
+                   help="run SLAM on a log, evaluate a trajectory, or measure amcl's odometry or laser noise")
     p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments of the action (see above)")
     p.set_defaults(func=run)
     return p

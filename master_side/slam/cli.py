@@ -1,5 +1,5 @@
-"""`zenav slam run LOG --out DIR ...`, `zenav slam eval --relations REL TRAJ` and `zenav slam odom-noise LOG TRAJ`
-(hook: main(argv))."""
+"""`zenav slam run LOG --out DIR ...`, `zenav slam eval --relations REL TRAJ`, `zenav slam odom-noise LOG TRAJ`
+and `zenav slam laser-noise LOG TRAJ` (hook: main(argv))."""
 
 from __future__ import annotations
 
@@ -67,11 +67,35 @@ def _run(argv: list[str]) -> int:
     return 0
 
 
+def _matched(prog: str, log: str, trajectory: str, first: float):
+    """The log's records at the trajectory's stamps and the trajectory's poses there, the first ``first``
+    share of them; or an exit status (2) with the reason on stderr."""
+    import numpy as np
+
+    from master_side.slam.logs import read_log
+
+    if not 0.0 < first <= 1.0:
+        print(f"{prog}: --first {first}: a share in (0, 1]", file=sys.stderr)
+        return 2
+    try:
+        stamps, ref = evaluate.read_trajectory(trajectory)
+        at = {round(r.stamp, 6): r for r in read_log(log)}
+    except (LogError, OSError, ValueError) as e:
+        print(f"{prog}: {e}", file=sys.stderr)
+        return 2
+    keep = [i for i, t in enumerate(stamps) if round(float(t), 6) in at]
+    if len(keep) < 0.9 * len(stamps):
+        print(f"{prog}: only {len(keep)} of the trajectory's {len(stamps)} stamps are scans of "
+              f"{log}: a trajectory of another log?", file=sys.stderr)
+        return 2
+    keep = keep[:max(int(len(keep) * first), 3)]
+    return [at[round(float(stamps[i]), 6)] for i in keep], np.asarray(ref[keep])
+
+
 def _odom_noise(argv: list[str]) -> int:
     import numpy as np
 
     from master_side.localization.odom_noise import fit
-    from master_side.slam.logs import read_log
 
     ap = argparse.ArgumentParser(
         prog="zenav slam odom-noise",
@@ -87,24 +111,12 @@ def _odom_noise(argv: list[str]) -> int:
     ap.add_argument("--first", type=float, default=1.0, metavar="SHARE",
                     help="fit on this share of the log from its start (default 1: all of it)")
     a = ap.parse_args(argv)
-    if not 0.0 < a.first <= 1.0:
-        print(f"zenav slam odom-noise: --first {a.first}: a share in (0, 1]", file=sys.stderr)
-        return 2
+    got = _matched(ap.prog, a.log, a.trajectory, a.first)
+    if isinstance(got, int):
+        return got
+    recs, ref = got
     try:
-        stamps, ref = evaluate.read_trajectory(a.trajectory)
-        odom_at = {round(r.stamp, 6): r.odom.as_array() for r in read_log(a.log)}
-    except (LogError, OSError, ValueError) as e:
-        print(f"zenav slam odom-noise: {e}", file=sys.stderr)
-        return 2
-    keep = [i for i, t in enumerate(stamps) if round(float(t), 6) in odom_at]
-    if len(keep) < 0.9 * len(stamps):
-        print(f"zenav slam odom-noise: only {len(keep)} of the trajectory's {len(stamps)} stamps are scans of "
-              f"{a.log}: a trajectory of another log?", file=sys.stderr)
-        return 2
-    keep = keep[:max(int(len(keep) * a.first), 3)]
-    odom = np.array([odom_at[round(float(stamps[i]), 6)] for i in keep])
-    try:
-        r = fit(odom, ref[keep], a.model, a.update_min_d, a.update_min_a)
+        r = fit(np.array([rec.odom.as_array() for rec in recs]), ref, a.model, a.update_min_d, a.update_min_a)
     except ValueError as e:
         print(f"zenav slam odom-noise: {e}", file=sys.stderr)
         return 2
@@ -114,10 +126,56 @@ def _odom_noise(argv: list[str]) -> int:
     return 0
 
 
+def _laser_noise(argv: list[str]) -> int:
+    from common.geometry import Pose2D
+    from master_side.localization.laser_noise import end_point_distances, fit
+    from master_side.localization.likelihood_field import LikelihoodField
+    from master_side.mapping.map_io import MapFormatError, load_map
+
+    ap = argparse.ArgumentParser(
+        prog="zenav slam laser-noise",
+        description="amcl's laser_sigma_hit measured from a log's scans, seen from a trajectory of the same log, "
+                    "against a map of the place (zenav slam run's trajectory.txt and map.yaml): the deviation "
+                    "of the beams' end points from the map's obstacles (master_side/localization/laser_noise.py)")
+    ap.add_argument("log", help="CARMEN .clf/.log or ROS1 .bag (/scan, /odom)")
+    ap.add_argument("trajectory", help="timestamp x y theta per scan (zenav slam run --out DIR: DIR/trajectory.txt)")
+    ap.add_argument("--map", help="map_server YAML (default: map.yaml beside the trajectory)")
+    ap.add_argument("--laser-max-range", type=positive, default=None,
+                    help="amcl's laser_max_range (m; default: the scans' range_max): longer beams are left out")
+    ap.add_argument("--likelihood-max-dist", type=positive, default=2.0,
+                    help="amcl's laser_likelihood_max_dist (m, default 2.0)")
+    ap.add_argument("--first", type=float, default=1.0, metavar="SHARE",
+                    help="fit on this share of the log from its start (default 1: all of it)")
+    a = ap.parse_args(argv)
+    map_path = Path(a.map) if a.map else Path(a.trajectory).with_name("map.yaml")
+    try:
+        grid = load_map(map_path)
+    except MapFormatError as e:  # it names the file
+        print(f"{ap.prog}: cannot read the map: {e}", file=sys.stderr)
+        return 2
+    got = _matched(ap.prog, a.log, a.trajectory, a.first)
+    if isinstance(got, int):
+        return got
+    recs, ref = got
+    field = LikelihoodField(grid, a.likelihood_max_dist)
+    range_max = a.laser_max_range or recs[0].scan.range_max
+    d = end_point_distances(field, ref, ((r.scan.ranges, r.scan.angles()) for r in recs), Pose2D(),
+                            recs[0].scan.range_min, range_max)
+    try:
+        r = fit(d, a.likelihood_max_dist)
+    except ValueError as e:
+        print(f"{ap.prog}: {e}", file=sys.stderr)
+        return 2
+    print(f"# {r.beams} beam end points of {len(recs)} scans; {r.hit_share:.1%} explained by the hit part "
+          f"(the rest: what the map lacks)")
+    print(r.yaml())
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     if not argv or argv[0] in ("-h", "--help"):
-        print("usage: zenav slam {run,eval,odom-noise} ...")
+        print("usage: zenav slam {run,eval,odom-noise,laser-noise} ...")
         return 0 if argv else 2
     cmd, rest = argv[0], argv[1:]
     if cmd == "run":
@@ -126,7 +184,9 @@ def main(argv: list[str] | None = None) -> int:
         return evaluate.main(rest)
     if cmd == "odom-noise":
         return _odom_noise(rest)
-    print(f"unknown slam command {cmd!r} (run, eval, odom-noise)", file=sys.stderr)
+    if cmd == "laser-noise":
+        return _laser_noise(rest)
+    print(f"unknown slam command {cmd!r} (run, eval, odom-noise, laser-noise)", file=sys.stderr)
     return 2
 
 
