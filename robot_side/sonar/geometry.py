@@ -19,7 +19,7 @@ import numpy as np
 
 from common.config import param
 
-__all__ = ["P3AT_SONARS", "P3AT_UNITS", "SonarRingParams", "sonar_points"]
+__all__ = ["P3AT_SONARS", "P3AT_UNITS", "SonarRingParams", "cone_points", "sonar_points"]
 
 # ARIA's ArRobotP3AT (ArRobotTypes.cpp; the same table as its p3at.p parameter file): number, x mm, y mm,
 # heading deg. 0-7 the front ring from left (+y, facing +90 deg) to right, 8-15 the rear from right to left.
@@ -70,5 +70,32 @@ def sonar_points(p: SonarRingParams, ranges: tuple[float, ...] | np.ndarray, use
     pts = np.empty((d.size, 3), np.float32)
     pts[:, 0] = units[:, 0] + d * np.cos(units[:, 2])
     pts[:, 1] = units[:, 1] + d * np.sin(units[:, 2])
+    pts[:, 2] = z
+    return pts
+
+
+def cone_points(p: SonarRingParams, ranges: tuple[float, ...] | np.ndarray, use: tuple[int, ...] = (),
+                rays: int = 5, z: float = 0.2, short: float = 0.05, max_range: float | None = None) -> np.ndarray:
+    """(N, 3) float32 points in the base frame across each used sonar's cone: ``rays`` bearings spread over its
+    ``fov``, each ``short`` nearer than the sonar's reading (its nearest echo: nothing in the cone is nearer),
+    or at ``max_range`` (default the ring's ``range_max``) with no echo. For a clearing-only costmap source:
+    the space a sonar has heard empty, the whole cone rather than its axis. Unusable readings (not finite,
+    not positive) give none."""
+    r = np.asarray(ranges, dtype=np.float64)
+    n = min(len(r), len(p.units))
+    idx = np.array([i for i in (use or range(n)) if 0 <= i < n], dtype=np.int64)
+    if idx.size == 0 or rays < 1:
+        return np.zeros((0, 3), np.float32)
+    units = np.asarray(p.units, dtype=np.float64)[idx]
+    limit = p.range_max if max_range is None else max_range
+    d = np.minimum(r[idx], limit)
+    ok = np.isfinite(d) & (d > short)
+    units, d = units[ok], d[ok] - short
+    spread = np.linspace(-p.fov / 2.0, p.fov / 2.0, rays) if rays > 1 else np.zeros(1)
+    bearing = (units[:, 2:3] + spread[None, :]).ravel()
+    dist = np.repeat(d, len(spread))
+    pts = np.empty((bearing.size, 3), np.float32)
+    pts[:, 0] = np.repeat(units[:, 0], len(spread)) + dist * np.cos(bearing)
+    pts[:, 1] = np.repeat(units[:, 1], len(spread)) + dist * np.sin(bearing)
     pts[:, 2] = z
     return pts

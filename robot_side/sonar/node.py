@@ -2,7 +2,9 @@
 (PointCloud in the readings' frame): each sonar's echo as a point on its axis, for a costmap's obstacle layer
 (robot_side/sonar/geometry.py says where and why). With ``include_no_echo`` a sonar with no echo gives a
 point at the ring's maximum range, which an obstacle layer with a shorter ``obstacle_range`` only clears
-along. Every message gives a cloud, so the costmap sees the source alive."""
+along. With ``cone_topic`` the node also publishes, for a clearing-only source, points across each cone just
+short of its reading (``cone_points``): what a sonar has heard empty is its whole cone, not its axis. Every
+message gives a cloud, so the costmap sees the source alive."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ from common.bus import Node
 from common.config import param
 from common.messages import PointCloud, SonarArray
 from robot_side.depth.node_util import Handles, convert_stream, split_params
-from robot_side.sonar.geometry import SonarRingParams, sonar_points
+from robot_side.sonar.geometry import SonarRingParams, cone_points, sonar_points
 
 log = logging.getLogger("zenav.sonar_cloud")
 
@@ -26,6 +28,9 @@ class SonarCloudParams:
                                          "behind a forward laser")
     include_no_echo: bool = param(True, doc="a sonar with no echo gives a point at range_max (to clear along)")
     z: float = param(0.2, lo=-1.0, hi=2.0, unit="m", doc="height of the points (within the costmap's obstacle band)")
+    cone_topic: str = param("", doc="also publish points across each cone, just short of its reading, on this "
+                                    "topic (for a clearing-only source; empty: not published)")
+    cone_rays: int = param(5, lo=1, hi=64, doc="bearings per cone on cone_topic")
 
 
 def start(node: Node, cfg: dict, source: str) -> Handles:
@@ -41,7 +46,13 @@ def start(node: Node, cfg: dict, source: str) -> Handles:
                         n, len(ring.units))
         return PointCloud(msg.header, sonar_points(ring, msg.ranges, p.use, p.z, max_range=limit))
 
-    return convert_stream(node, p.sonar_topic, SonarArray, p.points_topic, cloud)
+    h = convert_stream(node, p.sonar_topic, SonarArray, p.points_topic, cloud)
+    if p.cone_topic:
+        def cones(msg: SonarArray) -> PointCloud:
+            return PointCloud(msg.header, cone_points(ring, msg.ranges, p.use, p.cone_rays, p.z))
+
+        h.add(convert_stream(node, p.sonar_topic, SonarArray, p.cone_topic, cones))
+    return h
 
 
 if __name__ == "__main__":

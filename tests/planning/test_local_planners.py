@@ -192,6 +192,18 @@ def test_all_rejected_reports_why_not_moving(dwa_params):
     assert res.cmd == (0.0, 0.0, 0.0)
 
 
+def test_a_goal_cut_off_on_the_local_costmap_is_said(dwa_params):
+    # a wall across the way between the robot and its local goal: the global plan runs through it
+    grid = free_map(80, 120)
+    grid[:, 70:73] = LETHAL
+    grid = inflate(grid, RES)
+    planner = DWAPlanner(dwa_params)
+    planner.set_plan(np.array([[1.0, 2.0, 0.0], [4.0, 2.0, 0.0], [5.0, 2.0, 0.0]]))
+    res = planner.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), grid, RES, (0.0, 0.0), P3AT_FOOTPRINT)
+    assert not res.ok and "mostly by GoalDistance" in res.reason
+    assert "the local goal (5.00, 2.00) is cut off from the robot on the local costmap" in res.reason
+
+
 def test_dwa_samples_respect_the_dynamic_window(dwa_params):
     p = dataclasses.replace(dwa_params, vx_samples=20, vth_samples=20)
     planner = DWAPlanner(p)

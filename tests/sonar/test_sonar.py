@@ -4,6 +4,7 @@ with no echo, and the sonar_cloud node on a real loopback bus."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 from pathlib import Path
@@ -14,7 +15,7 @@ import pytest
 from common.config import ConfigError
 from common.geometry import Pose2D
 from common.messages import Header, PointCloud, SonarArray
-from master_side.costmap.cost_values import FREE_SPACE, LETHAL
+from master_side.costmap.cost_values import FREE_SPACE, LETHAL, NO_INFORMATION
 from master_side.costmap.costmap2d import Costmap2D
 from master_side.costmap.footprint import pad_footprint
 from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams, VoxelLayerParams
@@ -22,7 +23,7 @@ from master_side.costmap.layered import LayeredCostmap
 from master_side.costmap.obstacle_layer import ObstacleLayer
 from master_side.costmap.voxel_layer import VoxelLayer
 from robot_side.sim.simulator import Simulator
-from robot_side.sonar.geometry import P3AT_SONARS, SonarRingParams, sonar_points
+from robot_side.sonar.geometry import P3AT_SONARS, SonarRingParams, cone_points, sonar_points
 from tests.support import free_port, wait_until
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "costmap"))
@@ -120,6 +121,53 @@ def test_an_echo_behind_marks_the_costmap_and_a_sonar_without_echo_clears_along_
     assert lc.master.get_cost(hit[0], hit[1]) == FREE_SPACE
 
 
+def test_cone_points_span_each_cone_just_short_of_its_reading():
+    ranges = [RING.range_max] * 16
+    ranges[11] = 0.6
+    pts = cone_points(RING, ranges, use=(10, 11), rays=5, z=0.2)
+    assert pts.dtype == np.float32 and pts.shape == (10, 3)
+    x, y, h = RING.units[11]
+    mine = pts[5:]  # sonar 11's, after sonar 10's
+    d = np.hypot(mine[:, 0] - x, mine[:, 1] - y)
+    assert np.allclose(d, 0.55, atol=1e-5)  # 0.05 m short of the echo
+    bearings = np.arctan2(mine[:, 1] - y, mine[:, 0] - x)
+    spread = np.angle(np.exp(1j * (bearings - h)))
+    assert np.allclose(np.sort(spread), np.linspace(-RING.fov / 2, RING.fov / 2, 5), atol=1e-5)
+    assert np.allclose(np.hypot(pts[:5, 0] - RING.units[10][0], pts[:5, 1] - RING.units[10][1]), RING.range_max - 0.05,
+                       atol=1e-5)  # no echo: out to the ring's range
+    assert len(cone_points(RING, [math.nan, 0.03] + [1.0] * 14, use=(0, 1))) == 0  # unusable, or nearer than short
+
+
+def test_with_unknown_tracked_a_cone_heard_empty_is_known_free_across_not_only_on_its_axis():
+    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True, track_unknown_space=True)
+    cone_src = ObservationSourceParams(data_type="PointCloud", obstacle_range=1.5, raytrace_range=3.0,
+                                       min_obstacle_height=0.0, marking=False, clearing=True)
+    layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(track_unknown_space=True),
+                                       {"sonar": dataclasses.replace(SONAR, clearing=True), "cone": cone_src}))
+    ranges = [RING.range_max] * 16
+    ranges[11] = 1.0
+    robot = Pose2D(0.0, 0.0, 0.0)
+    origin = np.array([0.0, 0.0, 0.2])
+    x, y, h = RING.units[11]
+    # the cone's cells from 0.3 m to 0.9 m out, off its axis (more than 2 deg from it)
+    d, a = np.meshgrid(np.linspace(0.3, 0.9, 25), np.radians(np.linspace(-7.0, 7.0, 29)))
+    off = np.abs(a) > np.radians(2.0)
+    sector = np.column_stack((x + d[off] * np.cos(h + a[off]), y + d[off] * np.sin(h + a[off])))
+
+    def free_share() -> float:
+        return float(np.mean([lc.master.get_cost(px, py) == FREE_SPACE for px, py in sector]))
+
+    layer.add_observation("sonar", sonar_points(RING, ranges, use=(11,), z=0.2).astype(float), origin, 0.0)
+    lc.update_map(robot)
+    axis_only = free_share()
+    assert axis_only < 0.2  # the axis alone leaves the cone unknown
+    layer.add_observation("cone", cone_points(RING, ranges, use=(11,), rays=16, z=0.2).astype(float), origin, 1.0)
+    lc.update_map(robot)
+    assert free_share() > 0.9
+    assert lc.master.get_cost(x + 1.0 * math.cos(h), y + 1.0 * math.sin(h)) == LETHAL  # the echo itself stays
+    assert lc.master.get_cost(1.5, 1.5) == NO_INFORMATION  # where no sonar looked
+
+
 @pytest.fixture
 def peers(robot_name):
     from common.bus import Node
@@ -137,9 +185,11 @@ def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
     from robot_side.sonar.node import start
 
     test, host = peers
-    handles = start(host, {"use": [8, 9, 10, 11, 12, 13, 14, 15], "include_no_echo": False}, "sonar.yaml")
+    handles = start(host, {"use": [8, 9, 10, 11, 12, 13, 14, 15], "include_no_echo": False,
+                           "cone_topic": "sonar_cone_pointcloud", "cone_rays": 3}, "sonar.yaml")
     try:
         clouds = test.subscribe("sonar_pointcloud", PointCloud)
+        cones = test.subscribe("sonar_cone_pointcloud", PointCloud)
         pub = test.publisher("sonar")
         ranges = [RING.range_max] * 16
         ranges[3], ranges[12] = 0.5, 0.7  # a front echo (not used) and a rear one
@@ -153,6 +203,9 @@ def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
         assert cloud.header == Header(12.5, "base_link")
         assert cloud.points.shape == (1, 3)
         assert np.allclose(cloud.points[0], sonar_points(RING, ranges, use=(12,))[0])
+        cone = wait_until(lambda: got() and cones.latest(), 20, "a sonar cone cloud")
+        assert cone.points.shape == (8 * 3, 3)  # every rear cone, echo or not, 3 bearings each
+        assert np.allclose(cone.points, cone_points(RING, ranges, (8, 9, 10, 11, 12, 13, 14, 15), rays=3))
     finally:
         handles.close()
     with pytest.raises(ConfigError) as e:

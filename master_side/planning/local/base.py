@@ -68,6 +68,18 @@ class Limits:
     rot_stopped_vel: float = 0.1
 
 
+def goal_cut_off(ctx: ScoringContext, rejected: dict) -> str:
+    """Why GoalDistance rejects, said where it is the main rejecter: the flood fill from the local goal
+    never reaches the robot's cell (an obstacle or the inscribed band across the way on the local costmap,
+    where the global costmap let the plan through); else ''."""
+    if not rejected or max(rejected, key=rejected.get) != "GoalDistance":
+        return ""
+    r, c, inside = ctx.cells(ctx.pose[None, :2])
+    if not inside[0] or np.isfinite(ctx.goal_distance()[r[0], c[0]]):
+        return ""
+    return f": the local goal ({ctx.goal[0]:.2f}, {ctx.goal[1]:.2f}) is cut off from the robot on the local costmap"
+
+
 def _toward(v: float, target: float, step: float) -> float:
     return min(v + step, target) if target > v else max(v - step, target)
 
@@ -185,7 +197,8 @@ class LocalPlanner:
         trajs = self._simulate(ctx.pose, ctx.vel, self._samples(ctx.vel))
         res = self.scorer.score(trajs, ctx)
         if res.best < 0:
-            return LocalResult(self._brake(ctx.vel), False, res.reason, np.zeros((0, 3)), len(trajs))
+            return LocalResult(self._brake(ctx.vel), False, res.reason + goal_cut_off(ctx, res.rejected_by),
+                               np.zeros((0, 3)), len(trajs))
         cmd = trajs.vels[res.best]
         self.oscillation.update(cmd, ctx.pose)
         return LocalResult(velocity3(cmd), True, "", trajs.row(res.best), len(trajs))
