@@ -31,6 +31,8 @@ class SonarCloudParams:
     cone_topic: str = param("", doc="also publish points across each cone, just short of its reading, on this "
                                     "topic (for a clearing-only source; empty: not published)")
     cone_rays: int = param(5, lo=1, hi=64, doc="bearings per cone on cone_topic")
+    cone_use: tuple[int, ...] | None = param(None, doc="the sonars whose cones go on cone_topic (default: use's; "
+                                                       "empty: all)")
 
 
 def start(node: Node, cfg: dict, source: str) -> Handles:
@@ -49,7 +51,8 @@ def start(node: Node, cfg: dict, source: str) -> Handles:
     h = convert_stream(node, p.sonar_topic, SonarArray, p.points_topic, cloud)
     if p.cone_topic:
         def cones(msg: SonarArray) -> PointCloud:
-            return PointCloud(msg.header, cone_points(ring, msg.ranges, p.use, p.cone_rays, p.z))
+            use = p.use if p.cone_use is None else p.cone_use
+            return PointCloud(msg.header, cone_points(ring, msg.ranges, use, p.cone_rays, p.z))
 
         h.add(convert_stream(node, p.sonar_topic, SonarArray, p.cone_topic, cones))
     return h

@@ -11,7 +11,7 @@ from planning_helpers import P3AT_FOOTPRINT, drive, free_map, inflate
 
 from common.config import ConfigError, load_params, read_yaml
 from common.geometry import Pose2D
-from master_side.planning.grid import INSCRIBED, LETHAL
+from master_side.planning.grid import INSCRIBED, LETHAL, NO_INFORMATION
 from master_side.planning.local import (
     DWAPlanner,
     DWAPlannerParams,
@@ -201,7 +201,13 @@ def test_a_goal_cut_off_on_the_local_costmap_is_said(dwa_params):
     planner.set_plan(np.array([[1.0, 2.0, 0.0], [4.0, 2.0, 0.0], [5.0, 2.0, 0.0]]))
     res = planner.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), grid, RES, (0.0, 0.0), P3AT_FOOTPRINT)
     assert not res.ok and "mostly by GoalDistance" in res.reason
-    assert "the local goal (5.00, 2.00) is cut off from the robot on the local costmap" in res.reason
+    assert "the local goal (5.00, 2.00) is cut off from the robot by obstacles on the local costmap" in res.reason
+    # the way round the wall runs through cells no sensor has seen (a costmap that tracks the unknown)
+    grid = free_map(80, 120)
+    grid[:, 70:73] = LETHAL
+    grid[5:20, 70:73] = NO_INFORMATION
+    res = planner.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), grid, RES, (0.0, 0.0), P3AT_FOOTPRINT)
+    assert "is cut off from the robot by unknown cells on the local costmap" in res.reason, res.reason
 
 
 def test_dwa_samples_respect_the_dynamic_window(dwa_params):

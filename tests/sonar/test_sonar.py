@@ -208,6 +208,12 @@ def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
         assert np.allclose(cone.points, cone_points(RING, ranges, (8, 9, 10, 11, 12, 13, 14, 15), rays=3))
     finally:
         handles.close()
+    handles = start(host, {"use": [8], "cone_topic": "sonar_cones_all", "cone_use": [], "cone_rays": 1}, "sonar.yaml")
+    try:
+        every = test.subscribe("sonar_cones_all", PointCloud)
+        assert wait_until(lambda: got() and every.latest(), 20, "all cones").points.shape == (16, 3)
+    finally:
+        handles.close()
     with pytest.raises(ConfigError) as e:
         start(host, {"use": "rear"}, "sonar.yaml")
     assert "use" in str(e.value)

@@ -16,6 +16,7 @@ from typing import Protocol
 import numpy as np
 
 from common.geometry import Pose2D
+from master_side.costmap.cost_values import NO_INFORMATION
 from master_side.planning.grid import check_grid
 from master_side.planning.local.costs import ObstacleCost
 from master_side.planning.local.scoring import ScoredSamplingPlanner
@@ -70,14 +71,20 @@ class Limits:
 
 def goal_cut_off(ctx: ScoringContext, rejected: dict) -> str:
     """Why GoalDistance rejects, said where it is the main rejecter: the flood fill from the local goal
-    never reaches the robot's cell (an obstacle or the inscribed band across the way on the local costmap,
-    where the global costmap let the plan through); else ''."""
+    never reaches the robot's cell, across obstacles (an obstacle or the inscribed band across the way on
+    the local costmap, where the global costmap let the plan through) or across cells no sensor has seen;
+    else ''."""
     if not rejected or max(rejected, key=rejected.get) != "GoalDistance":
         return ""
     r, c, inside = ctx.cells(ctx.pose[None, :2])
     if not inside[0] or np.isfinite(ctx.goal_distance()[r[0], c[0]]):
         return ""
-    return f": the local goal ({ctx.goal[0]:.2f}, {ctx.goal[1]:.2f}) is cut off from the robot on the local costmap"
+    mg = ctx.map_grid()
+    through_unknown = mg.lattice.fill(mg.passable | (ctx.grid.ravel() == NO_INFORMATION),
+                                      mg._goal_targets(ctx.plan[:, :2]))
+    by = "unknown cells" if np.isfinite(through_unknown.reshape(ctx.grid.shape)[r[0], c[0]]) else "obstacles"
+    return (f": the local goal ({ctx.goal[0]:.2f}, {ctx.goal[1]:.2f}) is cut off from the robot by {by} on the "
+            f"local costmap")
 
 
 def _toward(v: float, target: float, step: float) -> float:
