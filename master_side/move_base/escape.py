@@ -93,10 +93,10 @@ def _inside(cells: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
 
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
                 params: EscapeParams = EscapeParams()) -> EscapeMove | None:
-    """The shortest straight drive or in-place turn whose end leaves the robot's outline at least
-    ``params.clearance`` from every lethal cell (else the one that leaves it farthest), free for the
-    outline all the way (no lethal or unknown cell, not off the grid). None when no move gains a cell of
-    clearance on where the robot stands."""
+    """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
+    robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
+    farthest), free for the outline all the way (no lethal or unknown cell, not off the grid). None when the
+    robot already has that clearance, or no move gains a cell of clearance on where it stands."""
     grid = np.asarray(grid)
     outline = outline_points(footprint, 0.5 * res)
     outline_r = float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
@@ -125,8 +125,9 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
         after = clearance(cells[-1])
         if after < here + res:
             continue
-        # the most clearance up to params.clearance, then the least motion (a turn as its outline's arc)
-        key = (min(after, params.clearance), -(abs(d) + abs(a) * outline_r))
+        # the most clearance up to params.clearance, then the least motion (a turn as its outline's arc; a
+        # reverse drive counts double: behind the robot only sonars look, with gaps between their cones)
+        key = (min(after, params.clearance), -((2.0 if d < 0 else 1.0) * abs(d) + abs(a) * outline_r))
         if best is None or key > best[0]:
             best = key, EscapeMove(float(d), float(a), here, after)
     return None if best is None else best[1]

@@ -59,6 +59,16 @@ def test_walls_close_front_and_back_leave_no_move():
     assert move is not None and move.distance < 0
 
 
+def test_forward_wins_over_the_same_drive_backwards():
+    # a thin post beside the left flank's middle: as far either way leaves it behind; only sonars look behind
+    grid = grid_with((-0.0125, 0.28, 0.0125, 0.3))
+    params = EscapeParams(max_turn=0.0, max_distance=0.5)
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, params)
+    assert move is not None and move.distance > 0.0
+    back = plan_escape(grid, RES, ORIGIN, Pose2D(0.0, 0.0, math.pi), P3AT, params)  # the same, turned round
+    assert back is not None and back.distance > 0.0 and back.distance == pytest.approx(move.distance)
+
+
 def test_a_robot_in_the_open_does_not_move():
     assert plan_escape(grid_with(), RES, ORIGIN, Pose2D(), P3AT) is None
 
