@@ -49,6 +49,9 @@ class ObservationSourceParams:
                                            "the footprint do not count; 0: always): an imprecise sensor (a sonar's "
                                            "echo may be anywhere across its cone) then adds only what the "
                                            "other sources have not seen, not a second, displaced wall")
+    footprint_clearing: bool = param(True, doc="(zenav) false: this source's marks are freed under the robot's "
+                                                 "own outline only, not under the padded footprint (a near-field "
+                                                 "sensor, a sonar, hearing a wall within the padding beside the body)")
     marking: bool = param(True)
     clearing: bool = param(False)
 

@@ -27,7 +27,7 @@ __all__ = ["LayeredCostmap", "register_layer", "layer_class", "LAYER_TYPES"]
 
 class LayeredCostmap:
     def __init__(self, master: Costmap2D, *, rolling_window: bool = False, track_unknown_space: bool = False,
-                 global_frame: str = "map", footprint: np.ndarray | None = None):
+                 global_frame: str = "map", footprint: np.ndarray | None = None, footprint_padding: float = 0.0):
         self.rolling_window = rolling_window
         self.track_unknown_space = track_unknown_space
         self.global_frame = global_frame
@@ -36,6 +36,7 @@ class LayeredCostmap:
         self.master = master
         self.layers: list[CostmapPlugin] = []
         self.footprint = np.zeros((0, 2))
+        self.footprint_padding = float(footprint_padding)  # in ``footprint``: the robot's own outline is without it
         self.inscribed_radius = self.circumscribed_radius = 0.0
         self.last_window: Window | None = None
         self.initialized = False  # True after the first update_map
@@ -49,7 +50,8 @@ class LayeredCostmap:
         size_x, size_y = _cells(c.width, c.resolution), _cells(c.height, c.resolution)
         lc = cls(Costmap2D(size_x, size_y, c.resolution, c.origin_x, c.origin_y),
                  rolling_window=c.rolling_window, track_unknown_space=c.track_unknown_space,
-                 global_frame=c.global_frame, footprint=np.array(cfg.footprint))
+                 global_frame=c.global_frame, footprint=np.array(cfg.footprint),
+                 footprint_padding=c.footprint_padding)
         for spec in cfg.layers:
             kind = layer_class(spec.type)
             if spec.sources is None:

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from common.geometry import Pose2D
+from common.geometry import Pose2D, points_in_polygon
 from master_side.costmap.cost_values import FREE, LETHAL
 from master_side.costmap.costmap2d import (
     Costmap2D,
@@ -18,7 +18,7 @@ from master_side.costmap.costmap2d import (
     update_with_max,
     update_with_overwrite,
 )
-from master_side.costmap.footprint import transform_footprint
+from master_side.costmap.footprint import pad_footprint, transform_footprint
 from master_side.costmap.layer import Bounds, CostmapLayer, register_layer
 from master_side.costmap.layer_params import ObservationSourceParams, ObstacleLayerParams
 from master_side.costmap.observation import Observation, ObservationBuffer
@@ -36,6 +36,7 @@ class ObstacleLayer(CostmapLayer):
         super().__init__(name, params)
         self.buffers = {n: ObservationBuffer(n, p) for n, p in (sources or {}).items()}
         self.footprint_world = np.zeros((0, 2))
+        self._pose = Pose2D()
 
     # -- input -----------------------------------------------------------------------------------
     def add_observation(self, source: str, points: np.ndarray, origin: np.ndarray, stamp: float) -> None:
@@ -61,6 +62,7 @@ class ObstacleLayer(CostmapLayer):
         clearing_footprint = self.params.footprint_clearing_enabled and len(self.layered.footprint)
         self.footprint_world = (transform_footprint(self.layered.footprint, robot_pose) if clearing_footprint
                                 else np.zeros((0, 2)))
+        self._pose = robot_pose
         for obs in self._observations("clearing"):
             bounds = self._raytrace(obs, bounds)
         # sources with min_mark_separation last: they mark only where the others have not, this cycle included
@@ -73,7 +75,24 @@ class ObstacleLayer(CostmapLayer):
     def update_costs(self, master: Costmap2D, window: Window) -> None:
         if self.params.footprint_clearing_enabled and len(self.footprint_world):
             self.costmap.set_polygon_cost(self.footprint_world, FREE)
+            self._keep_near_field()
         _COMBINE[self.params.combination_method](master, self.costmap.data, window)
+
+    def _keep_near_field(self) -> None:
+        """Marks of ``footprint_clearing: false`` sources inside the padded footprint but outside the robot's own
+        outline are marked again: a sonar hearing a wall 3 cm from the flank is a wall, not the robot (freed
+        with the padding, the planner saw room there and turned the flank into it: office02's flank contacts)."""
+        keep = [o for b in self.buffers.values() if b.params.marking and not b.params.footprint_clearing
+                for o in b.observations]
+        pad = self.layered.footprint_padding
+        if not keep or pad <= 0:
+            return
+        pts = np.vstack([self._marking_points(o) for o in keep])[:, :2]
+        bare = transform_footprint(pad_footprint(self.layered.footprint, -pad), self._pose)
+        inside = points_in_polygon(pts[:, 0], pts[:, 1], self.footprint_world) & \
+            ~points_in_polygon(pts[:, 0], pts[:, 1], bare)
+        mx, my, ok = self.costmap.world_to_map(pts[inside, 0], pts[inside, 1])
+        self.costmap.data[my[ok], mx[ok]] = LETHAL
 
     def reset(self) -> None:
         super().reset()

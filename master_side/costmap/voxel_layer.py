@@ -30,6 +30,9 @@ class VoxelLayer(ObstacleLayer):
             if src.min_mark_separation > 0:
                 raise ValueError(f"{name}: source {n!r}: min_mark_separation is an ObstacleLayer option; "
                                  "the voxel layer marks voxels")
+            if not src.footprint_clearing:
+                raise ValueError(f"{name}: source {n!r}: footprint_clearing: false is an ObstacleLayer option; "
+                                 "the voxel layer clears its voxels under the footprint")
 
     def match_size(self) -> None:
         super().match_size()

@@ -248,3 +248,24 @@ def test_marks_under_the_footprint_do_not_hide_an_echo_beside_the_robots_corner(
     lc.update_map(Pose2D(0.0, 0.0, 0.0))
     assert lc.master.get_cost(0.0, -0.284) == FREE_SPACE  # under the padded footprint: freed (as ROS)
     assert lc.master.get_cost(-0.32, -0.27) == LETHAL  # the echo outside it stays
+
+
+def test_a_sonar_echo_within_the_padding_beside_the_flank_survives_footprint_clearing():
+    """footprint_clearing: false on the sonar source: an echo 3 cm from the flank (inside the padded footprint,
+    outside the robot's own outline) stays marked; one under the body is freed; a laser mark there is freed."""
+    body = np.array([[0.254, -0.254], [0.254, 0.254], [-0.254, 0.254], [-0.254, -0.254]])
+    padded = pad_footprint(body, 0.04)
+    near = np.array([[-0.1, -0.284, 0.2]])  # the right flank, rear half, 3 cm out
+    under = np.array([[0.0, -0.2, 0.2]])  # under the body
+    for keep in (False, True):
+        lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True, footprint=padded,
+                            footprint_padding=0.04)
+        sonar = dataclasses.replace(SONAR, footprint_clearing=not keep)
+        layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=True),
+                                           {"laser": LASER, "sonar": sonar}))
+        layer.add_observation("laser", np.array([[0.1, 0.28, 0.3]]), np.array([0.2, 0.0, 0.3]), 0.0)
+        layer.add_observation("sonar", np.vstack((near, under)), np.array([0.0, 0.0, 0.2]), 0.0)
+        lc.update_map(Pose2D(0.0, 0.0, 0.0))
+        assert lc.master.get_cost(-0.1, -0.284) == (LETHAL if keep else FREE_SPACE), keep
+        assert lc.master.get_cost(0.0, -0.2) == FREE_SPACE  # the robot is there
+        assert lc.master.get_cost(0.1, 0.28) == FREE_SPACE  # the laser's mark within the padding: freed as in ROS
