@@ -148,3 +148,15 @@ def test_the_recovery_list_builds_escapes_with_their_parameters_and_rejects_bad_
     with pytest.raises(ConfigError) as e:
         recoveries_from_params(params, {"escape": {"max_distance": 5.0}}, "mb.yaml", lambda *a: None)
     assert "mb.yaml" in str(e.value) and "max_distance" in str(e.value)
+
+
+def test_a_bad_escape_parameter_fails_the_move_base_check_before_anything_starts():
+    from master_side.move_base.config import check
+
+    cfg = {"move_base": {"recovery_behaviors": [{"name": "esc", "type": "zenav/EscapeRecovery"}],
+                         "esc": {"speed": 50.0}}}
+    with pytest.raises(ConfigError) as e:
+        check(cfg, "master.yaml")
+    assert "esc" in str(e.value) and "speed" in str(e.value)
+    cfg["move_base"]["esc"] = {"speed": 0.05}
+    check(cfg, "master.yaml")  # in range: accepted
