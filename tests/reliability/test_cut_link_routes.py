@@ -37,10 +37,11 @@ CUT_S = 3.0
 MAX_GAP_S = 1.0  # a 50 Hz stream on a busy 2-core machine; the stall this guards against lasts the cut
 
 
-def _gaps(times: list[float], since: float, until: float) -> float:
-    """The longest interval without a message within [since, until]."""
+def _gaps(times: list[float], since: float, until: float) -> tuple[float, float]:
+    """The longest interval without a message within [since, until], and when it began (s after ``since``)."""
     inside = [since] + [t for t in times if since < t < until] + [until]
-    return max(b - a for a, b in zip(inside, inside[1:]))
+    gap, start = max((b - a, a) for a, b in zip(inside, inside[1:]))
+    return gap, start - since
 
 
 def test_a_cut_link_to_the_master_does_not_stop_robot_side_routes(tmp_path):
@@ -63,8 +64,12 @@ def test_a_cut_link_to_the_master_does_not_stop_robot_side_routes(tmp_path):
         finally:
             assert link.command("heal", 10) is not None
         t_heal = time.time()
-        gap = _gaps([float(w[0]) for w in robot_peer.events("GT", t_cut - 1.0)], t_cut, t_heal)
-        print(f"robot side: longest gap in the 50 Hz stream during a {t_heal - t_cut:.1f} s cut: {gap:.2f} s")
-        assert gap < MAX_GAP_S, f"robot-side routes stalled for {gap:.2f} s of a {t_heal - t_cut:.1f} s cut"
+        gap, at = _gaps([float(w[0]) for w in robot_peer.events("GT", t_cut - 1.0)], t_cut, t_heal)
+        print(f"robot side: longest gap in the 50 Hz stream during a {t_heal - t_cut:.1f} s cut: {gap:.2f} s, "
+              f"from {at:.2f} s into it")
+        # where the gap sits tells its cause: 1.03 s and 1.14 s were seen in loaded suite runs (never alone, nor
+        # beside three busy loops); one ending at the heal points to a put that blocked toward the master
+        assert gap < MAX_GAP_S, (f"robot-side routes stalled for {gap:.2f} s of a {t_heal - t_cut:.1f} s cut, "
+                                 f"from {at:.2f} s into it")
         wait_until(lambda: master_peer.events("GT", t_heal) and master_peer.events("STATE", t_heal), 60,
                    "both topics on the master's side after the heal")
