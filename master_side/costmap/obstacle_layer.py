@@ -36,7 +36,7 @@ class ObstacleLayer(CostmapLayer):
         super().__init__(name, params)
         self.buffers = {n: ObservationBuffer(n, p) for n, p in (sources or {}).items()}
         self.footprint_world = np.zeros((0, 2))
-        self._pose = Pose2D()
+        self._bare_world = np.zeros((0, 2))  # the robot's own outline (the padding off), for _keep_near_field
 
     # -- input -----------------------------------------------------------------------------------
     def add_observation(self, source: str, points: np.ndarray, origin: np.ndarray, stamp: float) -> None:
@@ -62,7 +62,10 @@ class ObstacleLayer(CostmapLayer):
         clearing_footprint = self.params.footprint_clearing_enabled and len(self.layered.footprint)
         self.footprint_world = (transform_footprint(self.layered.footprint, robot_pose) if clearing_footprint
                                 else np.zeros((0, 2)))
-        self._pose = robot_pose
+        pad = self.layered.footprint_padding
+        kept = any(not b.params.footprint_clearing for b in self.buffers.values())
+        self._bare_world = (transform_footprint(pad_footprint(self.layered.footprint, -pad), robot_pose)
+                            if clearing_footprint and kept and pad > 0 else np.zeros((0, 2)))
         for obs in self._observations("clearing"):
             bounds = self._raytrace(obs, bounds)
         # sources with min_mark_separation last: they mark only where the others have not, this cycle included
@@ -84,13 +87,11 @@ class ObstacleLayer(CostmapLayer):
         with the padding, the planner saw room there and turned the flank into it: office02's flank contacts)."""
         keep = [o for b in self.buffers.values() if b.params.marking and not b.params.footprint_clearing
                 for o in b.observations]
-        pad = self.layered.footprint_padding
-        if not keep or pad <= 0:
+        if not keep or not len(self._bare_world):  # no padding: the footprint is the robot's outline
             return
         pts = np.vstack([self._marking_points(o) for o in keep])[:, :2]
-        bare = transform_footprint(pad_footprint(self.layered.footprint, -pad), self._pose)
         inside = points_in_polygon(pts[:, 0], pts[:, 1], self.footprint_world) & \
-            ~points_in_polygon(pts[:, 0], pts[:, 1], bare)
+            ~points_in_polygon(pts[:, 0], pts[:, 1], self._bare_world)
         mx, my, ok = self.costmap.world_to_map(pts[inside, 0], pts[inside, 1])
         self.costmap.data[my[ok], mx[ok]] = LETHAL
 

@@ -23,6 +23,7 @@ from scipy.ndimage import distance_transform_edt
 from common.config import param
 from common.geometry import Pose2D, normalize_angle
 from master_side.costmap.cost_values import LETHAL, NO_INFORMATION
+from master_side.planning.local.scoring_context import footprint_outline
 
 ESCAPE_TYPES = ("zenav/EscapeRecovery", "EscapeRecovery")
 
@@ -57,16 +58,6 @@ class EscapeMove:
         return f"{what}: clearance {self.clearance_before:.2f} -> {self.clearance_after:.2f} m"
 
 
-def outline_points(footprint: np.ndarray, spacing: float) -> np.ndarray:
-    """The footprint polygon's edges sampled every ``spacing`` (robot frame), corners included."""
-    fp = np.asarray(footprint, float)
-    pts = []
-    for a, b in zip(fp, np.roll(fp, -1, axis=0)):
-        n = max(2, int(math.ceil(float(np.hypot(*(b - a))) / spacing)) + 1)
-        pts.append(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
-    return np.vstack(pts)
-
-
 def _poses_along(pose: Pose2D, distance: float, turn: float, res: float, outline_r: float) -> np.ndarray:
     """(K, 3) poses from ``pose`` along the move, dense enough that no outline point skips a cell."""
     if distance:
@@ -91,6 +82,22 @@ def _inside(cells: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
     return (cells[..., 0] >= 0) & (cells[..., 1] >= 0) & (cells[..., 0] < shape[1]) & (cells[..., 1] < shape[0])
 
 
+def _outline(footprint: np.ndarray, res: float) -> tuple[np.ndarray, float]:
+    """The outline's points, half a cell apart, and their largest distance from the robot's centre."""
+    outline = footprint_outline(footprint, 0.5 * res)
+    return outline, float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
+
+
+def _swept(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, distance: float, turn: float,
+           outline: np.ndarray, outline_r: float) -> np.ndarray | None:
+    """The outline's cells at every pose along the move, or None when one is lethal, unknown or off the grid."""
+    cells = _cells(_poses_along(pose, distance, turn, res, outline_r), outline, res, origin)
+    if not _inside(cells, grid.shape).all():
+        return None
+    cost = grid[cells[..., 1], cells[..., 0]]
+    return None if ((cost == LETHAL) | (cost == NO_INFORMATION)).any() else cells
+
+
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
                 params: EscapeParams = EscapeParams()) -> EscapeMove | None:
     """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
@@ -98,8 +105,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     farthest), free for the outline all the way (no lethal or unknown cell, not off the grid). None when the
     robot already has that clearance, or no move gains a cell of clearance on where it stands."""
     grid = np.asarray(grid)
-    outline = outline_points(footprint, 0.5 * res)
-    outline_r = float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
+    outline, outline_r = _outline(footprint, res)
     clear = distance_transform_edt(grid != LETHAL) * res if (grid == LETHAL).any() else np.full(grid.shape, np.inf)
 
     def clearance(cells: np.ndarray) -> float:
@@ -115,12 +121,8 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
     best: tuple[tuple[float, float], EscapeMove] | None = None
     for d, a in moves:
-        poses = _poses_along(pose, float(d), float(a), res, outline_r)
-        cells = _cells(poses, outline, res, origin)
-        if not _inside(cells, grid.shape).all():
-            continue
-        cost = grid[cells[..., 1], cells[..., 0]]
-        if ((cost == LETHAL) | (cost == NO_INFORMATION)).any():
+        cells = _swept(grid, res, origin, pose, float(d), float(a), outline, outline_r)
+        if cells is None:
             continue
         after = clearance(cells[-1])
         if after < here + res:
@@ -173,16 +175,6 @@ class EscapeRecovery:
             left = abs(m.turn) - abs(normalize_angle(rel.theta))
             ahead = math.copysign(min(0.1, abs(m.turn)), m.turn)
             cmd, check = (0.0, 0.0, math.copysign(p.turn_speed, m.turn)), (0.0, ahead)
-        if left <= 0.0 or self._blocked(grid, res, origin, here, *check):
+        if left <= 0.0 or _swept(np.asarray(grid), res, origin, here, *check, *_outline(self.footprint, res)) is None:
             return stop, True
         return cmd, False
-
-    def _blocked(self, grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D,
-                 distance: float, turn: float) -> bool:
-        outline = outline_points(self.footprint, 0.5 * res)
-        r = float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
-        cells = _cells(_poses_along(pose, distance, turn, res, r), outline, res, origin)
-        if not _inside(cells, grid.shape).all():
-            return True
-        cost = np.asarray(grid)[cells[..., 1], cells[..., 0]]
-        return bool(((cost == LETHAL) | (cost == NO_INFORMATION)).any())

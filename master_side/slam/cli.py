@@ -92,6 +92,14 @@ def _matched(prog: str, log: str, trajectory: str, first: float):
     return [at[round(float(stamps[i]), 6)] for i in keep], np.asarray(ref[keep])
 
 
+def _log_and_trajectory(ap: argparse.ArgumentParser, log_help: str) -> None:
+    """The arguments odom-noise and laser-noise share (read by ``_matched``)."""
+    ap.add_argument("log", help=log_help)
+    ap.add_argument("trajectory", help="timestamp x y theta per scan (zenav slam run --out DIR: DIR/trajectory.txt)")
+    ap.add_argument("--first", type=float, default=1.0, metavar="SHARE",
+                    help="fit on this share of the log from its start (default 1: all of it)")
+
+
 def _odom_noise(argv: list[str]) -> int:
     import numpy as np
 
@@ -102,14 +110,11 @@ def _odom_noise(argv: list[str]) -> int:
         description="amcl's odom_alpha1..4 measured from a log's odometry against a trajectory of the same log "
                     "(zenav slam run's trajectory.txt): the alphas under which the odometry's errors over "
                     "amcl's update steps are most likely (master_side/localization/odom_noise.py)")
-    ap.add_argument("log", help="CARMEN .clf/.log or ROS1 .bag (/scan, /odom): the odometry at each scan")
-    ap.add_argument("trajectory", help="timestamp x y theta per scan (zenav slam run --out DIR: DIR/trajectory.txt)")
+    _log_and_trajectory(ap, "CARMEN .clf/.log or ROS1 .bag (/scan, /odom): the odometry at each scan")
     ap.add_argument("--model", choices=("diff", "diff-corrected"), default="diff",
                     help="amcl's odom_model_type the alphas are for (default diff, ROS's default)")
     ap.add_argument("--update-min-d", type=positive, default=0.2, help="amcl's update_min_d (m, default 0.2)")
     ap.add_argument("--update-min-a", type=positive, default=0.5236, help="amcl's update_min_a (rad, default π/6)")
-    ap.add_argument("--first", type=float, default=1.0, metavar="SHARE",
-                    help="fit on this share of the log from its start (default 1: all of it)")
     a = ap.parse_args(argv)
     got = _matched(ap.prog, a.log, a.trajectory, a.first)
     if isinstance(got, int):
@@ -137,15 +142,12 @@ def _laser_noise(argv: list[str]) -> int:
         description="amcl's laser_sigma_hit measured from a log's scans, seen from a trajectory of the same log, "
                     "against a map of the place (zenav slam run's trajectory.txt and map.yaml): the deviation "
                     "of the beams' end points from the map's obstacles (master_side/localization/laser_noise.py)")
-    ap.add_argument("log", help="CARMEN .clf/.log or ROS1 .bag (/scan, /odom)")
-    ap.add_argument("trajectory", help="timestamp x y theta per scan (zenav slam run --out DIR: DIR/trajectory.txt)")
+    _log_and_trajectory(ap, "CARMEN .clf/.log or ROS1 .bag (/scan, /odom)")
     ap.add_argument("--map", help="map_server YAML (default: map.yaml beside the trajectory)")
     ap.add_argument("--laser-max-range", type=positive, default=None,
                     help="amcl's laser_max_range (m; default: the scans' range_max): longer beams are left out")
     ap.add_argument("--likelihood-max-dist", type=positive, default=2.0,
                     help="amcl's laser_likelihood_max_dist (m, default 2.0)")
-    ap.add_argument("--first", type=float, default=1.0, metavar="SHARE",
-                    help="fit on this share of the log from its start (default 1: all of it)")
     a = ap.parse_args(argv)
     map_path = Path(a.map) if a.map else Path(a.trajectory).with_name("map.yaml")
     try:

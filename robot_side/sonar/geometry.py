@@ -52,18 +52,21 @@ class SonarRingParams:
                 raise ValueError(f"units[{i}] must be (x, y, heading), got {u!r}")
 
 
+def _used(p: SonarRingParams, ranges: tuple[float, ...] | np.ndarray,
+          use: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """(units (K, 3), readings (K,)) of the sonars in ``use`` (empty: all) that have both a unit and a reading."""
+    r = np.asarray(ranges, dtype=np.float64)
+    n = min(len(r), len(p.units))
+    idx = np.array([i for i in (use or range(n)) if 0 <= i < n], dtype=np.int64)
+    return np.asarray(p.units, dtype=np.float64).reshape(-1, 3)[idx], r[idx]
+
+
 def sonar_points(p: SonarRingParams, ranges: tuple[float, ...] | np.ndarray, use: tuple[int, ...] = (),
                  z: float = 0.2, max_range: float | None = None) -> np.ndarray:
     """(N, 3) float32 points in the base frame: sonar i's echo on its axis at ``ranges[i]``, for the sonars in
     ``use`` (empty: all). Readings that are not finite, not positive, or not below ``max_range`` (default the
     ring's ``range_max``: a reading at it is "no echo") give no point."""
-    r = np.asarray(ranges, dtype=np.float64)
-    n = min(len(r), len(p.units))
-    idx = np.array([i for i in (use or range(n)) if 0 <= i < n], dtype=np.int64)
-    if idx.size == 0:
-        return np.zeros((0, 3), np.float32)
-    units = np.asarray(p.units, dtype=np.float64)[idx]
-    d = r[idx]
+    units, d = _used(p, ranges, use)
     limit = p.range_max if max_range is None else max_range
     ok = np.isfinite(d) & (d > 0.0) & (d < limit)
     units, d = units[ok], d[ok]
@@ -81,14 +84,10 @@ def cone_points(p: SonarRingParams, ranges: tuple[float, ...] | np.ndarray, use:
     or at ``max_range`` (default the ring's ``range_max``) with no echo. For a clearing-only costmap source:
     the space a sonar has heard empty, the whole cone rather than its axis. Unusable readings (not finite,
     not positive) give none."""
-    r = np.asarray(ranges, dtype=np.float64)
-    n = min(len(r), len(p.units))
-    idx = np.array([i for i in (use or range(n)) if 0 <= i < n], dtype=np.int64)
-    if idx.size == 0 or rays < 1:
+    units, d = _used(p, ranges, use)
+    if rays < 1:
         return np.zeros((0, 3), np.float32)
-    units = np.asarray(p.units, dtype=np.float64)[idx]
-    limit = p.range_max if max_range is None else max_range
-    d = np.minimum(r[idx], limit)
+    d = np.minimum(d, p.range_max if max_range is None else max_range)
     ok = np.isfinite(d) & (d > short)
     units, d = units[ok], d[ok] - short
     spread = np.linspace(-p.fov / 2.0, p.fov / 2.0, rays) if rays > 1 else np.zeros(1)

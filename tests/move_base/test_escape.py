@@ -11,9 +11,10 @@ import pytest
 from common.config import ConfigError
 from common.geometry import Pose2D
 from master_side.costmap.cost_values import FREE, LETHAL
-from master_side.move_base.escape import EscapeParams, EscapeRecovery, outline_points, plan_escape
+from master_side.move_base.escape import EscapeParams, EscapeRecovery, plan_escape
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.recovery import recoveries_from_params
+from master_side.planning.local.scoring_context import footprint_outline
 
 RES = 0.025
 ORIGIN = (-2.0, -2.0)
@@ -36,7 +37,7 @@ def min_clearance(grid: np.ndarray, pose: Pose2D) -> float:
     """Least distance from the outline at ``pose`` to a LETHAL cell centre (brute force)."""
     rows, cols = np.nonzero(grid == LETHAL)
     cells = np.column_stack((ORIGIN[0] + (cols + 0.5) * RES, ORIGIN[1] + (rows + 0.5) * RES))
-    pts = pose.apply(outline_points(P3AT, 0.01))
+    pts = pose.apply(footprint_outline(P3AT, 0.01))
     return float(np.min(np.hypot(*(pts[:, None, :] - cells[None, :, :]).transpose(2, 0, 1))))
 
 

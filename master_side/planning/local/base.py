@@ -80,8 +80,10 @@ def goal_cut_off(ctx: ScoringContext, rejected: dict) -> str:
     if not inside[0] or np.isfinite(ctx.goal_distance()[r[0], c[0]]):
         return ""
     mg = ctx.map_grid()
-    through_unknown = mg.lattice.fill(mg.passable | (ctx.grid.ravel() == NO_INFORMATION),
-                                      mg._goal_targets(ctx.plan[:, :2]))
+    goal = mg.local_goal_cell(ctx.plan[:, :2])
+    if goal is None:
+        return ""
+    through_unknown = mg.lattice.fill(mg.passable | (ctx.grid.ravel() == NO_INFORMATION), np.array([goal]))
     by = "unknown cells" if np.isfinite(through_unknown.reshape(ctx.grid.shape)[r[0], c[0]]) else "obstacles"
     return (f": the local goal ({ctx.goal[0]:.2f}, {ctx.goal[1]:.2f}) is cut off from the robot by {by} on the "
             f"local costmap")
