@@ -198,7 +198,10 @@ def _explore_summary(r, args) -> None:
 
     print(f"[demo] exploration {r.end} after {r.sim_s:.0f} s simulated ({r.wall_s:.0f} s): "
           f"{100 * r.final_share:.1f} % of the {r.free_m2:.0f} m² the robot can reach known free, "
-          f"walls {100 * r.walls_ok:.1f} % right, free cells {100 * r.free_ok:.1f} % right, {r.path_m:.0f} m driven, "
+          f"walls {100 * r.walls_ok:.1f} % right, free cells {100 * r.free_ok:.1f} % right (the map laid on the "
+          f"world {math.degrees(r.offset.theta):+.1f}° and {math.hypot(r.offset.x, r.offset.y):.2f} m from the "
+          f"start's frame, where it fits; walls at the start's frame {100 * r.raw_walls_ok:.1f} %), "
+          f"{r.path_m:.0f} m driven, "
           f"{r.collisions} collisions"
           + "".join(f" (contact at ({x:.2f}, {y:.2f}) at {t:.0f} s)" for t, x, y in r.contacts)
           + f"; map: {Path(r.log_dir) / 'explored.yaml'}", flush=True)

@@ -8,7 +8,9 @@ Measured from the bus while it runs: every map SLAM publishes is judged against 
 (deploy.stack.map_check.WorldTruth: the share of the reachable free area known as free) at the
 simulator's time, so the time to a coverage is the robot's, not the machine's; the distance driven from
 the simulator's ground truth; contacts from its ``collision`` topic. At the end, the saved map's coverage
-and agreement with the world (walls within two cells, free cells on free space)."""
+and agreement with the world (walls within two cells, free cells on free space). Each map is judged laid
+on the world as well as it fits (``WorldTruth.fit``: SLAM's frame is the start only as well as the first
+metres of odometry); the figures in the start's frame are kept beside them (``raw_*``)."""
 
 from __future__ import annotations
 
@@ -26,11 +28,12 @@ from common.geometry import Pose2D
 from common.messages import Collision, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy.stack.map_check import WorldTruth
+from deploy.stack.map_check import NO_OFFSET, WorldTruth
 from deploy.stack.process_group import ProcessGroup
 from master_side.mapping.map_io import load_map
 
 STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
+REFIT_S = 20.0  # simulated seconds between fits of the map's frame while the run goes on
 
 
 @dataclass
@@ -41,6 +44,9 @@ class ExploreRun:
     final_share: float = 0.0
     walls_ok: float = 0.0  # agreement: occupied cells within two cells of a true wall
     free_ok: float = 0.0  # agreement: free cells on true free space
+    offset: Pose2D = NO_OFFSET  # the saved map's frame, fitted, in the start's frame
+    raw_share: float = 0.0  # final_share and walls_ok with the map's frame at the start, not fitted
+    raw_walls_ok: float = 0.0
     free_m2: float = 0.0  # the reachable free area of the world
     path_m: float = 0.0
     collisions: int = 0
@@ -69,9 +75,11 @@ class _Watch:
         node.subscribe("collision", Collision, mode="queue", callback=self._contact)
         node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
         self.t0: float | None = None
-        self.path, self.last = 0.0, None
+        self.path = 0.0
+        self.last: tuple[float, float] | None = None
         self.coverage: list[tuple[float, float]] = []
         self._judged: OccupancyGrid | None = None
+        self.offset, self._fitted_at = NO_OFFSET, -np.inf  # the map frame's fit, from the last one
 
     def _odom(self, m: Odometry) -> None:
         p = m.pose2d
@@ -98,7 +106,9 @@ class _Watch:
         self._judged = m
         if self.t0 is None:
             self.t0 = self.now()
-        self.coverage.append((self.now() - self.t0, self.truth.explored(m)))
+        if self.now() - self._fitted_at >= REFIT_S:
+            self.offset, self._fitted_at = self.truth.fit(m, self.offset), self.now()
+        self.coverage.append((self.now() - self.t0, self.truth.moved(self.offset).explored(m)))
 
 
 INTERRUPTED = "interrupted"  # ExploreRun.end of a run stopped by Ctrl-C / SIGTERM (measured as far as it got)
@@ -159,8 +169,11 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         saved = work / "explored.yaml"
         if saved.exists():
             grid = load_map(saved)
-            out.final_share = truth.explored(grid)
-            out.walls_ok, out.free_ok = truth.agreement(grid)
+            out.raw_share, (out.raw_walls_ok, _) = truth.explored(grid), truth.agreement(grid)
+            out.offset = truth.fit(grid, watch.offset, headings_deg=(-2.0, -1.0, 0.0, 1.0, 2.0))
+            fitted = truth.moved(out.offset)
+            out.final_share = fitted.explored(grid)
+            out.walls_ok, out.free_ok = fitted.agreement(grid)
         out.sim_s = watch.now() - (watch.t0 or 0.0)
         completed = out.end != INTERRUPTED  # Ctrl-C: no before_stop (the page is not kept up)
     except RuntimeError as e:  # an agent died or never came up

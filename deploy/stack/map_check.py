@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, optimize
 
 from common.geometry import Pose2D
 from common.messages import OccupancyGrid
@@ -45,6 +46,11 @@ def map_accuracy(grid: OccupancyGrid, world: str, map_in_world: Pose2D, min_heig
     err = np.maximum(d - grid.resolution / 2, 0.0)
     return MapAccuracy(len(err), float(np.mean(err <= 2 * grid.resolution)), float(np.mean(err[np.isfinite(err)])),
                        float(np.percentile(err, 95)))
+
+
+FIT_CAP_M = 0.5  # WorldTruth.fit: a mapped wall farther than this from any true one counts as this far
+FIT_MIN_CELLS = 50  # ... and fits nothing on fewer occupied cells than this
+NO_OFFSET = Pose2D(0.0, 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -87,6 +93,43 @@ class WorldTruth:
         out = np.full(len(xy), -2, np.int16)
         out[inside] = grid.data[r[inside], c[inside]]
         return out
+
+    def moved(self, correction: Pose2D) -> WorldTruth:
+        """The same world judging maps whose frame lies at ``map_in_world`` ∘ ``correction``."""
+        return dataclasses.replace(self, map_in_world=self.map_in_world.compose(correction))
+
+    def fit(self, grid: OccupancyGrid, guess: Pose2D = NO_OFFSET,
+            headings_deg: tuple[float, ...] = (0.0,)) -> Pose2D:
+        """The rigid correction of the map's frame (see ``moved``) that best lays its occupied cells on the
+        world's obstacles: least mean distance, each capped at ``FIT_CAP_M``, searched locally from ``guess``
+        turned by each of ``headings_deg``. SLAM's map frame is the robot's start only as well as its first
+        metres of odometry: a map turned by 1° about it is a right map in a frame 1° off, yet half its walls
+        lie more than two cells from the truth 20 m away. Maps are compared after this alignment (as map
+        evaluations do); a bent map stays bent. Fewer than ``FIT_MIN_CELLS`` occupied cells: ``guess``."""
+        rows, cols = np.nonzero(grid.data >= 65)
+        if len(rows) < FIT_MIN_CELLS:
+            return guess
+        pts = np.column_stack((grid.origin.x + (cols + 0.5) * grid.resolution,
+                               grid.origin.y + (rows + 0.5) * grid.resolution))
+        capped = np.minimum(np.abs(self.dist), FIT_CAP_M)
+
+        def cost(p: np.ndarray) -> float:
+            xy = self.map_in_world.compose(Pose2D(p[0], p[1], np.radians(p[2]))).apply(pts)
+            rc = [(xy[:, 1] - self.origin[1]) / self.resolution - 0.5,  # cell values stand at cell centres
+                  (xy[:, 0] - self.origin[0]) / self.resolution - 0.5]
+            return float(np.mean(ndimage.map_coordinates(capped, rc, order=1, mode="constant", cval=FIT_CAP_M)))
+
+        best: tuple[float, np.ndarray] | None = None
+        for dh in headings_deg:
+            x0 = np.array([guess.x, guess.y, np.degrees(guess.theta) + dh])
+            simplex = np.vstack([x0, x0 + [0.05, 0, 0], x0 + [0, 0.05, 0], x0 + [0, 0, 0.5]])  # m, m, degrees
+            r = optimize.minimize(cost, x0, method="Nelder-Mead",
+                                  options=dict(initial_simplex=simplex, xatol=2e-3, fatol=1e-6, maxiter=400))
+            if best is None or r.fun < best[0]:
+                best = (float(r.fun), r.x)
+        assert best is not None
+        x, y, deg = best[1]
+        return Pose2D(float(x), float(y), float(np.radians(deg)))
 
     def explored(self, grid: OccupancyGrid) -> float:
         """The share of the reachable free area that ``grid`` knows as free."""

@@ -44,3 +44,31 @@ def test_unknown_half_and_a_wall_drawn_off_by_half_a_metre_lower_the_figures(tru
     walls, free = truth.agreement(dataclasses.replace(truth_map, data=shifted))
     assert walls < 0.8 and free < 1.0, (walls, free)  # the free cells now on walls
     assert truth.explored(dataclasses.replace(truth_map, data=np.full_like(half, -1))) == 0.0
+
+
+def test_a_map_in_a_frame_turned_and_shifted_from_the_start_is_laid_back_where_it_fits(truth_map):
+    """SLAM's frame off the start by 3° and 0.14 m (its first metres of odometry): a right map judged at the
+    start has walls off; fitted, the frame is found again (to the room's few metres: within 0.05 m and 1°)
+    and the map agrees."""
+    off = Pose2D(0.1, -0.1, np.radians(3.0))
+    truth = WorldTruth.of("room", START.compose(off), 0.05)  # the world seen from the frame that is off
+    raw_walls, _ = truth.agreement(truth_map)
+    assert raw_walls < 0.9
+    found = truth.fit(truth_map, headings_deg=(-2.0, 0.0, 2.0))
+    back = off.compose(found)  # the correction undoes the offset
+    assert abs(back.x) < 0.05 and abs(back.y) < 0.05 and abs(np.degrees(back.theta)) < 1.0, (found, back)
+    assert truth.moved(found).agreement(truth_map) == pytest.approx((1.0, 1.0))
+    assert truth.moved(found).explored(truth_map) == pytest.approx(1.0, abs=0.01)
+
+
+def test_the_fit_does_not_straighten_a_bent_map(truth_map):
+    """Half the room's walls drawn 0.5 m off: no frame lays both halves on the world."""
+    truth = WorldTruth.of("room", START, 0.05)
+    bent = truth_map.data.copy()
+    half = bent.shape[1] // 2
+    bent[:, half:] = np.roll(bent[:, half:], 10, axis=0)
+    g = dataclasses.replace(truth_map, data=bent)
+    walls, _ = truth.moved(truth.fit(g, headings_deg=(-2.0, 0.0, 2.0))).agreement(g)
+    assert walls < 0.9, walls
+    empty = dataclasses.replace(truth_map, data=np.full_like(bent, -1))
+    assert truth.fit(empty, Pose2D(0.1, 0.0, 0.0)) == Pose2D(0.1, 0.0, 0.0)  # nothing to fit: the guess
