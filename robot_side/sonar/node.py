@@ -4,16 +4,28 @@
 point at the ring's maximum range, which an obstacle layer with a shorter ``obstacle_range`` only clears
 along. With ``cone_topic`` the node also publishes, for a clearing-only source, points across each cone just
 short of its reading (``cone_points``): what a sonar has heard empty is its whole cone, not its axis. Every
-message gives a cloud, so the costmap sees the source alive."""
+message gives a cloud, so the costmap sees the source alive.
+
+With ``frame_prefix`` each sonar's points go out as a message of their own, in the sonar's own frame
+(``<prefix><number>``, sent as static transforms from the readings' frame by the ring's geometry), as ROS
+gives each sonar a frame for its Range messages. An obstacle layer raytraces from a cloud's frame origin
+(a source without ``sensor_frame``), so it then clears from the sonar itself. From the base's centre, the
+line to a point of a side sonar's cone runs outside the cone for its first centimetres beyond the body:
+it erased the marks of a door jamb's corner that no sonar had heard empty (office02, 2026-11-29: the rear
+corner of a robot turning round the jamb then struck it)."""
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import math
 from dataclasses import dataclass
 
 from common.bus import Node
 from common.config import param
-from common.messages import PointCloud, SonarArray
+from common.geometry import Quaternion, Transform, Vector3
+from common.messages import Header, PointCloud, SonarArray, TransformStamped
+from common.tf import StaticTFBroadcaster
 from robot_side.depth.node_util import Handles, convert_stream, split_params
 from robot_side.sonar.geometry import SonarRingParams, cone_points, sonar_points
 
@@ -33,6 +45,10 @@ class SonarCloudParams:
     cone_rays: int = param(5, lo=1, hi=64, doc="bearings per cone on cone_topic")
     cone_use: tuple[int, ...] | None = param(None, doc="the sonars whose cones go on cone_topic (default: use's; "
                                                        "empty: all)")
+    frame_prefix: str = param("", doc="publish each sonar's points as their own message in the sonar's own frame "
+                                      "<prefix><number> (static transforms from the readings' frame, at height z): "
+                                      "a costmap then raytraces from the sonar, not from the base's centre "
+                                      "(empty: one cloud per reading, in the readings' frame)")
 
 
 def start(node: Node, cfg: dict, source: str) -> Handles:
@@ -40,12 +56,18 @@ def start(node: Node, cfg: dict, source: str) -> Handles:
     warned: set[int] = set()
     limit = ring.range_max * (1.0 + 1e-6) if p.include_no_echo else ring.range_max
 
-    def cloud(msg: SonarArray) -> PointCloud:
+    def check(msg: SonarArray) -> None:
         n = len(msg.ranges)
         if n != len(ring.units) and n not in warned:
             warned.add(n)
             log.warning("sonar has %d readings, this node's ring %d: the readings without a unit are ignored",
                         n, len(ring.units))
+
+    if p.frame_prefix:
+        return _per_sonar(node, p, ring, limit, check)
+
+    def cloud(msg: SonarArray) -> PointCloud:
+        check(msg)
         return PointCloud(msg.header, sonar_points(ring, msg.ranges, p.use, p.z, max_range=limit))
 
     h = convert_stream(node, p.sonar_topic, SonarArray, p.points_topic, cloud)
@@ -55,6 +77,49 @@ def start(node: Node, cfg: dict, source: str) -> Handles:
             return PointCloud(msg.header, cone_points(ring, msg.ranges, use, p.cone_rays, p.z))
 
         h.add(convert_stream(node, p.sonar_topic, SonarArray, p.cone_topic, cones))
+    return h
+
+
+def sonar_frames(ring: SonarRingParams, parent: str, prefix: str, numbers: list[int],
+                 z: float) -> list[TransformStamped]:
+    """Static transforms ``parent`` -> ``<prefix><k>`` for the sonars ``numbers``: at the unit, at height
+    ``z``, x along its axis."""
+    return [TransformStamped(Header(0.0, parent), f"{prefix}{k}",
+                             Transform(Vector3(ring.units[k][0], ring.units[k][1], z),
+                                       Quaternion.from_yaw(ring.units[k][2])))
+            for k in numbers]
+
+
+def _per_sonar(node: Node, p: SonarCloudParams, ring: SonarRingParams, limit: float, check) -> Handles:
+    """One message per sonar and reading, in the sonar's own frame (``frame_prefix``)."""
+    n = len(ring.units)
+    axis = [k for k in (p.use or range(n)) if 0 <= k < n]
+    cones = [k for k in ((p.use if p.cone_use is None else p.cone_use) or range(n)) if 0 <= k < n] \
+        if p.cone_topic else []
+    one = dataclasses.replace(ring, units=((0.0, 0.0, 0.0),))  # a sonar seen from its own frame
+    h = Handles()
+    points_pub = h.add(node.publisher(p.points_topic))
+    cone_pub = h.add(node.publisher(p.cone_topic)) if cones else None
+    static = h.add(StaticTFBroadcaster(node))
+    sent: set[str] = set()
+
+    def on_sonar(msg: SonarArray) -> None:
+        check(msg)
+        parent = msg.header.frame_id
+        if parent not in sent:
+            sent.add(parent)
+            static.send(sonar_frames(ring, parent, p.frame_prefix, sorted(set(axis) | set(cones)), p.z))
+        readings = list(msg.ranges)
+        for k in axis:
+            reading = (readings[k] if k < len(readings) else math.nan,)
+            points_pub.publish(PointCloud(Header(msg.header.stamp, f"{p.frame_prefix}{k}"),
+                                          sonar_points(one, reading, (), 0.0, max_range=limit)))
+        for k in cones:
+            reading = (readings[k] if k < len(readings) else math.nan,)
+            cone_pub.publish(PointCloud(Header(msg.header.stamp, f"{p.frame_prefix}{k}"),
+                                        cone_points(one, reading, (), p.cone_rays, 0.0)))
+
+    h.add(node.subscribe(p.sonar_topic, SonarArray, callback=on_sonar, mode="queue"))
     return h
 
 

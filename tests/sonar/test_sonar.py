@@ -219,6 +219,70 @@ def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
     assert "use" in str(e.value)
 
 
+def test_with_a_frame_prefix_each_sonar_is_a_cloud_in_its_own_frame_placed_by_static_tf(peers):
+    """frame_prefix: one cloud per sonar and reading, in sonar_<k> (its point on its x axis at the reading),
+    and the static transforms that put sonar_<k> on the ring; a costmap then raytraces from the sonar."""
+    from common.tf import TFListener
+    from robot_side.sonar.node import start
+
+    test, host = peers
+    handles = start(host, {"use": [8, 12], "include_no_echo": False, "cone_topic": "cones", "cone_rays": 3,
+                           "frame_prefix": "sonar_"}, "sonar.yaml")
+    tf = TFListener(test)
+    try:
+        seen: dict[str, PointCloud] = {}
+        test.subscribe("sonar_pointcloud", PointCloud, mode="queue",
+                       callback=lambda m: seen.__setitem__(m.header.frame_id, m))
+        cones: dict[str, PointCloud] = {}
+        test.subscribe("cones", PointCloud, mode="queue", callback=lambda m: cones.__setitem__(m.header.frame_id, m))
+        pub = test.publisher("sonar")
+        ranges = [RING.range_max] * 16
+        ranges[12] = 0.7
+
+        def got():
+            pub.publish(SonarArray(Header(3.0, "base_link"), tuple(ranges)))
+            return {"sonar_8", "sonar_12"} <= set(seen) and {"sonar_8", "sonar_12"} <= set(cones) \
+                and tf.buffer.can_transform("base_link", "sonar_12", 0.0)
+
+        wait_until(got, 20, "one cloud per sonar and the sonars' frames")
+        assert set(seen) == {"sonar_8", "sonar_12"}  # only the used sonars
+        assert seen["sonar_8"].points.shape == (0, 3)  # no echo
+        assert np.allclose(seen["sonar_12"].points, [[0.7, 0.0, 0.0]], atol=1e-6)
+        assert cones["sonar_12"].points.shape == (3, 3) and np.allclose(cones["sonar_12"].points[:, 0].max(), 0.65)
+        x, y, h = RING.units[12]
+        in_base = tf.buffer.transform_points("base_link", "sonar_12", seen["sonar_12"].points.astype(float))
+        assert np.allclose(in_base, sonar_points(RING, ranges, use=(12,), z=0.2), atol=1e-5)
+        assert np.allclose(tf.buffer.lookup_pose2d("base_link", "sonar_12").as_array(), [x, y, h], atol=1e-6)
+    finally:
+        tf.close()
+        handles.close()
+
+
+def test_cleared_from_the_base_centre_a_side_sonar_erases_a_corner_outside_its_cone():
+    """Sonar 8 (right flank, facing -90 deg) hears a wall 0.3 m out on its axis. A wall corner 8 cm beside the
+    body, 16 deg off that axis, is outside its 15 deg cone: cleared from the sonar's own position it stays;
+    cleared from the base's centre, the line to a cone point crosses it (what struck office02's door jamb)."""
+    x8, y8, h8 = RING.units[8]
+    ranges = [RING.range_max] * 16
+    ranges[8] = 0.3
+    cone = cone_points(RING, ranges, (8,), rays=16, z=0.2)
+    corner = (-0.09, -0.33)  # 8 cm right of the body (half width 0.254), ahead of sonar 8's axis (x = -0.144)
+    bearing = math.degrees(math.atan2(corner[1] - y8, corner[0] - x8)) - math.degrees(h8)
+    assert abs(bearing) > 7.5  # outside the cone
+    cone_source = dataclasses.replace(SONAR, marking=False, clearing=True, min_mark_separation=0.0)
+    for origin, kept in (((x8, y8), True), ((0.0, 0.0), False)):
+        lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True)
+        layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=False),
+                                           {"laser": LASER, "cone": cone_source}))
+        layer.add_observation("laser", np.array([[corner[0], corner[1], 0.3]]), np.array([0.2, 0.0, 0.3]), 0.0)
+        lc.update_map(Pose2D(0.0, 0.0, 0.0))
+        assert lc.master.get_cost(*corner) == LETHAL
+        layer.add_observation("laser", np.zeros((0, 3)), np.array([0.2, 0.0, 0.3]), 1.0)
+        layer.add_observation("cone", cone, np.array([origin[0], origin[1], 0.2]), 1.0)
+        lc.update_map(Pose2D(0.0, 0.0, 0.0))
+        assert (lc.master.get_cost(*corner) == LETHAL) == kept, origin
+
+
 def test_a_sonar_echo_marks_only_where_nothing_is_marked_near_it():
     """min_mark_separation: an echo 4 cm inside a wall the laser has marked adds nothing (a displaced second
     wall narrowed office02's passages until no trajectory was left); an echo where nothing is marked does."""
@@ -269,3 +333,29 @@ def test_a_sonar_echo_within_the_padding_beside_the_flank_survives_footprint_cle
         assert lc.master.get_cost(-0.1, -0.284) == (LETHAL if keep else FREE_SPACE), keep
         assert lc.master.get_cost(0.0, -0.2) == FREE_SPACE  # the robot is there
         assert lc.master.get_cost(0.1, 0.28) == FREE_SPACE  # the laser's mark within the padding: freed as in ROS
+
+
+def test_when_no_source_frees_the_padding_a_wall_seen_earlier_beside_the_flank_stays():
+    """Every marking source footprint_clearing: false: the layer frees only the cells under the robot's body, so
+    a wall the laser marked ahead and the robot then drew level with (3 cm from its flank, in the padding, out
+    of the laser's view) stays marked though no reading holds it any more, and so does one touching the other
+    flank (its cell crossed by the outline); under the body a mark is freed."""
+    body = np.array([[0.254, -0.254], [0.254, 0.254], [-0.254, 0.254], [-0.254, -0.254]])
+    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True,
+                        footprint=pad_footprint(body, 0.04), footprint_padding=0.04)
+    laser = dataclasses.replace(LASER, footprint_clearing=False)
+    sonar = dataclasses.replace(SONAR, footprint_clearing=False)
+    layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=True),
+                                       {"laser": laser, "sonar": sonar}))
+    wall = np.array([[x, -0.284, 0.3] for x in np.arange(0.4, 1.6, 0.02)])  # ahead, on the right
+    touching = np.array([[x, 0.258, 0.3] for x in np.arange(0.4, 1.6, 0.02)])  # on the left, 4 mm off the body
+    layer.add_observation("laser", np.vstack((wall, touching)), np.array([0.0, 0.0, 0.3]), 0.0)
+    layer.add_observation("sonar", np.zeros((0, 3)), np.array([0.0, 0.0, 0.2]), 0.0)
+    lc.update_map(Pose2D(0.0, 0.0, 0.0))
+    layer.add_observation("laser", np.zeros((0, 3)), np.array([0.8, 0.0, 0.3]), 1.0)  # nothing seen now
+    lc.update_map(Pose2D(0.7, 0.0, 0.0))  # drawn level with the wall
+    assert lc.master.get_cost(0.7, -0.284) == LETHAL  # 3 cm from the flank: kept
+    assert lc.master.get_cost(1.3, -0.284) == LETHAL
+    assert lc.master.get_cost(0.7, 0.258) == LETHAL  # in the cell the outline crosses: the flank touches it
+    lc.update_map(Pose2D(0.7, -0.1, 0.0))  # the robot on the wall (as a bad pose would put it)
+    assert lc.master.get_cost(0.7, -0.284) == FREE_SPACE  # under the body: freed
