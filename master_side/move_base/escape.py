@@ -98,14 +98,30 @@ def _swept(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose
     return None if ((cost == LETHAL) | (cost == NO_INFORMATION)).any() else cells
 
 
+def _leaving(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D,
+             outline: np.ndarray) -> np.ndarray:
+    """``grid`` with the lethal cells under the outline at ``pose`` freed: a robot touching a wall may move off
+    it (every other cell of the way must be free; a move along or into the wall meets new lethal cells)."""
+    cells = _cells(pose.as_array()[None], outline, res, origin)[0]
+    cells = cells[_inside(cells, grid.shape)]
+    touched = grid[cells[:, 1], cells[:, 0]] == LETHAL
+    if not touched.any():
+        return grid
+    out = grid.copy()
+    out[cells[touched, 1], cells[touched, 0]] = 0
+    return out
+
+
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
                 params: EscapeParams = EscapeParams()) -> EscapeMove | None:
     """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
     robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
-    farthest), free for the outline all the way (no lethal or unknown cell, not off the grid). None when the
-    robot already has that clearance, or no move gains a cell of clearance on where it stands."""
+    farthest), free for the outline all the way (no lethal or unknown cell, not off the grid; a lethal cell
+    the outline touches where the robot stands may be left behind). None when the robot already has that
+    clearance, or no move gains a cell of clearance on where it stands."""
     grid = np.asarray(grid)
     outline, outline_r = _outline(footprint, res)
+    way = _leaving(grid, res, origin, pose, outline)
     clear = distance_transform_edt(grid != LETHAL) * res if (grid == LETHAL).any() else np.full(grid.shape, np.inf)
 
     def clearance(cells: np.ndarray) -> float:
@@ -121,7 +137,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
     best: tuple[tuple[float, float], EscapeMove] | None = None
     for d, a in moves:
-        cells = _swept(grid, res, origin, pose, float(d), float(a), outline, outline_r)
+        cells = _swept(way, res, origin, pose, float(d), float(a), outline, outline_r)
         if cells is None:
             continue
         after = clearance(cells[-1])
@@ -175,6 +191,8 @@ class EscapeRecovery:
             left = abs(m.turn) - abs(normalize_angle(rel.theta))
             ahead = math.copysign(min(0.1, abs(m.turn)), m.turn)
             cmd, check = (0.0, 0.0, math.copysign(p.turn_speed, m.turn)), (0.0, ahead)
-        if left <= 0.0 or _swept(np.asarray(grid), res, origin, here, *check, *_outline(self.footprint, res)) is None:
+        outline, outline_r = _outline(self.footprint, res)
+        way = _leaving(np.asarray(grid), res, origin, here, outline)
+        if left <= 0.0 or _swept(way, res, origin, here, *check, outline, outline_r) is None:
             return stop, True
         return cmd, False

@@ -93,6 +93,20 @@ def test_a_wall_beside_the_rear_corner_is_left_by_the_turn_that_swings_it_away()
         assert move.distance > 0.0
 
 
+def test_a_robot_touching_a_wall_moves_off_it_not_along_or_into_it():
+    """A wall's cells under the rear half of the left flank (a touch): a move that leaves them is planned and
+    driven. Flat against a wall all along the flank, every turn swings a corner into it and every drive
+    slides along it (new wall cells under the outline): no move."""
+    grid = grid_with((-2.0, 0.25, -0.05, 0.5))  # from 4 mm inside the left flank outwards, behind x = -0.05
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT)
+    assert move is not None and move.clearance_before == 0.0
+    assert move.turn > 0.0 or move.distance > 0.0  # counter-clockwise swings the rear corner off; forward leaves it
+    base = FakeBase(grid)
+    base.run(EscapeRecovery(base.view, P3AT))
+    assert min_clearance(grid, base.pose) > min_clearance(grid, Pose2D()) + RES
+    assert plan_escape(grid_with((-2.0, 0.25, 2.0, 0.5)), RES, ORIGIN, Pose2D(), P3AT) is None
+
+
 class FakeBase:
     """The robot integrating the escape's commands, and the view the recovery reads."""
 
