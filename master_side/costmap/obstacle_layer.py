@@ -37,6 +37,7 @@ class ObstacleLayer(CostmapLayer):
         self.buffers = {n: ObservationBuffer(n, p) for n, p in (sources or {}).items()}
         self.footprint_world = np.zeros((0, 2))
         self._bare_world = np.zeros((0, 2))  # the robot's own outline (the padding off), for _keep_near_field
+        self._under_body = np.zeros((0, 2))  # the cells freed when every source keeps its marks in the padding
 
     # -- input -----------------------------------------------------------------------------------
     def add_observation(self, source: str, points: np.ndarray, origin: np.ndarray, stamp: float) -> None:
@@ -64,8 +65,15 @@ class ObstacleLayer(CostmapLayer):
                                 else np.zeros((0, 2)))
         pad = self.layered.footprint_padding
         kept = any(not b.params.footprint_clearing for b in self.buffers.values())
-        self._bare_world = (transform_footprint(pad_footprint(self.layered.footprint, -pad), robot_pose)
-                            if clearing_footprint and kept and pad > 0 else np.zeros((0, 2)))
+        keeps_all = not any(b.params.marking and b.params.footprint_clearing for b in self.buffers.values())
+        bare = pad_footprint(self.layered.footprint, -pad) if clearing_footprint else np.zeros((0, 2))
+        self._bare_world = (transform_footprint(bare, robot_pose) if clearing_footprint and kept and pad > 0
+                            else np.zeros((0, 2)))
+        # no marking source frees the padding: free only the cells wholly under the body, not those its outline
+        # crosses, where a wall touching the flank is marked (a robot that had touched one saw room there and
+        # pushed on into it: office02, 2026-11-29)
+        self._under_body = (transform_footprint(pad_footprint(bare, -self.costmap.resolution), robot_pose)
+                            if clearing_footprint and keeps_all else np.zeros((0, 2)))
         for obs in self._observations("clearing"):
             bounds = self._raytrace(obs, bounds)
         # sources with min_mark_separation last: they mark only where the others have not, this cycle included
@@ -76,7 +84,9 @@ class ObstacleLayer(CostmapLayer):
         return bounds
 
     def update_costs(self, master: Costmap2D, window: Window) -> None:
-        if self.params.footprint_clearing_enabled and len(self.footprint_world):
+        if len(self._under_body):
+            self.costmap.set_polygon_cost(self._under_body, FREE)
+        elif self.params.footprint_clearing_enabled and len(self.footprint_world):
             self.costmap.set_polygon_cost(self.footprint_world, FREE)
             self._keep_near_field()
         _COMBINE[self.params.combination_method](master, self.costmap.data, window)
@@ -84,7 +94,9 @@ class ObstacleLayer(CostmapLayer):
     def _keep_near_field(self) -> None:
         """Marks of ``footprint_clearing: false`` sources inside the padded footprint but outside the robot's own
         outline are marked again: a sonar hearing a wall 3 cm from the flank is a wall, not the robot (freed
-        with the padding, the planner saw room there and turned the flank into it: office02's flank contacts)."""
+        with the padding, the planner saw room there and turned the flank into it: office02's flank contacts).
+        Beside sources that free the padding, only their current readings' marks can be told apart and kept;
+        when no marking source frees the padding, the layer frees only the cells under the body (update_costs)."""
         keep = [o for b in self.buffers.values() if b.params.marking and not b.params.footprint_clearing
                 for o in b.observations]
         if not keep or not len(self._bare_world):  # no padding: the footprint is the robot's outline
