@@ -51,6 +51,14 @@ def world_and_start(world: str) -> tuple[str, Pose2D]:
     return str(world_map(MRPB, world)), Pose2D(*case.start)
 
 
+def _known(mark_m: float | None) -> str:
+    """Did the local costmap hold the wall the robot touched? (a mark within two of its 0.025 m cells)"""
+    if mark_m is None:
+        return "no local costmap yet"
+    return (f"the local costmap had it, nearest mark {100 * mark_m:.0f} cm" if mark_m <= 0.05 else
+            f"not in the local costmap: nearest mark {100 * mark_m:.0f} cm")
+
+
 def row(r: ExploreRun) -> str:
     t95 = r.time_to(0.95)
     fit = f"{math.degrees(r.offset.theta):+.1f}°{math.hypot(r.offset.x, r.offset.y):.2f}m"
@@ -84,7 +92,8 @@ def main(argv: list[str] | None = None) -> int:
         runs.append(r)
         print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
               f"({time.monotonic() - t0:.0f} s wall)" + "".join(
-                  f"; contact at ({x:.2f}, {y:.2f}) at {t:.0f} s" for t, x, y in r.contacts),
+                  f"; contact at ({x:.2f}, {y:.2f}) at {t:.0f} s ({_known(d)})"
+                  for (t, x, y), d in zip(r.contacts, r.contact_marks)),
               file=sys.stderr, flush=True)
         if r.end == INTERRUPTED:  # Ctrl-C: the table of what was measured, then stop
             break

@@ -18,6 +18,7 @@ import signal
 import threading
 import time
 import uuid
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -25,11 +26,12 @@ import numpy as np
 
 from common.bus import Node
 from common.geometry import Pose2D
-from common.messages import Collision, OccupancyGrid, Odometry
+from common.messages import Collision, Costmap, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.stack.map_check import NO_OFFSET, WorldTruth
 from deploy.stack.process_group import ProcessGroup
+from master_side.costmap.cost_values import LETHAL
 from master_side.mapping.map_io import load_map
 
 STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
@@ -51,6 +53,9 @@ class ExploreRun:
     path_m: float = 0.0
     collisions: int = 0
     contacts: list[tuple[float, float, float]] = field(default_factory=list)  # (sim s, x, y in the world)
+    # per contact: how far from the touched point the nearest mark of the local costmap was just before it
+    # (None: no costmap yet); a mark within a cell or two: the planner knew of the wall
+    contact_marks: list[float | None] = field(default_factory=list)
     sim_s: float = 0.0
     wall_s: float = 0.0
     log_dir: str = ""
@@ -74,6 +79,12 @@ class _Watch:
         self.contacts: list[tuple[float, float, float]] = []  # (sim s, x, y) of each new contact
         node.subscribe("collision", Collision, mode="queue", callback=self._contact)
         node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
+        # what the planner knew at a contact: the local costmap and where the robot was in its frame
+        self.local = node.subscribe("local_costmap/costmap", Costmap)
+        self.odoms: deque[Odometry] = deque(maxlen=200)
+        self.truths: deque[Odometry] = deque(maxlen=200)
+        node.subscribe("odom", Odometry, callback=self.odoms.append, mode="queue")
+        self.contact_marks: list[float | None] = []
         self.t0: float | None = None
         self.path = 0.0
         self.last: tuple[float, float] | None = None
@@ -83,6 +94,7 @@ class _Watch:
 
     def _odom(self, m: Odometry) -> None:
         p = m.pose2d
+        self.truths.append(m)
         with self.lock:
             if self.last is not None:
                 self.path += float(np.hypot(p.x - self.last[0], p.y - self.last[1]))
@@ -93,6 +105,23 @@ class _Watch:
             if m.count > self.collisions:
                 self.collisions = m.count
                 self.contacts.append((self.now() - (self.t0 or 0.0), m.x, m.y))
+                self.contact_marks.append(self._mark_near(m.x, m.y))
+
+    def _mark_near(self, x: float, y: float) -> float | None:
+        """The distance from the world point (x, y) to the nearest lethal cell of the latest local costmap (in
+        the odometry frame: placed by the odometry and ground-truth poses nearest that map's stamp)."""
+        cm = self.local.latest()
+        if cm is None or not self.odoms or not self.truths:
+            return None
+        t = cm.header.stamp
+        odom = min(list(self.odoms), key=lambda o: abs(o.header.stamp - t)).pose2d
+        true = min(list(self.truths), key=lambda o: abs(o.header.stamp - t)).pose2d
+        px, py = odom.compose(true.inverse()).apply(np.array([[x, y]]))[0]
+        rows, cols = np.nonzero(np.asarray(cm.data) == LETHAL)
+        if len(rows) == 0:
+            return float("inf")
+        cx, cy = cm.origin.x + (cols + 0.5) * cm.resolution, cm.origin.y + (rows + 0.5) * cm.resolution
+        return float(np.min(np.hypot(cx - px, cy - py)))
 
     def now(self) -> float:
         """The simulator's time (the node is on use_sim_time="auto"), 0 before its first clock."""
@@ -182,7 +211,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     finally:
         with watch.lock:
             out.path_m, out.collisions = watch.path, watch.collisions
-            out.contacts = list(watch.contacts)
+            out.contacts, out.contact_marks = list(watch.contacts), list(watch.contact_marks)
         out.coverage = list(watch.coverage)
         out.wall_s = time.monotonic() - wall0
         try:
