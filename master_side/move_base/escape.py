@@ -113,12 +113,16 @@ def _leaving(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Po
 
 
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
-                params: EscapeParams = EscapeParams()) -> EscapeMove | None:
+                params: EscapeParams = EscapeParams(), against: tuple[float, float] | None = None) -> EscapeMove | None:
     """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
     robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
     farthest), free for the outline all the way (no lethal or unknown cell, not off the grid; a lethal cell
     the outline touches where the robot stands may be left behind). None when the robot already has that
-    clearance, or no move gains a cell of clearance on where it stands."""
+    clearance, or no move gains a cell of clearance on where it stands.
+
+    ``against``: the (v, w) of a command the robot stalled on (move_base's stall_timeout): something the
+    costmap does not show holds it, so the move goes the other way (a drive against v, or a turn against
+    w), at least ``STALL_BACKOFF`` of it, whatever the clearance, the most clearance first."""
     grid = np.asarray(grid)
     outline, outline_r = _outline(footprint, res)
     way = _leaving(grid, res, origin, pose, outline)
@@ -129,7 +133,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
         return float(clear[cells[ok, 1], cells[ok, 0]].min()) if ok.any() else 0.0
 
     here = clearance(_cells(pose.as_array()[None], outline, res, origin)[0])
-    if here >= params.clearance:
+    if here >= params.clearance and against is None:
         return None  # free enough where it stands
     step = max(res, 0.05)
     dists = np.arange(step, params.max_distance + 1e-9, step)
@@ -137,11 +141,13 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
     best: tuple[tuple[float, float], EscapeMove] | None = None
     for d, a in moves:
+        if against is not None and not _against(float(d), float(a), against):
+            continue
         cells = _swept(way, res, origin, pose, float(d), float(a), outline, outline_r)
         if cells is None:
             continue
         after = clearance(cells[-1])
-        if after < here + res:
+        if after < here + res and against is None:
             continue
         # the most clearance up to params.clearance, then the least motion (a turn as its outline's arc; a
         # reverse drive counts double: behind the robot only sonars look, with gaps between their cones)
@@ -151,15 +157,31 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     return None if best is None else best[1]
 
 
+STALL_BACKOFF = (0.1, 0.3)  # m, rad: the least drive or turn against a stalled command
+
+
+def _against(d: float, a: float, cmd: tuple[float, float]) -> bool:
+    """Does the drive ``d`` / turn ``a`` go against the stalled command's motion (and far enough)?"""
+    v, w = cmd
+    if d:
+        return abs(v) >= IN_PLACE_V and d * v < 0 and abs(d) >= STALL_BACKOFF[0] - 1e-9
+    return abs(w) >= IN_PLACE_W and a * w < 0 and abs(a) >= STALL_BACKOFF[1] - 1e-9
+
+
+IN_PLACE_V, IN_PLACE_W = 0.01, 0.05  # m/s, rad/s: slower than this, the command does not drive / turn
+
+
 class EscapeRecovery:
     """move_base recovery: plans one escape move on its first tick (``view`` gives the local costmap and
     the robot's pose in it), then drives it, checking the bare outline a step ahead every tick; done
     when the move is made, the way ahead is blocked, the time allowance is spent or nothing helps."""
 
     def __init__(self, view: View, footprint: np.ndarray, params: EscapeParams = EscapeParams(),
-                 name: str = "escape", log: Callable[[str], None] | None = None) -> None:
+                 name: str = "escape", log: Callable[[str], None] | None = None,
+                 stalled: Callable[[], tuple[float, float] | None] | None = None) -> None:
+        """``stalled``: the (v, w) the robot stalled on when a stall started this recovery, else None."""
         self._view, self.footprint, self.params, self.name = view, np.asarray(footprint, float), params, name
-        self._log = log
+        self._log, self._stalled = log, stalled
         self.move: EscapeMove | None = None
         self._start: Pose2D | None = None
         self._t0 = 0.0
@@ -170,11 +192,16 @@ class EscapeRecovery:
     def start(self, now: float) -> None:
         self._t0, self.move, self._start = now, None, None
         view = self._view()
+        against = self._stalled() if self._stalled is not None else None
         if view is not None:
             grid, res, origin, pose = view
-            self.move, self._start = plan_escape(grid, res, origin, pose, self.footprint, self.params), pose
+            self.move = plan_escape(grid, res, origin, pose, self.footprint, self.params, against)
+            self._start = pose
         if self._log is not None:
-            self._log(f"{self.name}: {self.move.describe() if self.move else 'no move gains clearance'}")
+            what = self.move.describe() if self.move else (
+                "no free move against the stalled command" if against else "no move gains clearance")
+            self._log(f"{self.name}: {what}" + (f" (stalled on v={against[0]:.2f}, w={against[1]:.2f})"
+                                                 if against else ""))
 
     def step(self, now: float, pose: Pose2D, velocity) -> tuple[tuple[float, float, float], bool]:
         stop = (0.0, 0.0, 0.0)

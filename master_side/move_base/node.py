@@ -60,7 +60,7 @@ from master_side.move_base.global_planning_node import GlobalPlanning
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
 from master_side.move_base.robot_inputs import collision_hint, robot_pose, safety_override
-from master_side.move_base.state_machine import MoveBaseMachine, State
+from master_side.move_base.state_machine import MoveBaseMachine, State, Trigger
 from master_side.planning.warmup import warm_local_planners
 
 TERMINAL = (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)
@@ -88,7 +88,7 @@ class MoveBaseNode:
         self.planner = PlannerThread(self.planning.plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
         recoveries = recoveries_from_params(p, c.recovery_namespaces, source, self._clear_costmaps, self._blocked,
                                             c.circumscribed_radius, c.rotate, self._local_view, c.bare_footprint,
-                                            node.log.info)
+                                            node.log.info, self._stalled_on)
         self.machine = MoveBaseMachine(p, self.planner, self.controller, recoveries)
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None
@@ -235,6 +235,13 @@ class MoveBaseNode:
                 self.node.call(f"{name}/clear", Scalar(value=reset_distance), timeout=1.0)
             except Exception as e:  # noqa: BLE001 - recovery goes on without it
                 self.node.log.warning("could not clear %s: %s", name, e)
+
+    def _stalled_on(self) -> tuple[float, float] | None:
+        """The (v, w) the robot stalled on, while a stall's recoveries run (the escape moves against it)."""
+        m = self.machine
+        if m.trigger is not Trigger.STALL or m.stall_command is None:
+            return None
+        return m.stall_command[0], m.stall_command[2]
 
     def _local_view(self):
         """(local grid, resolution, origin, robot pose in the local frame), or None (an escape's view)."""

@@ -49,6 +49,12 @@ class MoveBaseParams:
         4 * math.pi, lo=0.0, unit="rad",
         doc="zenav: in-place turning without translating (valid commands) that counts as a failed "
             "controller; 0 = off (ROS has no such check)")
+    stall_timeout: float = param(
+        0.0, lo=0.0, unit="s",
+        doc="zenav: valid commands worth at least 0.1 m or 0.4 rad of motion that got the robot less than 5 cm "
+            "or 0.2 rad (or a mix) for this long start the recoveries: the base is pushing on something its "
+            "sensors do not show (a Pioneer reports it as a wheel stall); an escape then moves against the "
+            "stalled command; 0 = off (ROS has no such check)")
     no_progress_report: float = param(
         5.0, lo=0.0, unit="s",
         doc="zenav: while controlling with valid commands, the status says 'no progress' once the robot has "

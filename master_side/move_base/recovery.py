@@ -123,10 +123,11 @@ def default_recoveries(params, clear: Callable[..., None], blocked=None, circums
 def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked=None,
                            circumscribed_radius: float = 0.0, rotate: RotateLimits = RotateLimits(),
                            view: View | None = None, bare_footprint: np.ndarray | None = None,
-                           log: Callable[[str], None] | None = None) -> list:
+                           log: Callable[[str], None] | None = None,
+                           stalled: Callable[[], tuple[float, float] | None] | None = None) -> list:
     """The ``recovery_behaviors`` list ([{name, type}], each name's parameters in ``namespaces``), or the
     default list when it is not set. An escape needs ``view`` (the local costmap and the robot's pose in
-    it) and the robot's ``bare_footprint`` (unpadded)."""
+    it) and the robot's ``bare_footprint`` (unpadded); ``stalled`` tells it the command a stall stopped."""
     spec = params.recovery_behaviors
     if spec is None:
         return default_recoveries(params, clear, blocked, circumscribed_radius, rotate)
@@ -148,7 +149,7 @@ def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked
         elif kind in ESCAPE_TYPES:
             ep = load_params(EscapeParams, ns, source, name)
             fp = np.zeros((0, 2)) if bare_footprint is None else bare_footprint
-            out.append(EscapeRecovery(view or (lambda: None), fp, ep, name, log))
+            out.append(EscapeRecovery(view or (lambda: None), fp, ep, name, log, stalled))
         else:
             raise ConfigError(source, f"recovery_behaviors[{names.index(name)}].type",
                               f"{kind!r} is not implemented (known: {CLEAR_TYPES[0]}, {ROTATE_TYPES[0]}, "

@@ -16,6 +16,10 @@ goes back to 0 when the condition that triggered the recovery clears (a plan, a 
 zenav's addition (``max_in_place_rotation``): valid commands that only turn the robot in place for a
 full revolution without it getting anywhere count as a failed controller (recovery), so a local
 planner that prefers spinning to entering a tight gap cannot spin until the goal's timeout.
+And (``stall_timeout``): valid commands that should have moved the robot but got it nowhere start the
+recoveries (trigger ``stall``; ``stall_command`` is the command that stalled, for an escape to move
+against): a wall the sensors never showed holds the robot, and the local planner, its costmap clear
+there, would push on into it (office02: 35 contacts in 32 s at one place, 2026-11-29).
 
 Collaborators, supplied by the node: a ``GlobalPlanner``, a ``Controller`` and ``Recovery`` behaviours
 (the Protocols of ``contracts.py``); a plain planning function goes in through
@@ -49,6 +53,7 @@ class Trigger(enum.Enum):
     PLANNING = "planning"
     CONTROLLING = "controlling"
     OSCILLATION = "oscillation"
+    STALL = "stall"
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,7 @@ class Decision:
 ZERO = (0.0, 0.0, 0.0)
 IN_PLACE = 0.01  # m/s: a command slower than this turns the robot in place
 PROGRESS_M, PROGRESS_RAD = 0.05, 0.2  # moving or turning this much is progress (no_progress_report)
+STALL_COMMANDED = 2.0  # stall_timeout: commanded motion (in progress units: 0.1 m or 0.4 rad) before a stall
 
 
 def _progress(a: Pose2D, b: Pose2D) -> float:
@@ -106,6 +112,7 @@ class MoveBaseMachine:
         self._recovery: Recovery | None = None
         self._recovery_started = False  # its start() runs on the first CLEARING tick, with that tick's time
         self._pending_event = ""
+        self.stall_command: tuple[float, float, float] | None = None  # the command of the last stall
         self._reset_clocks(0.0, None)
 
     def _reset_clocks(self, now: float, pose: Pose2D | None) -> None:
@@ -113,6 +120,9 @@ class MoveBaseMachine:
         self._osc_pose = self._prog_pose = pose
         self._retries = 0
         self._spin = TurnCounter()  # in-place turning while commanding no translation
+        self._stall_ref: Pose2D | None = pose  # stall_timeout: from where, since when, how much commanded
+        self._stall_time = self._stall_tick = now
+        self._stall_commanded = 0.0
 
     # -- goal management -----------------------------------------------------------------------
     def set_goal(self, goal_id: str, goal: Pose2D, now: float) -> None:
@@ -199,6 +209,11 @@ class MoveBaseMachine:
                                                       f"{p.oscillation_timeout:.1f} s")
         res = self.controller.compute(pose, velocity)
         spin = self._spun(pose, res.cmd) if res.ok else ""
+        stall = self._stalled(now, pose, res.cmd) if res.ok and not spin and self.state is State.CONTROLLING else ""
+        if stall:
+            self.stall_command = res.cmd
+            self._start_recovery(Trigger.STALL, stall)
+            return self._decide(ZERO, new_plan)
         if res.ok and not spin:
             self._last_valid_control = now
             if self.trigger is Trigger.CONTROLLING:
@@ -236,6 +251,29 @@ class MoveBaseMachine:
         turned = abs(normalize_angle(pose.theta - self._prog_pose.theta))
         return (f"no progress for {stalled:.0f} s: moved {moved:.2f} m and turned {turned:.2f} rad while "
                 f"commanding v={cmd[0]:.2f} m/s, w={cmd[2]:.2f} rad/s")
+
+    def _stalled(self, now: float, pose: Pose2D, cmd) -> str:
+        """'' or why the robot stalls: the valid commands since it last made progress were worth
+        STALL_COMMANDED of motion and ``stall_timeout`` s have passed (zenav's; invalid cycles in between,
+        stopped, neither add nor reset)."""
+        limit = self.params.stall_timeout
+        if limit <= 0:
+            return ""
+        if self._stall_ref is None or _progress(self._stall_ref, pose) >= 1:
+            if self._stall_ref is not None and self.trigger is Trigger.STALL:  # it moves again
+                self.recovery_index = 0
+            self._stall_ref, self._stall_time, self._stall_tick, self._stall_commanded = pose, now, now, 0.0
+            return ""
+        dt, self._stall_tick = min(now - self._stall_tick, 0.5), now
+        self._stall_commanded += (abs(cmd[0]) / PROGRESS_M + abs(cmd[2]) / PROGRESS_RAD) * dt
+        held = now - self._stall_time
+        if held < limit or self._stall_commanded < STALL_COMMANDED:
+            return ""
+        moved = pose.distance(self._stall_ref)
+        turned = abs(normalize_angle(pose.theta - self._stall_ref.theta))
+        self._stall_ref = None
+        return (f"stalled: commanding v={cmd[0]:.2f} m/s, w={cmd[2]:.2f} rad/s got the robot {moved:.2f} m and "
+                f"{turned:.2f} rad in {held:.1f} s: something its sensors do not show holds it")
 
     def _spun(self, pose: Pose2D, cmd) -> str:
         """'' or why the in-place turning has gone on too long (zenav's max_in_place_rotation)."""
@@ -276,6 +314,7 @@ class MoveBaseMachine:
             self._recovery = None
             self._osc_time, self._last_valid_plan, self._retries = now, now, 0
             self._spin.reset()
+            self._stall_ref = None
             self.planner.start(self.goal.pose)
             self._enter(State.PLANNING, "recovery done, replanning")
             self.reason = "waiting for a global plan"

@@ -107,6 +107,21 @@ def test_a_robot_touching_a_wall_moves_off_it_not_along_or_into_it():
     assert plan_escape(grid_with((-2.0, 0.25, 2.0, 0.5)), RES, ORIGIN, Pose2D(), P3AT) is None
 
 
+def test_after_a_stall_the_escape_moves_against_the_stalled_command_whatever_the_costmap_shows():
+    """Stalled backing and turning left (v < 0, w > 0) in a costmap that shows nothing: a drive forward or a
+    turn right, at least 0.1 m / 0.3 rad; a wall just ahead leaves the turn; nothing free against it: None."""
+    from master_side.move_base.escape import STALL_BACKOFF
+
+    assert plan_escape(grid_with(), RES, ORIGIN, Pose2D(), P3AT) is None  # nothing to escape from, it seems
+    move = plan_escape(grid_with(), RES, ORIGIN, Pose2D(), P3AT, against=(-0.1, 0.3))
+    assert move is not None
+    assert (move.distance >= STALL_BACKOFF[0] - 1e-9) or (move.distance == 0 and move.turn <= -STALL_BACKOFF[1] + 1e-9)
+    ahead = grid_with((0.36, -2.0, 0.5, 2.0))  # a wall 3 cm beyond the nose
+    move = plan_escape(ahead, RES, ORIGIN, Pose2D(), P3AT, against=(-0.1, 0.3))
+    assert move is not None and move.distance == 0.0 and move.turn < 0.0
+    assert plan_escape(ahead, RES, ORIGIN, Pose2D(), P3AT, against=(-0.1, 0.0)) is None  # only forward would do
+
+
 class FakeBase:
     """The robot integrating the escape's commands, and the view the recovery reads."""
 

@@ -219,3 +219,41 @@ def test_slow_progress_is_progress():
         t = round(t + 0.05, 6)
         pose = Pose2D(0.02 * min(t, 5.0), 0.0, 0.1 * max(0.0, t - 5.0))
         assert m.tick(t, pose, (0.02, 0.0, 0.0)).reason == ""
+
+
+def test_commands_that_get_the_robot_nowhere_for_stall_timeout_start_the_recoveries_as_a_stall():
+    """zenav's stall_timeout: valid commands, the robot held in place (a wall no sensor shows): after the
+    timeout the recoveries start, the machine keeps the stalled command for an escape; without progress the
+    next stall goes on to the next recovery, and after the last the goal is aborted, saying why."""
+    from master_side.move_base.state_machine import Trigger
+
+    cleared: list[float] = []
+    recs = [ClearCostmapRecovery(cleared.append, 3.0, "first"), ClearCostmapRecovery(cleared.append, 1.0, "second")]
+    m = machine(recoveries=recs, stall_timeout=2.0)
+    m.set_goal("g", Pose2D(5, 0, 0), 0.0)
+    t, events = 0.0, []
+    while m.state is not State.IDLE and t < 30.0:
+        t = round(t + 0.05, 6)
+        d = m.tick(t, Pose2D(0.01, 0.0, 0.0), (0.0, 0.0, 0.0))  # commanded (0.3, 0.1), held in place
+        if d.event:
+            events.append((t, d.event))
+    stalls = [(t, e) for t, e in events if "because stalled" in e]
+    assert len(stalls) == 2 and 2.0 <= stalls[0][0] <= 2.2, events
+    assert "recovery 1/2 (first) because stalled: commanding v=0.30 m/s, w=0.10 rad/s got the robot 0.00 m" \
+        in stalls[0][1]
+    assert m.trigger is Trigger.STALL and m.stall_command == (0.3, 0.0, 0.1) and cleared == [3.0, 1.0]
+    assert d.status == GoalStatus.ABORTED and "stalled" in d.reason and "after 2 recoveries" in d.reason
+
+
+def test_a_robot_that_moves_slowly_or_turns_as_commanded_does_not_stall():
+    class Slow(ScriptedController):
+        def compute(self, pose, vel):  # 2 cm/s for 5 s, then a slow turn in place
+            return ControlResult((0.02, 0.0, 0.0) if pose.x < 0.099 else (0.0, 0.0, 0.1), True)
+
+    m = machine(controller=Slow(), recoveries=[ClearCostmapRecovery(lambda d: None, 3.0)], stall_timeout=1.0)
+    m.set_goal("g", Pose2D(5, 0, 0), 0.0)
+    t = 0.0
+    while t < 10.0:
+        t = round(t + 0.05, 6)
+        pose = Pose2D(0.02 * min(t, 5.0), 0.0, 0.1 * max(0.0, t - 5.0))
+        assert m.tick(t, pose, (0.02, 0.0, 0.0)).state is State.CONTROLLING, t
