@@ -45,6 +45,11 @@ class SonarCloudParams:
     cone_rays: int = param(5, lo=1, hi=64, doc="bearings per cone on cone_topic")
     cone_use: tuple[int, ...] | None = param(None, doc="the sonars whose cones go on cone_topic (default: use's; "
                                                        "empty: all)")
+    near: tuple[int, ...] = param((), doc="sonars of use's whose echoes go on points_topic only nearer than "
+                                          "near_range (farther, they give no point; their cones still clear)")
+    near_range: float = param(0.5, lo=0.05, hi=50.0, unit="m",
+                              doc="near's range: an echo there is placed on the axis within "
+                                  "near_range * sin(fov / 2) of where it came from")
     frame_prefix: str = param("", doc="publish each sonar's points as their own message in the sonar's own frame "
                                       "<prefix><number> (static transforms from the readings' frame, at height z): "
                                       "a costmap then raytraces from the sonar, not from the base's centre "
@@ -56,19 +61,20 @@ def start(node: Node, cfg: dict, source: str) -> Handles:
     warned: set[int] = set()
     limit = ring.range_max * (1.0 + 1e-6) if p.include_no_echo else ring.range_max
 
-    def check(msg: SonarArray) -> None:
+    def check(msg: SonarArray) -> tuple[float, ...]:
+        """The readings for points_topic (near's far echoes dropped), after a word on a ring that differs."""
         n = len(msg.ranges)
         if n != len(ring.units) and n not in warned:
             warned.add(n)
             log.warning("sonar has %d readings, this node's ring %d: the readings without a unit are ignored",
                         n, len(ring.units))
+        return tuple(math.nan if k in p.near and not r < p.near_range else r for k, r in enumerate(msg.ranges))
 
     if p.frame_prefix:
         return _per_sonar(node, p, ring, limit, check)
 
     def cloud(msg: SonarArray) -> PointCloud:
-        check(msg)
-        return PointCloud(msg.header, sonar_points(ring, msg.ranges, p.use, p.z, max_range=limit))
+        return PointCloud(msg.header, sonar_points(ring, check(msg), p.use, p.z, max_range=limit))
 
     h = convert_stream(node, p.sonar_topic, SonarArray, p.points_topic, cloud)
     if p.cone_topic:
@@ -104,14 +110,14 @@ def _per_sonar(node: Node, p: SonarCloudParams, ring: SonarRingParams, limit: fl
     sent: set[str] = set()
 
     def on_sonar(msg: SonarArray) -> None:
-        check(msg)
+        marked = check(msg)
         parent = msg.header.frame_id
         if parent not in sent:
             sent.add(parent)
             static.send(sonar_frames(ring, parent, p.frame_prefix, sorted(set(axis) | set(cones)), p.z))
         readings = list(msg.ranges)
         for k in axis:
-            reading = (readings[k] if k < len(readings) else math.nan,)
+            reading = (marked[k] if k < len(marked) else math.nan,)
             points_pub.publish(PointCloud(Header(msg.header.stamp, f"{p.frame_prefix}{k}"),
                                           sonar_points(one, reading, (), 0.0, max_range=limit)))
         for k in cones:

@@ -214,6 +214,17 @@ def test_the_sonar_cloud_node_turns_readings_into_points_on_the_bus(peers):
         assert wait_until(lambda: got() and every.latest(), 20, "all cones").points.shape == (16, 3)
     finally:
         handles.close()
+    handles = start(host, {"use": [3, 12], "near": [3], "near_range": 0.5, "include_no_echo": False,
+                           "points_topic": "near_points"}, "sonar.yaml")
+    try:  # sonar 3 is near-only: its echo at 0.5 m or beyond gives no point, nearer it does; sonar 12 always
+        near = test.subscribe("near_points", PointCloud)
+        for r3, expect in ((0.5, 1), (0.45, 2)):
+            ranges[3] = r3
+            cloud = wait_until(lambda n=expect: got() and (c := near.latest()) is not None and len(c.points) == n
+                               and c, 20, f"sonar 3 at {r3} m")
+            assert np.allclose(cloud.points, sonar_points(RING, ranges, use=(3, 12) if expect == 2 else (12,)))
+    finally:
+        handles.close()
     with pytest.raises(ConfigError) as e:
         start(host, {"use": "rear"}, "sonar.yaml")
     assert "use" in str(e.value)
