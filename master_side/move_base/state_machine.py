@@ -121,7 +121,7 @@ class MoveBaseMachine:
         self._retries = 0
         self._spin = TurnCounter()  # in-place turning while commanding no translation
         self._stall_ref: Pose2D | None = pose  # stall_timeout: from where, since when, how much commanded
-        self._stall_time = self._stall_tick = now
+        self._stall_time = self._last_tick = now
         self._stall_commanded = 0.0
 
     # -- goal management -----------------------------------------------------------------------
@@ -147,6 +147,7 @@ class MoveBaseMachine:
              pose_problem: str = "", blocked: str = "") -> Decision:
         """One cycle. ``blocked``: a reason the base must not move this cycle (stale sensor data); it
         stops the robot like ROS's "sensor data is out of date" without consuming patience."""
+        dt, self._last_tick = min(max(now - self._last_tick, 0.0), 0.5), now  # the cycle a command lasts
         if self.state is State.IDLE or self.goal is None:
             return self._decide(ZERO)
         if pose is None:
@@ -171,7 +172,7 @@ class MoveBaseMachine:
         if self.state is State.PLANNING:
             self.planner.wake()
             return self._decide(ZERO, new_plan)
-        return self._tick_controlling(now, pose, velocity, new_plan)
+        return self._tick_controlling(now, pose, velocity, new_plan, dt)
 
     def _take_plan(self, now: float, pose: Pose2D) -> np.ndarray | None:
         out = self.planner.poll(now, pose)
@@ -197,7 +198,7 @@ class MoveBaseMachine:
             self.reason = f"replanning failed ({out.error}); following the previous plan"
         return None
 
-    def _tick_controlling(self, now: float, pose: Pose2D, velocity, new_plan) -> Decision:
+    def _tick_controlling(self, now: float, pose: Pose2D, velocity, new_plan, dt: float) -> Decision:
         p = self.params
         if self.controller.goal_reached(pose, velocity):
             self.status = GoalStatus.SUCCEEDED
@@ -209,7 +210,8 @@ class MoveBaseMachine:
                                                       f"{p.oscillation_timeout:.1f} s")
         res = self.controller.compute(pose, velocity)
         spin = self._spun(pose, res.cmd) if res.ok else ""
-        stall = self._stalled(now, pose, res.cmd) if res.ok and not spin and self.state is State.CONTROLLING else ""
+        stall = self._stalled(now, pose, res.cmd, dt) if res.ok and not spin and self.state is State.CONTROLLING \
+            else ""
         if stall:
             self.stall_command = res.cmd
             self._start_recovery(Trigger.STALL, stall)
@@ -252,19 +254,19 @@ class MoveBaseMachine:
         return (f"no progress for {stalled:.0f} s: moved {moved:.2f} m and turned {turned:.2f} rad while "
                 f"commanding v={cmd[0]:.2f} m/s, w={cmd[2]:.2f} rad/s")
 
-    def _stalled(self, now: float, pose: Pose2D, cmd) -> str:
+    def _stalled(self, now: float, pose: Pose2D, cmd, dt: float) -> str:
         """'' or why the robot stalls: the valid commands since it last made progress were worth
-        STALL_COMMANDED of motion and ``stall_timeout`` s have passed (zenav's; invalid cycles in between,
-        stopped, neither add nor reset)."""
+        STALL_COMMANDED of motion and ``stall_timeout`` s have passed (zenav's). ``dt``: since the last
+        cycle, the time this command follows the last one's; cycles without a command (the robot stopped)
+        neither add nor reset."""
         limit = self.params.stall_timeout
         if limit <= 0:
             return ""
         if self._stall_ref is None or _progress(self._stall_ref, pose) >= 1:
             if self._stall_ref is not None and self.trigger is Trigger.STALL:  # it moves again
                 self.recovery_index = 0
-            self._stall_ref, self._stall_time, self._stall_tick, self._stall_commanded = pose, now, now, 0.0
+            self._stall_ref, self._stall_time, self._stall_commanded = pose, now, 0.0
             return ""
-        dt, self._stall_tick = min(now - self._stall_tick, 0.5), now
         self._stall_commanded += (abs(cmd[0]) / PROGRESS_M + abs(cmd[2]) / PROGRESS_RAD) * dt
         held = now - self._stall_time
         if held < limit or self._stall_commanded < STALL_COMMANDED:

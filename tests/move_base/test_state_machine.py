@@ -257,3 +257,23 @@ def test_a_robot_that_moves_slowly_or_turns_as_commanded_does_not_stall():
         t = round(t + 0.05, 6)
         pose = Pose2D(0.02 * min(t, 5.0), 0.0, 0.1 * max(0.0, t - 5.0))
         assert m.tick(t, pose, (0.02, 0.0, 0.0)).state is State.CONTROLLING, t
+
+
+def test_a_command_now_and_then_counts_for_its_own_cycles_only():
+    """Valid commands on one cycle in four (replans between, the robot stopped meanwhile): the robot covers
+    what those cycles commanded, so it is not stalled (a command counted until the next valid one made
+    0.04 m in 1 s look like a stall in the mall)."""
+    class Sometimes(ScriptedController):
+        def compute(self, pose, vel):
+            self.n += 1
+            return ControlResult((0.1, 0.0, 0.0), True) if self.n % 4 == 0 else ControlResult(reason="no trajectory")
+
+    m = machine(controller=Sometimes(), recoveries=[ClearCostmapRecovery(lambda d: None, 3.0)], stall_timeout=1.0,
+                controller_patience=30.0)
+    m.set_goal("g", Pose2D(5, 0, 0), 0.0)
+    t, x = 0.0, 0.0
+    while t < 6.0:
+        t = round(t + 0.05, 6)
+        d = m.tick(t, Pose2D(x, 0.0, 0.0), (0.0, 0.0, 0.0))
+        assert d.state is not State.CLEARING, (t, d.reason)
+        x += d.cmd[0] * 0.05  # the robot does what this cycle commands
