@@ -36,6 +36,7 @@ from master_side.mapping.map_io import load_map
 
 STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
 REFIT_S = 20.0  # simulated seconds between fits of the map's frame while the run goes on
+BEFORE_CONTACT_S = 0.3  # a contact is diagnosed on the local costmap of this long before it (simulated s)
 
 
 @dataclass
@@ -80,7 +81,8 @@ class _Watch:
         node.subscribe("collision", Collision, mode="queue", callback=self._contact)
         node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
         # what the planner knew at a contact: the local costmap and where the robot was in its frame
-        self.local = node.subscribe("local_costmap/costmap", Costmap)
+        self.locals: deque[Costmap] = deque(maxlen=30)  # the last 3 s of local costmaps (10 Hz)
+        node.subscribe("local_costmap/costmap", Costmap, callback=self.locals.append, mode="queue")
         self.odoms: deque[Odometry] = deque(maxlen=200)
         self.truths: deque[Odometry] = deque(maxlen=200)
         node.subscribe("odom", Odometry, callback=self.odoms.append, mode="queue")
@@ -105,12 +107,13 @@ class _Watch:
             if m.count > self.collisions:
                 self.collisions = m.count
                 self.contacts.append((self.now() - (self.t0 or 0.0), m.x, m.y))
-                self.contact_marks.append(self._mark_near(m.x, m.y))
+                self.contact_marks.append(self._mark_near(m.x, m.y, m.header.stamp - BEFORE_CONTACT_S))
 
-    def _mark_near(self, x: float, y: float) -> float | None:
-        """The distance from the world point (x, y) to the nearest lethal cell of the latest local costmap (in
-        the odometry frame: placed by the odometry and ground-truth poses nearest that map's stamp)."""
-        cm = self.local.latest()
+    def _mark_near(self, x: float, y: float, before: float) -> float | None:
+        """The distance from the world point (x, y) to the nearest lethal cell of the last local costmap
+        stamped by ``before`` (in the odometry frame: placed by the odometry and ground-truth poses nearest
+        that map's stamp); not a later one, which may hold what the contact itself showed (a bumper, a sonar)."""
+        cm = next((c for c in reversed(list(self.locals)) if c.header.stamp <= before), None)
         if cm is None or not self.odoms or not self.truths:
             return None
         t = cm.header.stamp
