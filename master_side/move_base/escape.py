@@ -158,6 +158,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
 
 
 STALL_BACKOFF = (0.1, 0.3)  # m, rad: the least drive or turn against a stalled command
+IN_PLACE_V, IN_PLACE_W = 0.01, 0.05  # m/s, rad/s: slower than this, the command does not drive / turn
 
 
 def _against(d: float, a: float, cmd: tuple[float, float]) -> bool:
@@ -166,9 +167,6 @@ def _against(d: float, a: float, cmd: tuple[float, float]) -> bool:
     if d:
         return abs(v) >= IN_PLACE_V and d * v < 0 and abs(d) >= STALL_BACKOFF[0] - 1e-9
     return abs(w) >= IN_PLACE_W and a * w < 0 and abs(a) >= STALL_BACKOFF[1] - 1e-9
-
-
-IN_PLACE_V, IN_PLACE_W = 0.01, 0.05  # m/s, rad/s: slower than this, the command does not drive / turn
 
 
 class EscapeRecovery:

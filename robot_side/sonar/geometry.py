@@ -19,7 +19,7 @@ import numpy as np
 
 from common.config import param
 
-__all__ = ["P3AT_SONARS", "P3AT_UNITS", "SonarRingParams", "cone_points", "sonar_points"]
+__all__ = ["P3AT_SONARS", "P3AT_UNITS", "SonarRingParams", "cone_points", "sonar_points", "used_sonars"]
 
 # ARIA's ArRobotP3AT (ArRobotTypes.cpp; the same table as its p3at.p parameter file): number, x mm, y mm,
 # heading deg. 0-7 the front ring from left (+y, facing +90 deg) to right, 8-15 the rear from right to left.
@@ -52,12 +52,16 @@ class SonarRingParams:
                 raise ValueError(f"units[{i}] must be (x, y, heading), got {u!r}")
 
 
+def used_sonars(use: tuple[int, ...], n: int) -> list[int]:
+    """The sonar numbers in ``use`` (empty: all) below ``n``, in ``use``'s order."""
+    return [i for i in (use or range(n)) if 0 <= i < n]
+
+
 def _used(p: SonarRingParams, ranges: tuple[float, ...] | np.ndarray,
           use: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     """(units (K, 3), readings (K,)) of the sonars in ``use`` (empty: all) that have both a unit and a reading."""
     r = np.asarray(ranges, dtype=np.float64)
-    n = min(len(r), len(p.units))
-    idx = np.array([i for i in (use or range(n)) if 0 <= i < n], dtype=np.int64)
+    idx = np.array(used_sonars(use, min(len(r), len(p.units))), dtype=np.int64)
     return np.asarray(p.units, dtype=np.float64).reshape(-1, 3)[idx], r[idx]
 
 

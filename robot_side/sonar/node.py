@@ -27,7 +27,7 @@ from common.geometry import Quaternion, Transform, Vector3
 from common.messages import Header, PointCloud, SonarArray, TransformStamped
 from common.tf import StaticTFBroadcaster
 from robot_side.depth.node_util import Handles, convert_stream, split_params
-from robot_side.sonar.geometry import SonarRingParams, cone_points, sonar_points
+from robot_side.sonar.geometry import SonarRingParams, cone_points, sonar_points, used_sonars
 
 log = logging.getLogger("zenav.sonar_cloud")
 
@@ -55,6 +55,11 @@ class SonarCloudParams:
                                       "a costmap then raytraces from the sonar, not from the base's centre "
                                       "(empty: one cloud per reading, in the readings' frame)")
 
+    @property
+    def cones(self) -> tuple[int, ...]:
+        """The sonars whose cones go on cone_topic (cone_use, default use's; empty: all)."""
+        return self.use if self.cone_use is None else self.cone_use
+
 
 def start(node: Node, cfg: dict, source: str) -> Handles:
     p, ring = split_params(cfg, source, SonarCloudParams, SonarRingParams)
@@ -79,8 +84,7 @@ def start(node: Node, cfg: dict, source: str) -> Handles:
     h = convert_stream(node, p.sonar_topic, SonarArray, p.points_topic, cloud)
     if p.cone_topic:
         def cones(msg: SonarArray) -> PointCloud:
-            use = p.use if p.cone_use is None else p.cone_use
-            return PointCloud(msg.header, cone_points(ring, msg.ranges, use, p.cone_rays, p.z))
+            return PointCloud(msg.header, cone_points(ring, msg.ranges, p.cones, p.cone_rays, p.z))
 
         h.add(convert_stream(node, p.sonar_topic, SonarArray, p.cone_topic, cones))
     return h
@@ -98,10 +102,8 @@ def sonar_frames(ring: SonarRingParams, parent: str, prefix: str, numbers: list[
 
 def _per_sonar(node: Node, p: SonarCloudParams, ring: SonarRingParams, limit: float, check) -> Handles:
     """One message per sonar and reading, in the sonar's own frame (``frame_prefix``)."""
-    n = len(ring.units)
-    axis = [k for k in (p.use or range(n)) if 0 <= k < n]
-    cones = [k for k in ((p.use if p.cone_use is None else p.cone_use) or range(n)) if 0 <= k < n] \
-        if p.cone_topic else []
+    axis = used_sonars(p.use, len(ring.units))
+    cones = used_sonars(p.cones, len(ring.units)) if p.cone_topic else []
     one = dataclasses.replace(ring, units=((0.0, 0.0, 0.0),))  # a sonar seen from its own frame
     h = Handles()
     points_pub = h.add(node.publisher(p.points_topic))
