@@ -1,6 +1,7 @@
 """AMCL on real buildings' logs: the intel and aces logs replayed against the map our SLAM builds from them.
 
 python bench/amcl_real.py [--datasets intel aces] [--seeds 5] [--track-seeds 2] [--quick] [--out DIR]
+                          [--odom-noise ros|measured] [--laser-noise ros|measured] [--refine]
 
 Per log, once: gmapping-style SLAM (bench/slam.py's parameters) over the log gives the map and a trajectory;
 both are cached in ``--out`` (keyed by the log file and the SLAM parameters, so a rerun only replays AMCL).
@@ -360,8 +361,13 @@ def main(argv: list[str] | None = None) -> int:
                     help="ros: ROS amcl's default laser_sigma_hit (0.2 m); measured: fitted to the scans' end "
                          f"points seen from SLAM's trajectory against its map, on the first {MEASURE_SHARE * 100:.0f} "
                          "%% of the log (zenav slam laser-noise)")
+    ap.add_argument("--refine", action="store_true",
+                    help="zenav's refine_pose: every scan, the pose is refined by a local search of that scan's "
+                         "likelihood on the map (master_side/localization/refine.py)")
     a = ap.parse_args(argv)
     sets = parse_sets(a.set)
+    if a.refine:
+        sets = {"refine_pose": True, **sets}
     t0 = time.perf_counter()
     results = {}
     for name in a.datasets:
@@ -371,7 +377,8 @@ def main(argv: list[str] | None = None) -> int:
         print_table(name, ref, rows, len(ref.stamps), ref.stamps[-1] - ref.stamps[0])
     print(f"\nwall {time.perf_counter() - t0:.0f} s, cpu {time.process_time():.0f} s"
           + (f"; amcl overrides {sets}" if sets else ""))
-    print(summary_line(results) + f" odom_noise={a.odom_noise} laser_noise={a.laser_noise}")
+    print(summary_line(results) + f" odom_noise={a.odom_noise} laser_noise={a.laser_noise} "
+          f"refine_pose={'on' if sets.get('refine_pose') else 'off'}")
     return 0
 
 

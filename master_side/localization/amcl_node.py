@@ -4,7 +4,8 @@ Pose Estimate) and the ``global_localization`` service (Empty → Empty) re-seed
 
 map→odom is republished every ``transform_publish_period`` seconds (default 0.05), stamped
 ``now + transform_tolerance`` as ROS amcl future-dates it, from a value swapped in after each
-filter update: the TF keeps flowing while a scan is being processed.
+filter update (with zenav's ``refine_pose``, after every scan; ``amcl_pose`` too, while the particle
+cloud is published at filter updates only): the TF keeps flowing while a scan is being processed.
 """
 
 from __future__ import annotations
@@ -94,13 +95,19 @@ class AmclNode:
             return
         with self.lock:
             f = self.filter
-            if f is None or not f.update(odom, scan, laser.transform.to_pose2d()):
+            if f is None:
+                return
+            ran = f.update(odom, scan, laser.transform.to_pose2d())
+            if not ran and not self.p.refine_pose:
                 return
             corr, (mean, _) = f.map_to_odom(), f.estimate()
-            cloud = f.poses.copy()
+            cloud = f.poses.copy() if ran else None
+        if corr is None:
+            return
         self._corr = corr
         self.pose_pub.publish(PoseStamped(Header(t, self.map_frame), mean.to_transform()))
-        self.cloud_pub.publish(Path(Header(t, self.map_frame), cloud))
+        if cloud is not None:  # the particles move only at a filter update
+            self.cloud_pub.publish(Path(Header(t, self.map_frame), cloud))
 
     def _on_initial_pose(self, msg: PoseStamped) -> None:
         try:

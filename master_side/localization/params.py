@@ -51,6 +51,11 @@ class AmclParams:
                                              doc="distance map saturates here")
     laser_penalize_interior: bool = param(True, doc="zenav: beam end points inside an obstacle score by "
                                           "their depth (ROS: as on its surface)")
+    refine_pose: bool = param(False, doc="zenav: at every scan, the pose is refined by a local search of the "
+                              "scan's joint likelihood (refine.py); map→odom follows every scan, and at each "
+                              "filter update the estimate's cluster is shifted by the correction; for a map made "
+                              "by a laser SLAM (ROS: off)")
+    refine_max_beams: int = param(180, lo=2, hi=100_000, doc="zenav: evenly spaced beams refine_pose scores")
     # -- odometry
     odom_model_type: str = param("diff", choices=("diff", "diff-corrected"),
                                  doc="'diff' keeps ROS's original noise (variance used as std)")

@@ -114,11 +114,16 @@ def weighted_stats(poses: np.ndarray, weights: np.ndarray) -> tuple[Pose2D, np.n
     return Pose2D(mx, my, math.atan2(s, c)), cov
 
 
-def best_cluster_estimate(poses: np.ndarray, weights: np.ndarray) -> tuple[Pose2D, np.ndarray, float]:
-    """Mean and covariance of the heaviest cluster, and that cluster's share of the total weight."""
+def heaviest_cluster(poses: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, float]:
+    """The particles of the heaviest cluster (a mask) and that cluster's share of the total weight."""
     labels = clusters(poses)
     totals = np.bincount(labels, weights=weights)
     best = int(np.argmax(totals))
-    sel = labels == best
+    return labels == best, float(totals[best] / totals.sum())
+
+
+def best_cluster_estimate(poses: np.ndarray, weights: np.ndarray) -> tuple[Pose2D, np.ndarray, float]:
+    """Mean and covariance of the heaviest cluster, and that cluster's share of the total weight."""
+    sel, share = heaviest_cluster(poses, weights)
     mean, cov = weighted_stats(poses[sel], weights[sel])
-    return mean, cov, float(totals[best] / totals.sum())
+    return mean, cov, share

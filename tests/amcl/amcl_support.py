@@ -1,10 +1,11 @@
-"""Helpers for the AMCL tests: small maps, a grid ray caster, a noisy odometry drive."""
+"""Helpers for the AMCL tests: small maps, grid ray casters, a noisy odometry drive."""
 
 from __future__ import annotations
 
 import math
 
 import numpy as np
+from scipy.ndimage import binary_erosion
 
 from common.geometry import Pose2D
 from common.messages import Header, LaserScan, OccupancyGrid
@@ -52,6 +53,30 @@ def cast_scan(grid: OccupancyGrid, laser_pose: Pose2D, fov: float, beams: int, r
 
 KINECT = {"fov": math.radians(57.0), "beams": 320, "range_min": 0.45, "range_max": 10.0}
 LASER = {"fov": math.radians(240.0), "beams": 240, "range_min": 0.1, "range_max": 8.0}
+
+
+def solid_world(grid: OccupancyGrid, surface: str = "cell_centre") -> np.ndarray:
+    """The world a map implies, on a grid ten times finer. ``cell_centre`` (a laser SLAM's map: a beam marks
+    the cell it ends in): each obstacle's surface at the centre of its outer cells, the obstacles shrunk by
+    half a cell; ``cell_face`` (a map drawn from geometry): the occupied cells themselves."""
+    occupied = np.kron(grid.data > 50, np.ones((10, 10), bool))
+    if surface == "cell_face":
+        return occupied
+    return binary_erosion(occupied, iterations=5, border_value=1)  # the cross erodes faces exactly 5 cells
+
+
+def cast(grid: OccupancyGrid, solid: np.ndarray, laser: Pose2D, step: float = 0.001) -> np.ndarray:
+    """LASER's ranges from the ``laser`` pose (map frame) in ``solid`` (inf: no return), within ``step``."""
+    fine_res = RES / 10
+    angles = np.linspace(-LASER["fov"] / 2, LASER["fov"] / 2, LASER["beams"])
+    steps = np.arange(0.0, LASER["range_max"], step)
+    a = laser.theta + angles
+    j = np.floor((laser.x + np.cos(a)[:, None] * steps - grid.origin.x) / fine_res).astype(int)
+    i = np.floor((laser.y + np.sin(a)[:, None] * steps - grid.origin.y) / fine_res).astype(int)
+    inside = (i >= 0) & (i < solid.shape[0]) & (j >= 0) & (j < solid.shape[1])
+    hit = np.zeros(j.shape, bool)
+    hit[inside] = solid[i[inside], j[inside]]
+    return np.where(hit.any(axis=1), steps[hit.argmax(axis=1)], np.inf)
 
 
 def noisy_step(true_delta: Pose2D, rng: np.random.Generator, trans_sd: float = 0.02,
