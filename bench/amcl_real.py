@@ -350,8 +350,8 @@ def main(argv: list[str] | None = None) -> int:
                     "(its own SLAM map; a smoke run)")
     ap.add_argument("--out", default="/tmp/zenav_bench_amcl_real", help="SLAM map and trajectory cache")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="override an amcl parameter, e.g. --set odom_model_type=diff-corrected (to compare; "
-                         "the reported figures use none)")
+                    help="override an amcl parameter, e.g. --set max_particles=20000 (the README names every "
+                         "override its figures use)")
     ap.add_argument("--odom-noise", choices=("ros", "measured"), default="ros",
                     help="ros: ROS amcl's default odom_alpha1..4 (0.2); measured: fitted to the log's odometry "
                          f"against SLAM's trajectory on its first {MEASURE_SHARE * 100:.0f} %% "
