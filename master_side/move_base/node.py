@@ -47,6 +47,7 @@ from common.messages import (
     Path,
     PlanRequest,
     PlanResult,
+    PointCloud,
     PoseStamped,
     Scalar,
     Text,
@@ -60,6 +61,7 @@ from master_side.move_base.global_planning_node import GlobalPlanning
 from master_side.move_base.planner_thread import PlannerThread
 from master_side.move_base.recovery import recoveries_from_params
 from master_side.move_base.robot_inputs import collision_hint, robot_pose, safety_override
+from master_side.move_base.stall_marks import StallMarker
 from master_side.move_base.state_machine import MoveBaseMachine, State, Trigger
 from master_side.planning.warmup import warm_local_planners
 
@@ -114,6 +116,11 @@ class MoveBaseNode:
         self.goal_pub = node.publisher("move_base/current_goal", latched=True)
         self.loop_pub = node.publisher("move_base/loop_time")
         self.trace_pub = node.publisher("move_base/cmd_trace")
+        self.stall_marker = None
+        if p.stall_marks:  # zenav: where a stall pushed a flank, for the local costmap (stall_marks.py)
+            stall_pub = node.publisher("stall_pointcloud")
+            self.stall_marker = StallMarker(c.bare_footprint, lambda pts, t: stall_pub.publish(
+                PointCloud(Header(t, self.base_frame), pts)))
         node.subscribe("move_base_simple/goal", PoseStamped, callback=self._on_goal, mode="queue")
         node.subscribe("move_base/goal", MoveBaseGoal, mode="queue", callback=self._on_goal_with_id)
         node.service("move_base/send_goal", self._send_goal_service, MoveBaseGoal)
@@ -283,6 +290,8 @@ class MoveBaseNode:
                         self.trace_pub.publish(Scalar(Header(now, ""), -1.0 if cm is None else cm.header.stamp))
             if d.event:
                 self._log_event(d.event, now)
+            if self.stall_marker is not None:
+                self.stall_marker.tick(now, self.machine.stalls, self.machine.stall_command)
             self._report(pose)
         last = self.controller.last
         if self.machine.state is State.CONTROLLING and last is not None and last.trajectory is not None:

@@ -55,6 +55,10 @@ class MoveBaseParams:
             "or 0.2 rad (or a mix) for this long start the recoveries: the base is pushing on something its "
             "sensors do not show (a Pioneer reports it as a wheel stall); an escape then moves against the "
             "stalled command; 0 = off (ROS has no such check)")
+    stall_marks: bool = param(
+        False, doc="zenav: at each stall, publish stall_pointcloud (base frame): points just beyond the flank "
+                   "points the stalled command pushed outwards, for the local costmap to mark as a bumper press "
+                   "(stall_marks.py); a second later an empty cloud, so the marks stay only until rays clear them")
     no_progress_report: float = param(
         5.0, lo=0.0, unit="s",
         doc="zenav: while controlling with valid commands, the status says 'no progress' once the robot has "

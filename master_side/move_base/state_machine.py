@@ -113,6 +113,7 @@ class MoveBaseMachine:
         self._recovery_started = False  # its start() runs on the first CLEARING tick, with that tick's time
         self._pending_event = ""
         self.stall_command: tuple[float, float, float] | None = None  # the command of the last stall
+        self.stalls = 0  # stalls so far (a new one: the node marks where it pushed, stall_marks)
         self._reset_clocks(0.0, None)
 
     def _reset_clocks(self, now: float, pose: Pose2D | None) -> None:
@@ -213,7 +214,7 @@ class MoveBaseMachine:
         stall = self._stalled(now, pose, res.cmd, dt) if res.ok and not spin and self.state is State.CONTROLLING \
             else ""
         if stall:
-            self.stall_command = res.cmd
+            self.stall_command, self.stalls = res.cmd, self.stalls + 1
             self._start_recovery(Trigger.STALL, stall)
             return self._decide(ZERO, new_plan)
         if res.ok and not spin:

@@ -242,6 +242,7 @@ def test_commands_that_get_the_robot_nowhere_for_stall_timeout_start_the_recover
     assert "recovery 1/2 (first) because stalled: commanding v=0.30 m/s, w=0.10 rad/s got the robot 0.00 m" \
         in stalls[0][1]
     assert m.trigger is Trigger.STALL and m.stall_command == (0.3, 0.0, 0.1) and cleared == [3.0, 1.0]
+    assert m.stalls == 3  # two started a recovery, the third aborted; a node marks each new one (stall_marks)
     assert d.status == GoalStatus.ABORTED and "stalled" in d.reason and "after 2 recoveries" in d.reason
 
 
