@@ -30,26 +30,47 @@ from common.messages import OccupancyGrid
 OCCUPIED_THRESHOLD = 65  # ROS amcl: occupancy > 65 is an obstacle, 0..(free_thresh) free, -1 unknown
 
 
+def surface_distance(grid: OccupancyGrid, max_dist: float, penalize_interior: bool = True,
+                     surface: str = "face") -> np.ndarray:
+    """Per cell, the distance (m) to the nearest obstacle surface, saturated at ``max_dist``.
+
+    Without ``penalize_interior``: ROS amcl's field, the distance to the nearest occupied cell's centre (0
+    inside an obstacle), whatever ``surface``. With it, ``surface`` says where a surface lies in its cell:
+
+    - ``face`` (the likelihood field's): on the face between the occupied cell and the free space, as in a
+      map drawn from geometry (the simulator's worlds); free cells score (cells to the nearest obstacle -
+      0.5) x resolution;
+    - ``centre`` (refine.py's): at the centre of the first occupied cell, as in a laser SLAM's map, which
+      marks the cell a beam ended in; free cells score ROS's distance. On intel's SLAM map the face put the
+      scan's likelihood peak 4 cm behind SLAM's pose; interpolated between cell centres, the face's
+      distances are also flat for half a cell either side of it.
+
+    A cell that is not known free scores its depth behind the free space, counted from the surface (the
+    module's docstring says why)."""
+    occupied = grid.data > OCCUPIED_THRESHOLD
+    free = (grid.data >= 0) & ~occupied
+    if not occupied.any():
+        return np.full(grid.data.shape, float(max_dist))
+    if penalize_interior and free.any():
+        free_offset, depth_offset = {"face": (0.5, 0.5), "centre": (0.0, 1.0)}[surface]  # in cells
+        to_obstacle = distance_transform_edt(~occupied) - free_offset  # free: to the nearest surface
+        behind_free = distance_transform_edt(~free) - depth_offset  # not free: depth behind the surface
+        cells = np.where(free, to_obstacle, np.where(occupied, behind_free, np.maximum(to_obstacle, behind_free)))
+    else:
+        cells = distance_transform_edt(~occupied)
+    return np.minimum(cells * float(grid.resolution), max_dist)
+
+
 class LikelihoodField:
-    """Distance map of one OccupancyGrid and the beam scoring over it."""
+    """Distance map of one OccupancyGrid (``surface_distance``, surfaces on the faces) and the beam scoring
+    over it."""
 
     def __init__(self, grid: OccupancyGrid, max_dist: float, penalize_interior: bool = True) -> None:
         self.resolution = float(grid.resolution)
         self.origin = np.array([grid.origin.x, grid.origin.y])  # origin yaw ignored, as in ROS amcl
         self.max_dist = float(max_dist)
-        occupied = grid.data > OCCUPIED_THRESHOLD
-        self.free = (grid.data >= 0) & ~occupied
-        if occupied.any() and self.free.any() and penalize_interior:
-            to_obstacle = distance_transform_edt(~occupied) - 0.5  # free: to the nearest obstacle face
-            behind_free = distance_transform_edt(~self.free) - 0.5  # not free: depth behind the free space
-            cells = np.where(self.free, to_obstacle,
-                             np.where(occupied, behind_free, np.maximum(to_obstacle, behind_free)))
-            dist = cells * self.resolution
-        elif occupied.any():
-            dist = distance_transform_edt(~occupied) * self.resolution
-        else:
-            dist = np.full(grid.data.shape, np.inf)
-        self.dist = np.minimum(dist, self.max_dist).astype(np.float32)
+        self.free = (grid.data >= 0) & ~(grid.data > OCCUPIED_THRESHOLD)
+        self.dist = surface_distance(grid, self.max_dist, penalize_interior).astype(np.float32)
 
     def distance_at(self, xy: np.ndarray) -> np.ndarray:
         """Distance to the nearest obstacle at world points (..., 2); max_dist off the map."""

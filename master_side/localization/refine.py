@@ -9,8 +9,10 @@ weights pull it back only in part (README, "AMCL on real logs").
 This searches the joint likelihood of the scan, ``Σ log pz`` over its usable beams (the likelihood field's
 beam model with the filter's z_hit / z_rand / sigma_hit), over a 7 × 7 × 7 lattice of poses around the
 start, then twice more around the best candidate with finer steps. ``log pz`` is tabulated per cell, with
-the surface at the occupied cells' centres as a laser SLAM's map has it (``surface_distance``), and
-interpolated bilinearly between cell centres, since the finest steps are a fraction of a cell. Where the
+the surface at the occupied cells' centres as a laser SLAM's map has it (likelihood_field's
+``surface_distance``: a map drawn from geometry, like the simulator's worlds, has its surfaces on the faces,
+where this is half a cell off and refine_pose is not for it), and interpolated bilinearly between cell
+centres, since the finest steps are a fraction of a cell. Where the
 scan cannot tell candidates apart (along a featureless corridor) the one nearest the start wins: the
 odometry's guess stands. The search reaches ±REACH_M and ±REACH_RAD: it corrects a tracked pose, it never
 relocalises.
@@ -21,12 +23,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
 
 from common.geometry import Pose2D
 from common.jit import kernel
 from common.messages import OccupancyGrid
-from master_side.localization.likelihood_field import OCCUPIED_THRESHOLD
+from master_side.localization.likelihood_field import surface_distance
 
 # (x/y step m, yaw step rad) of each pass; each pass searches ±HALF steps around the best of the last
 STEPS = ((0.02, math.radians(1.0)), (0.007, math.radians(1.0 / 3.0)), (0.0025, math.radians(1.0 / 9.0)))
@@ -61,30 +62,6 @@ def _scores(table, ox, oy, res, poses, bx, by):
     return out
 
 
-def surface_distance(grid: OccupancyGrid, max_dist: float, penalize_interior: bool = True) -> np.ndarray:
-    """Per cell, the distance (m) to the nearest occupied cell's centre, saturated at ``max_dist``.
-
-    A laser SLAM marks the cell a beam ended in, so in its map a surface lies, on average, at the centre of
-    the first occupied cell: that is where these distances are 0 (ROS amcl's field too). The likelihood
-    field's ``penalize_interior`` puts the surface on the cell's face instead, which on intel's SLAM map put
-    the scan's likelihood peak 4 cm behind SLAM's pose; interpolated between cell centres it would also be
-    flat for half a cell either side of the face. A map drawn from geometry, like the simulator's worlds,
-    does have its surfaces on the faces: there this is half a cell off, and refine_pose is not for it.
-    With ``penalize_interior``, a cell behind the first occupied layer, or unknown behind it, scores its
-    depth, as in the likelihood field."""
-    occupied = grid.data > OCCUPIED_THRESHOLD
-    free = (grid.data >= 0) & ~occupied
-    if not occupied.any():
-        return np.full(grid.data.shape, float(max_dist))
-    to_obstacle = distance_transform_edt(~occupied)
-    if penalize_interior and free.any():
-        depth = distance_transform_edt(~free) - 1.0  # not free: 0 on the first layer
-        cells = np.where(free, to_obstacle, np.where(occupied, depth, np.maximum(to_obstacle, depth)))
-    else:
-        cells = to_obstacle
-    return np.minimum(cells * float(grid.resolution), max_dist)
-
-
 class PoseRefiner:
     """``log pz`` of one map per cell for one beam model, and the search over it."""
 
@@ -93,7 +70,7 @@ class PoseRefiner:
         def log_pz(d):
             return np.log(z_hit * np.exp(-(np.asarray(d, float) ** 2) / (2.0 * sigma_hit**2)) + z_rand / range_max)
 
-        dist = surface_distance(grid, max_dist, penalize_interior)
+        dist = surface_distance(grid, max_dist, penalize_interior, "centre")
         self.table = np.pad(log_pz(dist), 1, constant_values=float(log_pz(max_dist)))
         self.origin = np.array([grid.origin.x, grid.origin.y], float)  # origin yaw ignored, as in ROS amcl
         self.resolution = float(grid.resolution)

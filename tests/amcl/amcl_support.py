@@ -13,6 +13,20 @@ from common.messages import Header, LaserScan, OccupancyGrid
 RES = 0.05
 
 
+def route(waypoints, step: float = 0.1, turn: float = 0.1) -> list[Pose2D]:
+    """Poses along straight legs between waypoints, turning on the spot at each."""
+    poses = [Pose2D(*waypoints[0])]
+    for x, y in waypoints[1:]:
+        p = poses[-1]
+        head = math.atan2(y - p.y, x - p.x)
+        while (d := math.remainder(head - p.theta, 2 * math.pi)) != 0.0:
+            p = Pose2D(p.x, p.y, p.theta + max(-turn, min(turn, d)))
+            poses.append(p)
+        n = math.ceil(math.hypot(x - p.x, y - p.y) / step)
+        poses += [Pose2D(p.x + (x - p.x) * k / n, p.y + (y - p.y) * k / n, head) for k in range(1, n + 1)]
+    return poses
+
+
 def box_map(width: float = 8.0, height: float = 6.0, boxes=((1.0, 1.0, 2.0, 1.6), (-2.5, -2.0, -1.5, 0.5),
                                                               (2.0, -2.2, 3.4, -1.6))) -> OccupancyGrid:
     """A walled room centred on the origin with axis-aligned boxes (x0, y0, x1, y1); asymmetric."""

@@ -14,23 +14,9 @@ from master_side.localization.amcl import Amcl
 from master_side.localization.likelihood_field import LikelihoodField, beam_likelihoods, select_beams
 from master_side.localization.params import AmclParams, load_amcl_params
 from master_side.localization.sampling import kld_limit, kld_resample
-from tests.amcl.amcl_support import KINECT, LASER, RES, box_map, cast_scan, noisy_step, pose_error
+from tests.amcl.amcl_support import KINECT, LASER, RES, box_map, cast_scan, noisy_step, pose_error, route
 
 LASER_IN_BASE = Pose2D(0.1, 0.0, 0.0)
-
-
-def route(waypoints, step: float = 0.1, turn: float = 0.1) -> list[Pose2D]:
-    """Poses along straight legs between waypoints, turning on the spot at each."""
-    poses = [Pose2D(*waypoints[0])]
-    for x, y in waypoints[1:]:
-        p = poses[-1]
-        head = math.atan2(y - p.y, x - p.x)
-        while (d := math.remainder(head - p.theta, 2 * math.pi)) != 0.0:
-            p = Pose2D(p.x, p.y, p.theta + max(-turn, min(turn, d)))
-            poses.append(p)
-        n = math.ceil(math.hypot(x - p.x, y - p.y) / step)
-        poses += [Pose2D(p.x + (x - p.x) * k / n, p.y + (y - p.y) * k / n, head) for k in range(1, n + 1)]
-    return poses
 
 
 ROUTE = route([(-3.0, 2.0, 0.0), (3.0, 2.0), (3.0, -1.0), (-1.0, -1.0), (-1.0, 2.2)])

@@ -8,12 +8,24 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from common.config import ConfigError
 from common.geometry import Pose2D
 from common.messages import Header, OccupancyGrid
 from master_side.localization.amcl import Amcl
+from master_side.localization.likelihood_field import surface_distance
 from master_side.localization.params import AmclParams, load_amcl_params
-from master_side.localization.refine import REACH_M, REACH_RAD, PoseRefiner, surface_distance
-from tests.amcl.amcl_support import LASER, RES, box_map, cast, cast_scan, noisy_step, pose_error, solid_world
+from master_side.localization.refine import REACH_M, REACH_RAD, PoseRefiner
+from tests.amcl.amcl_support import (
+    LASER,
+    RES,
+    box_map,
+    cast,
+    cast_scan,
+    noisy_step,
+    pose_error,
+    route,
+    solid_world,
+)
 
 LASER_IN_BASE = Pose2D(0.1, 0.0, 0.0)
 SIGMA = 0.05
@@ -70,7 +82,7 @@ def test_refine_along_a_featureless_corridor_corrects_across_and_keeps_the_odome
 def test_scores_are_the_beam_model_at_cell_centres_and_the_saturated_value_off_the_map():
     grid = box_map()
     ref = refiner(grid)
-    dist = surface_distance(grid, 2.0)
+    dist = surface_distance(grid, 2.0, True, "centre")
     origin = np.array([grid.origin.x, grid.origin.y])
     for row, col in ((40, 30), (1, 50), (0, 50)):  # free; the wall's first occupied layer; one deeper
         centre = origin + (np.array([col, row]) + 0.5) * RES
@@ -99,8 +111,6 @@ ROUTE_LEGS = [(-3.0, 2.0), (3.0, 2.0), (3.0, -1.0), (-1.0, -1.0), (-1.0, 2.2)]
 def drive_biased(refine: bool, seed: int) -> list[float]:
     """Drive the box room's legs with odometry that drifts in heading (0.06 rad per metre, as intel's
     does about 3.5 deg/m) and scans with 1 cm noise; AMCL's error at every scan once it has settled."""
-    from tests.amcl.test_amcl_filter import route
-
     grid = box_map()
     solid = solid_world(grid)
     truth_route = route(ROUTE_LEGS)
@@ -151,8 +161,6 @@ def test_refine_pose_params_load_and_are_off_by_default():
     assert AmclParams().refine_pose is False
     p = load_amcl_params({"refine_pose": True, "refine_max_beams": 90}, "amcl.yaml")
     assert (p.refine_pose, p.refine_max_beams) == (True, 90)
-    from common.config import ConfigError
-
     for bad in ({"refine_max_beams": 1}, {"refine_pose": "yes please"}):
         with pytest.raises(ConfigError, match=f"amcl.yaml.*{next(iter(bad))}"):
             load_amcl_params(bad, "amcl.yaml")
