@@ -35,6 +35,7 @@ import numpy as np  # noqa: E402
 from common.geometry import Transform  # noqa: E402
 from common.messages import Costmap, Header, LaserScan, Odometry, TFMessage, TransformStamped  # noqa: E402
 from common.ports import free_port  # noqa: E402
+from common.tcp_linger import open_session  # noqa: E402
 
 # topic -> rate (Hz) per robot
 STREAMS = {"scan": 20.0, "odom": 50.0, "tf": 50.0, "local_costmap/costmap": 5.0, "global_costmap/costmap": 1.0}
@@ -66,11 +67,9 @@ _GLOBAL = np.random.default_rng(2).integers(0, 255, (200, 200)).astype(np.uint8)
 
 
 def run_pub(port: int, robots: list[str], start_at: float, seconds: float, reliable: bool) -> int:
-    import zenoh
-
     from common.bus import Node
 
-    session = zenoh.open(_client(port, robots[0]).to_zenoh())
+    session = open_session(_client(port, robots[0]).to_zenoh())
     nodes = [Node("fleet_pub", robot=r, config=_client(port, r), session=session, use_sim_time=False) for r in robots]
     pubs = {(n.robot, t): n.publisher(t, reliable=reliable or None) for n in nodes for t in STREAMS}
     deadline = time.monotonic() + 60
@@ -98,11 +97,10 @@ def run_pub(port: int, robots: list[str], start_at: float, seconds: float, relia
 
 
 def run_sub(port: int, stop_at: float) -> int:
-    import zenoh
 
     from common.codec import DecodeError, decode
 
-    session = zenoh.open(_client(port, "fleet_monitor").to_zenoh())
+    session = open_session(_client(port, "fleet_monitor").to_zenoh())
     got: dict[str, set[int]] = {}
     lat: dict[str, list[float]] = {t: [] for t in STREAMS}
     bad = [0]

@@ -30,6 +30,7 @@ from common.live_keys import live_key
 from common.messages import Clock, Header, NodeStats, TopicStats
 from common.query_routes import Queryables, ask_redeclare
 from common.route_watch import RouteWatch
+from common.tcp_linger import open_session
 from common.zenoh_config import BusConfig
 
 log = logging.getLogger("zenav.bus")
@@ -58,7 +59,7 @@ class Node:
         self.robot = robot or self.config.robot
         self.name = name
         self._owns_session = session is None
-        self.session = session if session is not None else zenoh.open(self.config.to_zenoh())
+        self.session = session if session is not None else open_session(self.config.to_zenoh())
         self._entities: list[Any] = []
         self.routes = RouteWatch(self.session, self.robot, name)  # silent streams declared again
         self._timers: list[Timer] = []

@@ -17,6 +17,7 @@ import sys
 import time
 
 from common.argtypes import positive
+from common.tcp_linger import open_session
 from deploy.cli.session import robot_pattern
 from deploy.doctor.bus_checks import Listener, robot_checks, route_checks, scout_check, session_checks
 from deploy.doctor.host_checks import OK_STATES, Check, describe_config, serial_check
@@ -41,7 +42,6 @@ def add_parser(subparsers):
 
 
 def run(args) -> int:
-    import zenoh
 
     from common.bus import close_quietly
     from common.zenoh_config import BusConfig
@@ -64,7 +64,7 @@ def run(args) -> int:
         try:
             conf = BusConfig.from_env(env).to_zenoh()
             desc = describe_config(conf)
-            session = zenoh.open(conf)
+            session = open_session(conf)
         except Exception as e:  # noqa: BLE001 - bad file, bad endpoint, refused credentials
             report(Check("zenoh session opens", "FAIL", f"{type(e).__name__}: {e}",
                          f"check ZENAV_ZENOH_CONFIG={env.get('ZENAV_ZENOH_CONFIG') or '(unset)'} "

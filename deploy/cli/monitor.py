@@ -11,6 +11,7 @@ import threading
 import time
 
 from common.argtypes import nonneg, port
+from common.tcp_linger import open_session
 
 KEYFRAME_S = 10.0  # with --serve-web: rarely logged entities (the latched map) logged again this often
 # with --serve-web: Rerun's gRPC history buffer, what a page opened later takes in before it shows the robot
@@ -130,7 +131,7 @@ def run(args) -> int:
         assets = ensure_assets()  # before any server starts: a clear error when the wheel lacks them
         web_state = WebState(robot)
     rec, where = open_recording(args, robot, getattr(args, "history_limit", HISTORY_LIMIT))
-    session = zenoh.open(cfg.to_zenoh())
+    session = open_session(cfg.to_zenoh())
     observers = [fit_view_to_map(rec, args) if "*" not in robot else fit_robots_views(rec)]
     if web_state is not None:  # the latched map arrives through the monitor's query, the rest directly
         observers.append(lambda topic, msg: web_state.observe(topic, msg) if topic == "map" else None)

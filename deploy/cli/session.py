@@ -7,6 +7,8 @@ import os
 import threading
 import time
 
+from common import tcp_linger
+
 
 def robot_pattern(args, all_by_default: bool) -> str:
     """The robot (or ``*`` pattern) a command looks at: --robot, else $ZENAV_ROBOT, else all/'robot'."""
@@ -48,14 +50,12 @@ def one_robot(args, wait_s: float = 1.5) -> str:
 def open_session():
     """A raw Zenoh session with the bus config from the environment (no liveliness token of its own,
     so inspecting the system does not change what ``zenav nodes`` shows)."""
-    import zenoh
-
     from common.zenoh_config import BusConfig
 
     env = dict(os.environ)
     if "*" in env.get("ZENAV_ROBOT", ""):
         env.pop("ZENAV_ROBOT")
-    return zenoh.open(BusConfig.from_env(env).to_zenoh())
+    return tcp_linger.open_session(BusConfig.from_env(env).to_zenoh())
 
 
 def wait(stop: threading.Event, duration: float | None) -> None:

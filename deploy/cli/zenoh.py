@@ -11,6 +11,7 @@ import sys
 import threading
 
 from common.argtypes import positive, positive_int
+from common.tcp_linger import open_session
 from deploy import zenohconf
 
 
@@ -121,7 +122,7 @@ def run_router(args) -> int:
         return 2
     try:
         conf.insert_json5("mode", '"router"')
-        session = zenoh.open(conf)
+        session = open_session(conf)
     except Exception as e:  # noqa: BLE001 - report bind errors plainly
         print(f"zenav zenoh router: cannot start with {args.config}: {_plain(e)}", file=sys.stderr)
         return 1

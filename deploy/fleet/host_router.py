@@ -19,6 +19,8 @@ import subprocess
 import sys
 import threading
 
+from common.tcp_linger import open_session
+
 
 def _pdeathsig() -> None:  # the agent gets SIGTERM (it stops its nodes) when its router process dies
     with contextlib.suppress(OSError, AttributeError):
@@ -35,7 +37,7 @@ def main(argv: list[str]) -> int:
     try:
         conf = zenoh.Config.from_file(path)
         conf.insert_json5("mode", '"router"')
-        session = zenoh.open(conf)
+        session = open_session(conf)
     except Exception as e:  # noqa: BLE001 - zenoh raises ZError: a missing file / bad config, a port in use
         print(f"host_router: cannot start the Zenoh router from {path}: {e}", file=sys.stderr, flush=True)
         return 1

@@ -20,6 +20,7 @@ import time
 from collections import defaultdict
 
 from common.live_keys import LiveKey, live_key
+from common.tcp_linger import open_session
 
 
 def probe(robot: str, topics: list[str], seconds: float) -> dict:
@@ -35,7 +36,7 @@ def probe(robot: str, topics: list[str], seconds: float) -> dict:
     times: dict[str, list[float]] = defaultdict(list)
     out = {"robot": robot, "nodes": [], "robots": {}, "rates": {}, "peers": 0, "error": ""}
     try:
-        session = zenoh.open(BusConfig.from_env(env).to_zenoh())
+        session = open_session(BusConfig.from_env(env).to_zenoh())
     except Exception as e:  # noqa: BLE001 - bad config / refused credentials: reported, not raised
         out["error"] = f"cannot open a Zenoh session: {e}"
         return out
