@@ -91,11 +91,20 @@ def _outline(footprint: np.ndarray, res: float) -> tuple[np.ndarray, float]:
 def _swept(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, distance: float, turn: float,
            outline: np.ndarray, outline_r: float) -> np.ndarray | None:
     """The outline's cells at every pose along the move, or None when one is lethal, unknown or off the grid."""
+    cells, _ = _sweep(grid, res, origin, pose, distance, turn, outline, outline_r)
+    return cells
+
+
+def _sweep(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, distance: float, turn: float,
+           outline: np.ndarray, outline_r: float) -> tuple[np.ndarray | None, str]:
+    """``_swept`` and what blocks the move: "" (nothing), "off the costmap", "an obstacle", "unknown cells"."""
     cells = _cells(_poses_along(pose, distance, turn, res, outline_r), outline, res, origin)
     if not _inside(cells, grid.shape).all():
-        return None
+        return None, "off the costmap"
     cost = grid[cells[..., 1], cells[..., 0]]
-    return None if ((cost == LETHAL) | (cost == NO_INFORMATION)).any() else cells
+    if (cost == LETHAL).any():
+        return None, "an obstacle"
+    return (None, "unknown cells") if (cost == NO_INFORMATION).any() else (cells, "")
 
 
 def _leaving(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D,
@@ -113,7 +122,8 @@ def _leaving(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Po
 
 
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
-                params: EscapeParams = EscapeParams(), against: tuple[float, float] | None = None) -> EscapeMove | None:
+                params: EscapeParams = EscapeParams(), against: tuple[float, float] | None = None,
+                why: list[str] | None = None) -> EscapeMove | None:
     """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
     robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
     farthest), free for the outline all the way (no lethal or unknown cell, not off the grid; a lethal cell
@@ -122,7 +132,10 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
 
     ``against``: the (v, w) of a command the robot stalled on (move_base's stall_timeout): something the
     costmap does not show holds it, so the move goes the other way (a drive against v, or a turn against
-    w), at least ``STALL_BACKOFF`` of it, whatever the clearance, the most clearance first."""
+    w), at least ``STALL_BACKOFF`` of it, whatever the clearance, the most clearance first.
+
+    ``why``: when no move is found, a sentence saying why is appended to it (what blocked the moves, or the
+    most clearance a free one reaches), for the log of a robot that stays where it is."""
     grid = np.asarray(grid)
     outline, outline_r = _outline(footprint, res)
     way = _leaving(grid, res, origin, pose, outline)
@@ -134,19 +147,26 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
 
     here = clearance(_cells(pose.as_array()[None], outline, res, origin)[0])
     if here >= params.clearance and against is None:
-        return None  # free enough where it stands
+        if why is not None:
+            why.append(f"free enough where it stands (clearance {here:.2f} m)")
+        return None
     step = max(res, 0.05)
     dists = np.arange(step, params.max_distance + 1e-9, step)
     turns = np.arange(0.1, params.max_turn + 1e-9, 0.1)
     moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
     best: tuple[tuple[float, float], EscapeMove] | None = None
+    blocked: dict[str, int] = {}
+    freest: EscapeMove | None = None  # the free move reaching the most clearance, gained or not
     for d, a in moves:
         if against is not None and not _against(float(d), float(a), against):
             continue
-        cells = _swept(way, res, origin, pose, float(d), float(a), outline, outline_r)
+        cells, by = _sweep(way, res, origin, pose, float(d), float(a), outline, outline_r)
         if cells is None:
+            blocked[by] = blocked.get(by, 0) + 1
             continue
         after = clearance(cells[-1])
+        if freest is None or after > freest.clearance_after:
+            freest = EscapeMove(float(d), float(a), here, after)
         if after < here + res and against is None:
             continue
         # the most clearance up to params.clearance, then the least motion (a turn as its outline's arc; a
@@ -154,7 +174,19 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
         key = (min(after, params.clearance), -((2.0 if d < 0 else 1.0) * abs(d) + abs(a) * outline_r))
         if best is None or key > best[0]:
             best = key, EscapeMove(float(d), float(a), here, after)
+    if best is None and why is not None:
+        why.append(_why_none(here, blocked, freest))
     return None if best is None else best[1]
+
+
+def _why_none(here: float, blocked: dict[str, int], freest: EscapeMove | None) -> str:
+    """The sentence for a search that found no move: clearance here, the best free move, what blocked the rest."""
+    counts = ", ".join(f"{n} by {by}" for by, n in sorted(blocked.items(), key=lambda kv: -kv[1]))
+    if freest is None:
+        return f"clearance {here:.2f} m where it stands; every move is blocked ({counts})"
+    tail = f"; {sum(blocked.values())} moves blocked ({counts})" if blocked else ""
+    return (f"clearance {here:.2f} m where it stands; the freest move, {freest.describe().split(':')[0]}, "
+            f"reaches {freest.clearance_after:.2f} m{tail}")
 
 
 STALL_BACKOFF = (0.1, 0.3)  # m, rad: the least drive or turn against a stalled command
@@ -191,13 +223,16 @@ class EscapeRecovery:
         self._t0, self.move, self._start = now, None, None
         view = self._view()
         against = self._stalled() if self._stalled is not None else None
+        why: list[str] = [] if view is not None else ["no local costmap yet"]
         if view is not None:
             grid, res, origin, pose = view
-            self.move = plan_escape(grid, res, origin, pose, self.footprint, self.params, against)
+            self.move = plan_escape(grid, res, origin, pose, self.footprint, self.params, against, why)
             self._start = pose
         if self._log is not None:
             what = self.move.describe() if self.move else (
-                "no free move against the stalled command" if against else "no move gains clearance")
+                "no free move against the stalled command" if against else
+                "no move needed" if why and why[0].startswith("free enough") else "no move gains clearance")
+            what += "".join(f" ({w})" for w in why)
             self._log(f"{self.name}: {what}" + (f" (stalled on v={against[0]:.2f}, w={against[1]:.2f})"
                                                  if against else ""))
 

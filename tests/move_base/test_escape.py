@@ -10,7 +10,7 @@ import pytest
 
 from common.config import ConfigError
 from common.geometry import Pose2D
-from master_side.costmap.cost_values import FREE, LETHAL
+from master_side.costmap.cost_values import FREE, LETHAL, NO_INFORMATION
 from master_side.move_base.escape import EscapeParams, EscapeRecovery, plan_escape
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.recovery import recoveries_from_params
@@ -54,7 +54,10 @@ def test_a_wall_just_ahead_backs_the_robot_away_from_it():
 def test_walls_close_front_and_back_leave_no_move():
     # walls 5 cm beyond the nose and the rear: a drive nears one of them, a turn swings the corners into both
     grid = grid_with((0.38, -2.0, 0.6, 2.0), (-0.6, -2.0, -0.31, 2.0))
-    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT) is None
+    why: list[str] = []
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, why=why) is None
+    # the log says how close the walls are and what stopped the moves
+    assert len(why) == 1 and why[0].startswith("clearance 0.0") and "by an obstacle" in why[0], why
     # with 0.4 m behind, backing away is the move
     move = plan_escape(grid_with((0.38, -2.0, 0.6, 2.0), (-0.9, -2.0, -0.65, 2.0)), RES, ORIGIN, Pose2D(), P3AT)
     assert move is not None and move.distance < 0
@@ -71,7 +74,22 @@ def test_forward_wins_over_the_same_drive_backwards():
 
 
 def test_a_robot_in_the_open_does_not_move():
-    assert plan_escape(grid_with(), RES, ORIGIN, Pose2D(), P3AT) is None
+    why: list[str] = []
+    assert plan_escape(grid_with(), RES, ORIGIN, Pose2D(), P3AT, why=why) is None
+    assert why == ["free enough where it stands (clearance inf m)"]
+
+
+def test_a_robot_boxed_in_says_every_move_is_blocked_and_by_what():
+    # a wall 1.5 cm off the nose (a turn swings the front corners into it) and space no sensor has seen from
+    # 1.5 cm behind the rear: no drive or turn is free
+    grid = grid_with((0.345, -2.0, 0.6, 2.0))
+    grid[:, : int((-0.27 - ORIGIN[0]) / RES)] = NO_INFORMATION
+    logs: list[str] = []
+    rec = EscapeRecovery(lambda: (grid, RES, ORIGIN, Pose2D()), P3AT, log=logs.append)
+    rec.start(0.0)
+    assert rec.move is None
+    assert logs and logs[0].startswith("escape: no move gains clearance (clearance 0.0"), logs
+    assert "every move is blocked (" in logs[0] and "by an obstacle" in logs[0] and "by unknown cells" in logs[0], logs
 
 
 def test_the_way_must_be_free_all_along_not_only_at_its_end():
@@ -190,3 +208,12 @@ def test_a_bad_escape_parameter_fails_the_move_base_check_before_anything_starts
     assert "esc" in str(e.value) and "speed" in str(e.value)
     cfg["move_base"]["esc"] = {"speed": 0.05}
     check(cfg, "master.yaml")  # in range: accepted
+
+
+def test_a_corridor_as_narrow_as_the_robot_says_its_freest_move_gains_nothing():
+    # walls 3 cm off each flank all along: drives are free but keep the 3 cm, turns meet the walls
+    why: list[str] = []
+    grid = grid_with((-2.0, 0.284, 2.0, 0.5), (-2.0, -0.5, 2.0, -0.284))
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, why=why) is None
+    assert len(why) == 1 and why[0].startswith("clearance 0.03 m where it stands; the freest move, "), why
+    assert "reaches 0.03 m" in why[0] and "moves blocked (16 by an obstacle)" in why[0], why
