@@ -75,6 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=1, help="runs of each world and sensor")
     ap.add_argument("--speed", type=float, default=2.0, help="simulator speed (x real time) when the machine keeps up")
     ap.add_argument("--time-limit", type=float, default=1800.0, metavar="S", help="simulated seconds per run")
+    ap.add_argument("--set", action="append", default=[], metavar="NODE.KEY=VALUE", dest="master_set",
+                    help="one of the master's parameters (zenav master --set), e.g. slam_gmapping.maxUrange=30")
     ap.add_argument("--out", default="", help="where each run's logs and map go (default: a new temp dir)")
     a = ap.parse_args(argv)
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
@@ -88,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.monotonic()
         with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
             r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
-                                echo=lambda s: print(s, file=sys.stderr, flush=True))
+                                echo=lambda s: print(s, file=sys.stderr, flush=True), master_set=tuple(a.master_set))
         runs.append(r)
         print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
               f"({time.monotonic() - t0:.0f} s wall)" + "".join(
