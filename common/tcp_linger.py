@@ -103,6 +103,15 @@ def start_linger_guard() -> LingerGuard:
         return _guard
 
 
+def _forget_in_child() -> None:
+    """A fork has no guard thread (threads are not copied): its first session starts its own."""
+    global _guard, _lock
+    _guard, _lock = None, threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_in_child)
+
+
 def _run(guard: LingerGuard) -> None:
     stop = threading.Event()
     while not stop.wait(SCAN_S):

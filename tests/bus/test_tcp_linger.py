@@ -69,3 +69,21 @@ def test_sessions_opened_by_open_session_lose_their_linger_within_a_scan_or_two(
     """)
     assert r["linked"], "the two sessions never linked"
     assert r["cleared"] and r["count"] >= 2, r
+
+
+def test_a_fork_of_a_guarded_process_starts_its_own_guard():
+    r = _run("tcp_linger.open_session", """
+        import os
+        parent = tcp_linger.start_linger_guard()
+        rfd, wfd = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # threads are not copied into a fork: its guard must be a new one, with its thread
+            import threading
+            g = tcp_linger.start_linger_guard()
+            alive = any(t.name == "tcp-linger-guard" for t in threading.enumerate())
+            os.write(wfd, json.dumps({"new": g is not parent, "thread": alive}).encode())
+            os._exit(0)
+        os.waitpid(pid, 0)
+        print(os.read(rfd, 1000).decode())
+    """)
+    assert r == {"new": True, "thread": True}, r
