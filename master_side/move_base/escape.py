@@ -127,8 +127,10 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
     robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
     farthest), free for the outline all the way (no lethal or unknown cell, not off the grid; a lethal cell
-    the outline touches where the robot stands may be left behind). None when the robot already has that
-    clearance, or no move gains a cell of clearance on where it stands.
+    the outline touches where the robot stands may be left behind). A move that gains less than a cell of
+    clearance only when none gains a whole cell (a wall at a slant: 0.07 -> 0.09 m on a 2.5 cm grid, where
+    office02's robot stood while DWA rejected every trajectory). None when the robot already has that
+    clearance, or no move gains any.
 
     ``against``: the (v, w) of a command the robot stalled on (move_base's stall_timeout): something the
     costmap does not show holds it, so the move goes the other way (a drive against v, or a turn against
@@ -155,6 +157,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     turns = np.arange(0.1, params.max_turn + 1e-9, 0.1)
     moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
     best: tuple[tuple[float, float], EscapeMove] | None = None
+    slight: tuple[tuple[float, float], EscapeMove] | None = None  # the best of those gaining less than a cell
     blocked: dict[str, int] = {}
     freest: EscapeMove | None = None  # the free move reaching the most clearance, gained or not
     for d, a in moves:
@@ -167,13 +170,17 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
         after = clearance(cells[-1])
         if freest is None or after > freest.clearance_after:
             freest = EscapeMove(float(d), float(a), here, after)
-        if after < here + res and against is None:
+        if after <= here + 1e-9 and against is None:
             continue
         # the most clearance up to params.clearance, then the least motion (a turn as its outline's arc; a
         # reverse drive counts double: behind the robot only sonars look, with gaps between their cones)
         key = (min(after, params.clearance), -((2.0 if d < 0 else 1.0) * abs(d) + abs(a) * outline_r))
-        if best is None or key > best[0]:
+        if after < here + res and against is None:
+            if slight is None or key > slight[0]:
+                slight = key, EscapeMove(float(d), float(a), here, after)
+        elif best is None or key > best[0]:
             best = key, EscapeMove(float(d), float(a), here, after)
+    best = best or slight
     if best is None and why is not None:
         why.append(_why_none(here, blocked, freest))
     return None if best is None else best[1]

@@ -217,3 +217,35 @@ def test_a_corridor_as_narrow_as_the_robot_says_its_freest_move_gains_nothing():
     assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, why=why) is None
     assert len(why) == 1 and why[0].startswith("clearance 0.03 m where it stands; the freest move, "), why
     assert "reaches 0.03 m" in why[0] and "moves blocked (16 by an obstacle)" in why[0], why
+
+
+def slanted_wall(deg: float, off: float) -> np.ndarray:
+    """A 10 cm wall beside the robot's left flank, ``off`` from its front left corner, closing in ahead at
+    ``deg``: driving back gains clearance at sin(deg) of the distance."""
+    t = math.radians(deg)
+    xs = ORIGIN[0] + (np.arange(160) + 0.5) * RES
+    x, y = np.meshgrid(xs, xs)
+    d = (x - 0.254) * math.sin(t) + (y - (0.254 + off)) * math.cos(t)
+    g = np.full((160, 160), FREE, np.uint8)
+    g[(d >= 0) & (d <= 0.1)] = LETHAL
+    return g
+
+
+def test_a_gain_of_less_than_a_cell_is_taken_when_no_move_gains_a_whole_one():
+    # as office02's robot stood: "clearance 0.07 m where it stands; the freest move, back 0.25 m, reaches 0.09 m"
+    # on a 2.5 cm grid, while DWA rejected every trajectory; a drive of at most 5 cm gains 2.3 cm here
+    grid = slanted_wall(20.0, 0.07)
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(max_turn=0.0, max_distance=0.05))
+    assert move is not None and move.distance == pytest.approx(-0.05)
+    assert 0.0 < move.clearance_after - move.clearance_before < RES
+    # with longer drives allowed a whole cell is gained, and that move wins
+    longer = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(max_turn=0.0, max_distance=0.3))
+    assert longer is not None and longer.clearance_after - longer.clearance_before >= RES
+
+
+def test_no_gain_at_all_is_no_move():
+    # the wall parallel to the flank, 5 cm off: a drive either way keeps the 5 cm
+    why: list[str] = []
+    grid = slanted_wall(0.0, 0.05)
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(max_turn=0.0), why=why) is None
+    assert why and "reaches 0.05 m" in why[0], why
