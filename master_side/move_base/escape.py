@@ -41,6 +41,9 @@ class EscapeParams:
     speed: float = param(0.1, lo=0.01, hi=1.0, unit="m/s", doc="straight drive speed")
     turn_speed: float = param(0.4, lo=0.01, hi=5.0, unit="rad/s", doc="in-place turn speed")
     time_allowance: float = param(10.0, lo=0.1, hi=300.0, unit="s", doc="the move ends after this long")
+    stall_time: float = param(1.0, lo=0.1, hi=60.0, unit="s",
+                              doc="the move ends when it has gained less than 2 cm or 0.05 rad in this long: "
+                                  "something no sensor shows holds the robot")
 
 
 @dataclass(frozen=True)
@@ -197,6 +200,7 @@ def _why_none(here: float, blocked: dict[str, int], freest: EscapeMove | None) -
 
 
 STALL_BACKOFF = (0.1, 0.3)  # m, rad: the least drive or turn against a stalled command
+PROGRESS = (0.02, 0.05)  # m, rad: a move that gains less than this in stall_time has stalled
 IN_PLACE_V, IN_PLACE_W = 0.01, 0.05  # m/s, rad/s: slower than this, the command does not drive / turn
 
 
@@ -211,23 +215,28 @@ def _against(d: float, a: float, cmd: tuple[float, float]) -> bool:
 class EscapeRecovery:
     """move_base recovery: plans one escape move on its first tick (``view`` gives the local costmap and
     the robot's pose in it), then drives it, checking the bare outline a step ahead every tick; done
-    when the move is made, the way ahead is blocked, the time allowance is spent or nothing helps."""
+    when the move is made, the way ahead is blocked, the time allowance is spent, the move stalls (something
+    no sensor shows holds the robot: ``on_stall`` is told the command, as move_base's stall check would be,
+    so that its stall marks show the local costmap where the robot pushed) or nothing helps."""
 
     def __init__(self, view: View, footprint: np.ndarray, params: EscapeParams = EscapeParams(),
                  name: str = "escape", log: Callable[[str], None] | None = None,
-                 stalled: Callable[[], tuple[float, float] | None] | None = None) -> None:
+                 stalled: Callable[[], tuple[float, float] | None] | None = None,
+                 on_stall: Callable[[tuple[float, float, float]], None] | None = None) -> None:
         """``stalled``: the (v, w) the robot stalled on when a stall started this recovery, else None."""
         self._view, self.footprint, self.params, self.name = view, np.asarray(footprint, float), params, name
-        self._log, self._stalled = log, stalled
+        self._log, self._stalled, self._on_stall = log, stalled, on_stall
         self.move: EscapeMove | None = None
         self._start: Pose2D | None = None
         self._t0 = 0.0
+        self._done, self._done_time = 0.0, 0.0  # progress so far (m or rad) and when it last grew by PROGRESS
 
     def enabled(self, params) -> bool:
         return True
 
     def start(self, now: float) -> None:
         self._t0, self.move, self._start = now, None, None
+        self._done, self._done_time = 0.0, now
         view = self._view()
         against = self._stalled() if self._stalled is not None else None
         why: list[str] = [] if view is not None else ["no local costmap yet"]
@@ -258,6 +267,17 @@ class EscapeRecovery:
             left = abs(m.turn) - abs(normalize_angle(rel.theta))
             ahead = math.copysign(min(0.1, abs(m.turn)), m.turn)
             cmd, check = (0.0, 0.0, math.copysign(p.turn_speed, m.turn)), (0.0, ahead)
+        done = abs(m.distance or m.turn) - left
+        if done >= self._done + PROGRESS[0 if m.distance else 1]:
+            self._done, self._done_time = done, now
+        elif now - self._done_time > p.stall_time and left > 0.0:
+            if self._log is not None:
+                unit = "m" if m.distance else "rad"
+                self._log(f"{self.name}: stalled after {done:.2f} of {abs(m.distance or m.turn):.2f} {unit}: "
+                          "something no sensor shows holds the robot")
+            if self._on_stall is not None:
+                self._on_stall(cmd)
+            return stop, True
         outline, outline_r = _outline(self.footprint, res)
         way = _leaving(np.asarray(grid), res, origin, here, outline)
         if left <= 0.0 or _swept(way, res, origin, here, *check, outline, outline_r) is None:

@@ -90,7 +90,8 @@ class MoveBaseNode:
         self.planner = PlannerThread(self.planning.plan_now, p.planner_frequency, node.clock.now, "move_base:planner")
         recoveries = recoveries_from_params(p, c.recovery_namespaces, source, self._clear_costmaps, self._blocked,
                                             c.circumscribed_radius, c.rotate, self._local_view, c.bare_footprint,
-                                            node.log.info, self._stalled_on)
+                                            node.log.info, self._stalled_on,
+                                            lambda cmd: self.machine.note_stall(cmd))
         self.machine = MoveBaseMachine(p, self.planner, self.controller, recoveries)
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None

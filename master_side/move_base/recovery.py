@@ -124,10 +124,12 @@ def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked
                            circumscribed_radius: float = 0.0, rotate: RotateLimits = RotateLimits(),
                            view: View | None = None, bare_footprint: np.ndarray | None = None,
                            log: Callable[[str], None] | None = None,
-                           stalled: Callable[[], tuple[float, float] | None] | None = None) -> list:
+                           stalled: Callable[[], tuple[float, float] | None] | None = None,
+                           on_stall: Callable[[tuple[float, float, float]], None] | None = None) -> list:
     """The ``recovery_behaviors`` list ([{name, type}], each name's parameters in ``namespaces``), or the
     default list when it is not set. An escape needs ``view`` (the local costmap and the robot's pose in
-    it) and the robot's ``bare_footprint`` (unpadded); ``stalled`` tells it the command a stall stopped."""
+    it) and the robot's ``bare_footprint`` (unpadded); ``stalled`` tells it the command a stall stopped, and
+    it tells ``on_stall`` the command of a move of its own that stalled."""
     spec = params.recovery_behaviors
     if spec is None:
         return default_recoveries(params, clear, blocked, circumscribed_radius, rotate)
@@ -149,7 +151,7 @@ def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked
         elif kind in ESCAPE_TYPES:
             ep = load_params(EscapeParams, ns, source, name)
             fp = np.zeros((0, 2)) if bare_footprint is None else bare_footprint
-            out.append(EscapeRecovery(view or (lambda: None), fp, ep, name, log, stalled))
+            out.append(EscapeRecovery(view or (lambda: None), fp, ep, name, log, stalled, on_stall))
         else:
             raise ConfigError(source, f"recovery_behaviors[{names.index(name)}].type",
                               f"{kind!r} is not implemented (known: {CLEAR_TYPES[0]}, {ROTATE_TYPES[0]}, "

@@ -214,7 +214,7 @@ class MoveBaseMachine:
         stall = self._stalled(now, pose, res.cmd, dt) if res.ok and not spin and self.state is State.CONTROLLING \
             else ""
         if stall:
-            self.stall_command, self.stalls = res.cmd, self.stalls + 1
+            self.note_stall(res.cmd)
             self._start_recovery(Trigger.STALL, stall)
             return self._decide(ZERO, new_plan)
         if res.ok and not spin:
@@ -240,6 +240,11 @@ class MoveBaseMachine:
             self.planner.start(self.goal.pose)
             self._enter(State.PLANNING, f"no valid command ({res.reason}); replanning")
         return self._decide(ZERO, new_plan)
+
+    def note_stall(self, cmd: tuple[float, float, float]) -> None:
+        """A command that got the robot nowhere (the controller's, or a recovery's own move): counted, and kept
+        for the node's stall marks and for an escape to move against."""
+        self.stall_command, self.stalls = cmd, self.stalls + 1
 
     def stalled_for(self, now: float) -> float:
         """Seconds since the robot last made progress toward the goal (while controlling)."""

@@ -149,13 +149,18 @@ class FakeBase:
     def view(self):
         return self.grid, RES, ORIGIN, self.pose
 
-    def run(self, rec: EscapeRecovery, dt: float = 0.1, limit: int = 400) -> int:
+    def run(self, rec: EscapeRecovery, dt: float = 0.1, limit: int = 400, held_after: float = float("inf")) -> int:
+        """Ticks until the escape ends; ``held_after``: from this far along its move (m or rad) the robot no
+        longer moves, as against a wall no sensor shows."""
         rec.start(0.0)
+        moved = 0.0
         for i in range(limit):
             (v, _, w), done = rec.step(i * dt, self.pose, (0.0, 0.0, 0.0))
             if done:
                 return i
-            self.pose = self.pose.compose(Pose2D(v * dt, 0.0, w * dt))
+            if moved < held_after:
+                self.pose = self.pose.compose(Pose2D(v * dt, 0.0, w * dt))
+                moved += abs(v or w) * dt
         raise AssertionError("the escape never ended")
 
 
@@ -167,6 +172,23 @@ def test_the_recovery_drives_the_planned_move_and_stops():
     assert rec.move is not None and rec.move.distance < 0
     assert base.pose.x == pytest.approx(rec.move.distance, abs=0.011)  # within one tick at 0.1 m/s
     assert "back" in logged[0] and "clearance" in logged[0]
+
+
+def test_a_move_held_by_something_unseen_ends_and_is_reported_as_a_stall():
+    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))  # a wall beyond the nose: the escape backs away
+    logged: list[str] = []
+    stalls: list[tuple[float, float, float]] = []
+    rec = EscapeRecovery(base.view, P3AT, log=logged.append, on_stall=stalls.append)
+    ticks = base.run(rec, held_after=0.03)  # a wall no sensor shows stops it 3 cm back
+    assert rec.move is not None and rec.move.distance <= -0.1
+    assert stalls == [(-rec.params.speed, 0.0, 0.0)]  # the command that got it nowhere, for the stall marks
+    assert "stalled after 0.0" in logged[-1] and "something no sensor shows holds the robot" in logged[-1], logged
+    assert ticks * 0.1 <= rec.params.stall_time + 0.6  # it ends within its stall time of the last progress
+    # a move that is not held makes no stall
+    free = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
+    stalls.clear()
+    free.run(EscapeRecovery(free.view, P3AT, on_stall=stalls.append))
+    assert stalls == []
 
 
 def test_the_recovery_stops_when_something_appears_in_its_way():
@@ -189,10 +211,14 @@ def test_the_recovery_list_builds_escapes_with_their_parameters_and_rejects_bad_
     spec = [{"name": "reset", "type": "clear_costmap_recovery/ClearCostmapRecovery"},
             {"name": "escape", "type": "zenav/EscapeRecovery"}]
     params = MoveBaseParams(recovery_behaviors=spec)
-    recs = recoveries_from_params(params, {"escape": {"max_distance": 0.2}}, "mb.yaml", lambda *a: None,
-                                  view=lambda: None, bare_footprint=P3AT)
+    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
+    stalls: list[tuple[float, float, float]] = []
+    recs = recoveries_from_params(params, {"escape": {"max_distance": 0.2, "stall_time": 0.5}}, "mb.yaml",
+                                  lambda *a: None, view=base.view, bare_footprint=P3AT, on_stall=stalls.append)
     assert [r.name for r in recs] == ["reset", "escape"]
-    assert recs[1].params.max_distance == 0.2
+    assert (recs[1].params.max_distance, recs[1].params.stall_time) == (0.2, 0.5)
+    base.run(recs[1], held_after=0.0)  # held from the start: its stall reaches move_base's counter
+    assert len(stalls) == 1
     with pytest.raises(ConfigError) as e:
         recoveries_from_params(params, {"escape": {"max_distance": 5.0}}, "mb.yaml", lambda *a: None)
     assert "mb.yaml" in str(e.value) and "max_distance" in str(e.value)
