@@ -97,7 +97,6 @@ def run_pub(port: int, robots: list[str], start_at: float, seconds: float, relia
 
 
 def run_sub(port: int, stop_at: float) -> int:
-
     from common.codec import DecodeError, decode
 
     session = open_session(_client(port, "fleet_monitor").to_zenoh())

@@ -42,7 +42,6 @@ def add_parser(subparsers):
 
 
 def run(args) -> int:
-
     from common.bus import close_quietly
     from common.zenoh_config import BusConfig
 

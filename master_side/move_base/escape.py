@@ -91,16 +91,10 @@ def _outline(footprint: np.ndarray, res: float) -> tuple[np.ndarray, float]:
     return outline, float(np.max(np.hypot(outline[:, 0], outline[:, 1])))
 
 
-def _swept(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, distance: float, turn: float,
-           outline: np.ndarray, outline_r: float) -> np.ndarray | None:
-    """The outline's cells at every pose along the move, or None when one is lethal, unknown or off the grid."""
-    cells, _ = _sweep(grid, res, origin, pose, distance, turn, outline, outline_r)
-    return cells
-
-
 def _sweep(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, distance: float, turn: float,
            outline: np.ndarray, outline_r: float) -> tuple[np.ndarray | None, str]:
-    """``_swept`` and what blocks the move: "" (nothing), "off the costmap", "an obstacle", "unknown cells"."""
+    """The outline's cells at every pose along the move, or None when one is lethal, unknown or off the grid;
+    and what blocks it: "" (nothing), "off the costmap", "an obstacle", "unknown cells"."""
     cells = _cells(_poses_along(pose, distance, turn, res, outline_r), outline, res, origin)
     if not _inside(cells, grid.shape).all():
         return None, "off the costmap"
@@ -159,8 +153,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     dists = np.arange(step, params.max_distance + 1e-9, step)
     turns = np.arange(0.1, params.max_turn + 1e-9, 0.1)
     moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
-    best: tuple[tuple[float, float], EscapeMove] | None = None
-    slight: tuple[tuple[float, float], EscapeMove] | None = None  # the best of those gaining less than a cell
+    best: tuple[tuple[bool, float, float], EscapeMove] | None = None
     blocked: dict[str, int] = {}
     freest: EscapeMove | None = None  # the free move reaching the most clearance, gained or not
     for d, a in moves:
@@ -175,15 +168,13 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
             freest = EscapeMove(float(d), float(a), here, after)
         if after <= here + 1e-9 and against is None:
             continue
-        # the most clearance up to params.clearance, then the least motion (a turn as its outline's arc; a
-        # reverse drive counts double: behind the robot only sonars look, with gaps between their cones)
-        key = (min(after, params.clearance), -((2.0 if d < 0 else 1.0) * abs(d) + abs(a) * outline_r))
-        if after < here + res and against is None:
-            if slight is None or key > slight[0]:
-                slight = key, EscapeMove(float(d), float(a), here, after)
-        elif best is None or key > best[0]:
+        # a whole cell gained first (a smaller gain only when none does), then the most clearance up to
+        # params.clearance, then the least motion (a turn as its outline's arc; a reverse drive counts double:
+        # behind the robot only sonars look, with gaps between their cones)
+        key = (after >= here + res or against is not None, min(after, params.clearance),
+               -((2.0 if d < 0 else 1.0) * abs(d) + abs(a) * outline_r))
+        if best is None or key > best[0]:
             best = key, EscapeMove(float(d), float(a), here, after)
-    best = best or slight
     if best is None and why is not None:
         why.append(_why_none(here, blocked, freest))
     return None if best is None else best[1]
@@ -280,6 +271,6 @@ class EscapeRecovery:
             return stop, True
         outline, outline_r = _outline(self.footprint, res)
         way = _leaving(np.asarray(grid), res, origin, here, outline)
-        if left <= 0.0 or _swept(way, res, origin, here, *check, outline, outline_r) is None:
+        if left <= 0.0 or _sweep(way, res, origin, here, *check, outline, outline_r)[0] is None:
             return stop, True
         return cmd, False
