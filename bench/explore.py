@@ -41,6 +41,9 @@ from deploy.stack.process_group import terminate_as_interrupt  # noqa: E402
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
+# on physics DWA is told where the skid-steered P3-AT turns about (bench/mrpb.py says why)
+PHYSICS_DWA = ROOT / "master_side/config/p3at_zenav/dwa_planner_ros_mujoco.yaml"
+ENGINE_SETS = {"mujoco": (f"move_base.local_planner={PHYSICS_DWA}",)}
 WORLDS = ("room", "office02", "shopping_mall")
 
 
@@ -77,8 +80,13 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--time-limit", type=float, default=1800.0, metavar="S", help="simulated seconds per run")
     ap.add_argument("--set", action="append", default=[], metavar="NODE.KEY=VALUE", dest="master_set",
                     help="one of the master's parameters (zenav master --set), e.g. slam_gmapping.maxUrange=30")
+    ap.add_argument("--engine", choices=("kinematic", "mujoco"), default=None,
+                    help="simulator engine (default: the robot YAML's, the kinematic one); mujoco: the skid-steered "
+                         "P3-AT on rigid-body physics, with DWA told where it turns about")
     ap.add_argument("--out", default="", help="where each run's logs and map go (default: a new temp dir)")
     a = ap.parse_args(argv)
+    master_set = (*ENGINE_SETS.get(a.engine or "", ()), *a.master_set)
+    robot_args = ("--engine", a.engine) if a.engine else ()
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
     runs: list[ExploreRun] = []
     print(f"logs and maps under {out}", file=sys.stderr)
@@ -90,7 +98,8 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.monotonic()
         with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
             r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
-                                echo=lambda s: print(s, file=sys.stderr, flush=True), master_set=tuple(a.master_set))
+                                echo=lambda s: print(s, file=sys.stderr, flush=True), master_set=master_set,
+                                robot_args=robot_args)
         runs.append(r)
         print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
               f"({time.monotonic() - t0:.0f} s wall)" + "".join(

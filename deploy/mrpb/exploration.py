@@ -149,13 +149,15 @@ INTERRUPTED = "interrupted"  # ExploreRun.end of a run stopped by Ctrl-C / SIGTE
 def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, master_config: Path,
                     workdir: Path, speed: float = 2.0, time_limit_s: float = 1800.0, explore_args=(),
                     echo=print, monitor_args: tuple[str, ...] = (), robot: str = "",
-                    endpoint: str = "", before_stop=None, master_set: tuple[str, ...] = ()) -> ExploreRun:
+                    endpoint: str = "", before_stop=None, master_set: tuple[str, ...] = (),
+                    robot_args: tuple[str, ...] = ()) -> ExploreRun:
     """``world``: a zenav world name or a map YAML; ``start``: where the robot starts in it (SLAM's map
     frame); ``time_limit_s``: simulated seconds from the first map; ``monitor_args``: also run
     ``zenav monitor`` with these (e.g. ``--serve-web PORT``); ``robot`` / ``endpoint``: the private
     network's robot name and endpoint (default: new ones); ``before_stop(run)``: called with the measured
     run once the robot and master are stopped, before the monitor is (``zenav demo --serve-web`` keeps
-    the page up there); ``master_set``: ``NODE.KEY=VALUE`` overrides for ``zenav master --set``."""
+    the page up there); ``master_set``: ``NODE.KEY=VALUE`` overrides for ``zenav master --set``;
+    ``robot_args``: more ``zenav robot`` options (``--engine mujoco``)."""
     wall0 = time.monotonic()
     work = Path(workdir) / name.replace("/", "_")
     work.mkdir(parents=True, exist_ok=True)
@@ -172,7 +174,8 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     completed = False
     try:
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(world),
-                              "--start", str(start.x), str(start.y), str(start.theta), "--speed", str(speed)])
+                              "--start", str(start.x), str(start.y), str(start.theta), "--speed", str(speed),
+                              *robot_args])
         sets = [w for kv in master_set for w in ("--set", kv)]
         group.spawn("master", ["master", "--config", str(master_config), *sets])
         if monitor_args:

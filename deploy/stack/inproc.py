@@ -109,8 +109,10 @@ class InProcessStack:
     def __init__(self, world_path: str | Path, robot_config: str | Path,
                  master_config: str | Path, plan_hz: float = 5.0, seed: int = 0,
                  engine: str | None = None, friction: float | None = None,
-                 start: tuple[float, float, float] | None = None, map_file: str | Path | None = None):
-        """``start`` and ``map_file`` as ``zenav robot --start`` and ``zenav master --map``."""
+                 start: tuple[float, float, float] | None = None, map_file: str | Path | None = None,
+                 master_set: tuple[str, ...] = ()):
+        """``start``, ``map_file`` and ``master_set`` as ``zenav robot --start``, ``zenav master --map`` and
+        ``zenav master --set NODE.KEY=VALUE``."""
         robot_config, master_config = Path(robot_config), Path(master_config)
         robot = robot_agent.load(str(robot_config), world=str(world_path), engine=engine,  # as the agent reads it
                                  start=list(start) if start is not None else None)
@@ -123,6 +125,8 @@ class InProcessStack:
         self.costmaps: dict[str, _Costmap] = {}
         mb_cfg, grid = None, None
         master = master_agent.load(str(master_config), str(map_file) if map_file else None)  # as the agent does
+        for assignment in master_set:
+            master.set(assignment)
         for entry in master.entries:
             params, source = master.node_params(entry)
             if entry.opts.module == "master_side.costmap.node":

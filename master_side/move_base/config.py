@@ -131,6 +131,13 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
     section, pcls, _, component = kinds[kind]
     lp, lp_src = _or_empty(files["local_planner"], source)
     data = dict(lp.get(section, lp if section not in lp and lp else {}) or {})
+    if "include" in data:  # zenav: another planner file's section as the base, this one's keys over it
+        base: dict = {}
+        base_src = lp_src
+        with problems.collect():
+            base, base_src = include(data.pop("include"), lp_src, f"{section}.include")
+        data = {**dict(base.get(section, base) or {}), **data}
+        lp_src = f"{base_src} (+ overrides in {lp_src})"
     others = [s for s, *_ in kinds.values() if s != section and s in lp]
     for s in others:
         notes.append(f"{lp_src}: {s}: section of another local planner; no effect (base_local_planner is {kind})")

@@ -253,3 +253,37 @@ def test_rotation_holds_through_jitter(tp_params):
         pytest.fail(f"goal yaw not reached: {np.round(cmds, 3)}")
     assert all(c <= 1e-12 for c in cmds), f"the rotation turned back: {np.round(cmds, 3)}"
     assert abs(angle_diff(goal[2], theta)) <= p.yaw_goal_tolerance
+
+
+def test_dwa_predicts_a_turn_about_the_bases_turning_centre(dwa_params):
+    """A skid-steered base that pivots behind base_link (rotation_center_x < 0) carries base_link round
+    that point: DWA's predicted poses follow the circle about it, while the commands it chooses from stay
+    the samples (no sideways velocity is ever commanded). 0, the default, is ROS's turn about base_link."""
+    cx, w = -0.12, 0.8
+    samples = np.array([[0.0, 0.0, w], [0.3, 0.0, 0.0]])
+    for centre in (0.0, cx):
+        planner = DWAPlanner(dataclasses.replace(dwa_params, rotation_center_x=centre))
+        trajs = planner._simulate(np.zeros(3), np.zeros(3), samples)
+        np.testing.assert_array_equal(trajs.vels, samples)
+        turn = trajs.row(0)
+        th = turn[:, 2]
+        # base_link at (I - R(th)) c for a turn about c = (centre, 0) from the origin
+        np.testing.assert_allclose(turn[:, 0], centre - centre * np.cos(th), atol=0.01)
+        np.testing.assert_allclose(turn[:, 1], -centre * np.sin(th), atol=0.01)
+        np.testing.assert_allclose(trajs.row(1)[:, 1], 0.0, atol=1e-12)  # a straight drive is not moved
+    assert turn[-1, 1] > 0.1  # with the pivot 0.12 m behind, a 1.4 rad left turn moves base_link 0.12 m left
+
+
+def test_a_planner_file_may_take_another_as_its_base(tmp_path):
+    """``include:`` in a local planner file's section (zenav): the other file's section, this one's keys
+    over it; a missing file is a ConfigError naming the key."""
+    from master_side.move_base.config import load_move_base_config
+
+    (tmp_path / "base.yaml").write_text("DWAPlannerROS:\n  max_vel_x: 0.4\n  min_vel_x: -0.1\n")
+    (tmp_path / "skid.yaml").write_text("DWAPlannerROS:\n  include: base.yaml\n  rotation_center_x: -0.12\n")
+    cfg = {"move_base": {"base_local_planner": "dwa_local_planner/DWAPlannerROS"}, "local_planner": "skid.yaml"}
+    p = load_move_base_config(cfg, str(tmp_path / "move_base.yaml")).local_params
+    assert (p.max_vel_x, p.min_vel_x, p.rotation_center_x) == (0.4, -0.1, -0.12)
+    (tmp_path / "skid.yaml").write_text("DWAPlannerROS:\n  include: nowhere.yaml\n")
+    with pytest.raises(ConfigError, match="DWAPlannerROS.include"):
+        load_move_base_config(cfg, str(tmp_path / "move_base.yaml"))

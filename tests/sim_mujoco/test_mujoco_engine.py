@@ -202,3 +202,20 @@ def test_a_box_spawned_at_run_time_is_seen_and_felt(tmp_path):
         sim.cmd_vel(Twist.planar(0.5, 0.0))
         sim.step()
     assert sim.base.collisions == 1 and sim.base.pose.x < 0.9
+
+
+def test_the_p3at_pivots_behind_base_link_where_its_weight_rests():
+    """MobileRobots' URDF puts the P3-AT's centre of mass 0.1 m behind the axles' middle: the rear tyres
+    carry most of the weight and grip more, so on physics the robot turns about a point behind base_link
+    (bench/turning.py's fit; p3at_zenav/dwa_planner_ros_mujoco.yaml tells DWA). The kinematic engine
+    turns it about base_link."""
+    from bench.turning import body_rates, drive, fit_center_x
+
+    centres = {}
+    for engine in ("mujoco", "kinematic"):
+        rows = drive(engine, "p3at", 0.0, 0.7, 2.0)
+        _, vy, w, _ = body_rates(rows)
+        keep = rows[1:, 0] > 0.5
+        centres[engine] = fit_center_x(vy[keep], w[keep])
+    assert -0.134 < centres["mujoco"] < -0.06, centres  # behind base_link, not beyond the rear axle
+    assert abs(centres["kinematic"]) < 0.005, centres

@@ -67,6 +67,20 @@ class Limits:
     latch_xy_goal_tolerance: bool
     trans_stopped_vel: float = 0.1
     rot_stopped_vel: float = 0.1
+    rotation_center_x: float = 0.0  # m, in base_link: where the base turns about (see driven())
+
+
+def driven(v: np.ndarray, rotation_center_x: float) -> np.ndarray:
+    """Commanded velocities (..., 3) as the base moves under them, for the forward simulation. A base that
+    turns about a point ``rotation_center_x`` ahead of base_link (behind: negative) moves base_link sideways
+    at ``-rotation_center_x * w`` while it turns: the ICR kinematics of a skid-steered base (its longitudinal
+    ICR coordinate; a differential drive, and ROS's planners, have 0)."""
+    v = np.asarray(v, float)
+    if not rotation_center_x:
+        return v
+    out = v.copy()
+    out[..., 1] -= rotation_center_x * out[..., 2]
+    return out
 
 
 def goal_cut_off(ctx: ScoringContext, rejected: dict) -> str:
@@ -274,7 +288,8 @@ class LocalPlanner:
         self._rot_cmd = w * self._rot_dir if self._rot_dir else 0.0
         if w == 0.0:
             return LocalResult((vx, vy, 0.0), True, "", empty, 0, True)
-        trajs = simulate(ctx.pose, v, np.array([[0.0, 0.0, w]]), lim.sim_period * 2, 4)
+        cx = lim.rotation_center_x
+        trajs = simulate(ctx.pose, driven(v, cx), driven(np.array([[0.0, 0.0, w]]), cx), lim.sim_period * 2, 4)
         self.collision.prepare(ctx)
         if self.collision.score(trajs)[0] < 0:
             return LocalResult(

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from common.config import param
-from master_side.planning.local.base import Limits, LocalPlanner
+from master_side.planning.local.base import Limits, LocalPlanner, driven
 from master_side.planning.local.costs import (
     GoalAlign,
     GoalDistance,
@@ -70,6 +70,12 @@ class DWAPlannerParams:
     trans_stopped_vel: float = param(0.1, lo=0.0, hi=10.0, unit="m/s")
     rot_stopped_vel: float = param(0.1, lo=0.0, hi=10.0, unit="rad/s")
     holonomic_robot: bool = param(True, doc="false: vy is always 0")
+    rotation_center_x: float = param(
+        0.0, lo=-2.0, hi=2.0, unit="m",
+        doc="zenav: where on base_link's x axis the base turns about when it turns in place; trajectories "
+            "are predicted with base_link moving sideways at -rotation_center_x * w. 0: a differential "
+            "drive (ROS). A skid-steered base pivots toward its more loaded axle: measure it with "
+            "`python bench/turning.py`")
     controller_frequency: float = param(
         20.0, lo=0.1, hi=1000.0, unit="Hz", doc="move_base's, sets sim_period"
     )
@@ -101,6 +107,7 @@ class DWAPlannerParams:
             latch_xy_goal_tolerance=self.latch_xy_goal_tolerance,
             trans_stopped_vel=self.trans_stopped_vel,
             rot_stopped_vel=self.rot_stopped_vel,
+            rotation_center_x=self.rotation_center_x,
         )
 
 
@@ -157,4 +164,9 @@ class DWAPlanner(LocalPlanner):
     def _simulate(self, pose: np.ndarray, vel: np.ndarray, samples: np.ndarray) -> Trajectories:
         p = self.params
         steps = num_steps(samples, p.sim_time, p.sim_granularity, p.angular_sim_granularity)
-        return simulate(pose, vel, samples, p.sim_time, steps)
+        if not p.rotation_center_x:
+            return simulate(pose, vel, samples, p.sim_time, steps)
+        trajs = simulate(pose, driven(vel, p.rotation_center_x), driven(samples, p.rotation_center_x), p.sim_time,
+                         steps)
+        trajs.vels = samples  # the commands; the poses are where the base goes under them
+        return trajs

@@ -1,0 +1,94 @@
+"""How a simulated base turns: where it turns about, and how much of a commanded turn it makes.
+
+A differential drive turns about base_link at the commanded rate, and ROS's local planners predict
+exactly that. A skid-steered base does neither: its tyres scrub, so it turns slower than its wheel speeds
+say, and it pivots toward the axle that carries more of its weight, so base_link moves sideways while it
+turns (the ICR kinematics of skid steering: the instantaneous centre of rotation's longitudinal coordinate).
+This bench drives the base from rest with a few (v, w) commands on the chosen engine and fits, from the
+simulator's ground truth, the point on base_link's x axis it turns about (``rotation_center_x``: the
+base's sideways velocity is ``-rotation_center_x * w``) and the ratio of its true to its commanded
+rotation (and its odometry's). ``rotation_center_x`` is the value DWA's parameter of that name takes.
+
+  python bench/turning.py --engine mujoco                 # the P3-AT on physics
+  python bench/turning.py --engine mujoco --robot jackal
+
+Ends with turn_center_x_m=… turn_ratio=… turn_odom_ratio=… (over all motions, after each one's first 0.5 s).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from common.messages import Twist  # noqa: E402
+from robot_side.sim.simulator import Simulator  # noqa: E402
+
+MOTIONS = ((0.0, 0.4), (0.0, 0.7), (0.0, 1.0), (0.0, -0.7), (0.2, 0.5), (0.3, -0.8))  # (v m/s, w rad/s)
+SETTLE_S = 0.5  # the first part of each motion (acceleration) is left out of the fit
+
+
+def drive(engine: str, robot: str, v: float, w: float, seconds: float) -> np.ndarray:
+    """Rows (t, x, y, theta unwrapped, odom theta unwrapped) of the ground truth while holding (v, w)."""
+    sim = Simulator.from_config({"world": "room", "engine": engine, "base": {"model": robot}})
+    base, t0, rows = sim.base, sim.time, []
+    th, oth = base.pose.theta, base.odom.theta
+    last, olast = th, oth
+    while sim.time - t0 < seconds:
+        sim.cmd_vel(Twist.planar(v, w))
+        sim.step()
+        th += math.remainder(base.pose.theta - last, 2 * math.pi)
+        oth += math.remainder(base.odom.theta - olast, 2 * math.pi)
+        last, olast = base.pose.theta, base.odom.theta
+        rows.append((sim.time - t0, base.pose.x, base.pose.y, th, oth))
+    return np.array(rows)
+
+
+def body_rates(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per step: (forward, sideways) velocity in the base's frame, the true and the odometry's turn rate."""
+    dt = np.diff(rows[:, 0])
+    dx, dy = np.diff(rows[:, 1]), np.diff(rows[:, 2])
+    mid = 0.5 * (rows[1:, 3] + rows[:-1, 3])
+    c, s = np.cos(mid), np.sin(mid)
+    return ((c * dx + s * dy) / dt, (-s * dx + c * dy) / dt, np.diff(rows[:, 3]) / dt, np.diff(rows[:, 4]) / dt)
+
+
+def fit_center_x(vy: np.ndarray, w: np.ndarray) -> float:
+    """Least squares for vy = -cx * w."""
+    return float(-(vy @ w) / (w @ w))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
+                                 epilog="\n\n".join(__doc__.split("\n\n")[1:]),
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--engine", choices=("kinematic", "mujoco"), default="mujoco")
+    ap.add_argument("--robot", choices=("p3at", "jackal", "pioneer_lx"), default="p3at")
+    ap.add_argument("--seconds", type=float, default=3.0, help="how long each command is held")
+    a = ap.parse_args()
+    print(f"# {a.robot} on the {a.engine} engine, each command held {a.seconds:g} s from rest")
+    print("| v cmd (m/s) | w cmd (rad/s) | w true (rad/s) | true / cmd | odometry / cmd | center x (m) |")
+    print("|---|---|---|---|---|---|")
+    all_vy, all_w, all_ratio, all_odom = [], [], [], []
+    for v, w in MOTIONS:
+        rows = drive(a.engine, a.robot, v, w, a.seconds)
+        _, vy, wt, wo = body_rates(rows)
+        keep = rows[1:, 0] > SETTLE_S
+        vy, wt, wo = vy[keep], wt[keep], wo[keep]
+        ratio, odom = float(np.mean(wt) / w), float(np.mean(wo) / w)
+        cx = fit_center_x(vy, wt)
+        print(f"| {v:.1f} | {w:+.1f} | {np.mean(wt):+.3f} | {ratio:.3f} | {odom:.3f} | {cx:+.3f} |")
+        all_vy.append(vy), all_w.append(wt), all_ratio.append(ratio), all_odom.append(odom)
+    cx = fit_center_x(np.concatenate(all_vy), np.concatenate(all_w))
+    print(f"turn_center_x_m={cx:.3f} turn_ratio={np.mean(all_ratio):.3f} turn_odom_ratio={np.mean(all_odom):.3f} "
+          f"engine={a.engine} robot={a.robot}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
