@@ -58,18 +58,27 @@ MASTERS = {  # (fast mode, bus mode): the fast mode's TF is exact, so it takes t
 SAFE_DISTANCE_M = 0.46
 
 
+# What zenav's configuration changes on an engine: its model of the robot it drives. On physics the
+# skid-steered P3-AT pivots 0.12 m behind base_link when it turns (its weight rests on the rear axle;
+# `python bench/turning.py --engine mujoco`), which DWA is told (p3at_zenav/dwa_planner_ros_mujoco.yaml), and
+# which its wheel odometry cannot see: AMCL's omni model spreads the particles sideways as the robot turns,
+# where the diff model moves them along their heading only. The kinematic engine turns it about base_link.
+PHYSICS_DWA = CONFIG / "p3at_zenav" / "dwa_planner_ros_mujoco.yaml"
+ENGINE_SETS = {("zenav", "mujoco"): (f"move_base.local_planner={PHYSICS_DWA}", "localization.odom_model_type=omni")}
+
+
 def _fast(job: tuple) -> Result:
-    case, robot, master, engine = job
+    case, robot, master, engine, sets = job
     from deploy.mrpb.inproc import run_case_fast
 
-    return run_case_fast(case, robot, master, engine=engine)
+    return run_case_fast(case, robot, master, engine=engine, master_set=sets)
 
 
 def _bus(job: tuple) -> Result:
-    case, robot, master, work, speed, engine = job
+    case, robot, master, work, speed, engine, sets = job
     from deploy.mrpb.bus import run_case_bus
 
-    return run_case_bus(case, robot, master, work, speed, engine=engine)
+    return run_case_bus(case, robot, master, work, speed, engine=engine, master_set=sets)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -88,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--engine", choices=("kinematic", "mujoco"), default=None,
                     help="simulator engine (default: the robot YAML's, the kinematic one); mujoco: the skid-steered "
                          "P3-AT on rigid-body physics, MRPB's walls as boxes")
+    ap.add_argument("--set", action="append", default=[], metavar="NODE.KEY=VALUE",
+                    help="one of the master's parameters (zenav master --set), for every configuration")
     ap.add_argument("--safe-distance", type=float, default=SAFE_DISTANCE_M, metavar="M",
                     help=f"MRPB's d_safe (default {SAFE_DISTANCE_M} m)")
     ap.add_argument("--workdir", default="", help="bus mode: where the agents' logs go (default: a temp folder)")
@@ -114,16 +125,18 @@ def main(argv: list[str] | None = None) -> int:
     results: dict[str, list[tuple[Result, mm.RunMetrics]]] = {}  # each run with its metrics, computed once
     for cfg in configs:
         master = masters[cfg][0 if a.mode == "fast" else 1]
-        print(f"## {cfg}: {master}", flush=True)
+        sets = (*ENGINE_SETS.get((cfg, a.engine), ()), *a.set)
+        print(f"## {cfg}: {master}{''.join(f' --set {s}' for s in sets)}", flush=True)
         if a.mode == "fast":
             with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
-                runs = ex.map(_fast, [(c, a.robot, master, a.engine) for c in cases])
+                runs = ex.map(_fast, [(c, a.robot, master, a.engine, sets) for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
         else:
             from deploy.stack.process_group import terminate_as_interrupt
 
             with terminate_as_interrupt():  # a killed bench stops each case's agents too
-                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed, a.engine) for c in cases])
+                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed, a.engine, sets)
+                            for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
     summary = []
     for cfg, runs_of in results.items():

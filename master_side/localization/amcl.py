@@ -32,7 +32,7 @@ import numpy as np
 from common.geometry import Pose2D, normalize_angle, normalize_angles
 from common.messages import LaserScan, OccupancyGrid
 from master_side.localization.likelihood_field import LikelihoodField, beam_likelihoods, select_beams
-from master_side.localization.motion_model import DiffMotionModel
+from master_side.localization.motion_model import DiffMotionModel, OmniMotionModel
 from master_side.localization.params import AmclParams
 from master_side.localization.refine import REACH_M, REACH_RAD, PoseRefiner
 from master_side.localization.sampling import best_cluster_estimate, heaviest_cluster, kld_resample, weighted_stats
@@ -53,8 +53,11 @@ class Amcl:
         if len(self._free) == 0:
             raise ValueError("the map has no free cell")
         self.laser = laser or Pose2D()
-        self.motion = DiffMotionModel(p.odom_alpha1, p.odom_alpha2, p.odom_alpha3, p.odom_alpha4,
-                                      corrected=p.odom_model_type == "diff-corrected")
+        corrected = p.odom_model_type.endswith("-corrected")
+        self.motion: DiffMotionModel | OmniMotionModel = (
+            OmniMotionModel(p.odom_alpha1, p.odom_alpha2, p.odom_alpha3, p.odom_alpha4, p.odom_alpha5, corrected)
+            if p.odom_model_type.startswith("omni") else
+            DiffMotionModel(p.odom_alpha1, p.odom_alpha2, p.odom_alpha3, p.odom_alpha4, corrected=corrected))
         self.updates = 0  # filter (sensor) updates done
         self._refiner: tuple[float, PoseRefiner] | None = None  # (range cap, its table), refine_pose only
         self.w_slow = self.w_fast = 0.0

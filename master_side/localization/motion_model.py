@@ -1,4 +1,5 @@
-"""ROS amcl's ``diff`` odometry motion model (Probabilistic Robotics, sample_motion_model_odometry).
+"""ROS amcl's odometry motion models: ``diff`` (Probabilistic Robotics, sample_motion_model_odometry) and
+``omni`` (``OmniMotionModel``, below).
 
 An odometry increment is split into rotate (rot1), translate (trans), rotate (rot2); each particle
 gets its own noisy copy. ``odom_alpha1``: rotation noise from rotation, ``odom_alpha2``: rotation from
@@ -62,3 +63,38 @@ class DiffMotionModel:
         heading = poses[:, 2] + r1
         return np.column_stack((poses[:, 0] + tr * np.cos(heading), poses[:, 1] + tr * np.sin(heading),
                                 normalize_angles(heading + r2)))
+
+
+class OmniMotionModel:
+    """ROS amcl's ``omni`` model (amcl_odom.cpp, ODOM_MODEL_OMNI): the increment is a translation along its
+    bearing and a rotation, and each particle also gets a sideways ("strafe") error. ``odom_alpha1``:
+    translation and strafe noise from rotation, ``odom_alpha2``: rotation from translation, ``odom_alpha3``:
+    translation from translation, ``odom_alpha4``: rotation from rotation, ``odom_alpha5``: strafe from
+    translation. ``omni`` uses the variance expressions as standard deviations, as ROS's original does;
+    ``omni-corrected`` their square roots.
+
+    Not only for omnidirectional bases: a skid-steered base moves sideways while it turns (it pivots toward
+    its more loaded axle, bench/turning.py) and its wheel odometry cannot see it; ``diff`` gives an in-place
+    turn no sideways spread at all, this model a spread that grows with the turn."""
+
+    def __init__(self, alpha1: float, alpha2: float, alpha3: float, alpha4: float, alpha5: float,
+                 corrected: bool = False) -> None:
+        self.a1, self.a2, self.a3, self.a4, self.a5 = alpha1, alpha2, alpha3, alpha4, alpha5
+        self.corrected = corrected
+
+    def sample(self, poses: np.ndarray, old: Pose2D, new: Pose2D, rng: np.random.Generator) -> np.ndarray:
+        dx, dy = new.x - old.x, new.y - old.y
+        trans2, rot = dx * dx + dy * dy, normalize_angle(new.theta - old.theta)
+        s_trans = self.a3 * trans2 + self.a1 * rot * rot
+        s_rot = self.a4 * rot * rot + self.a2 * trans2
+        s_strafe = self.a1 * rot * rot + self.a5 * trans2
+        if self.corrected:
+            s_trans, s_rot, s_strafe = math.sqrt(s_trans), math.sqrt(s_rot), math.sqrt(s_strafe)
+        n = len(poses)
+        bearing = normalize_angle(math.atan2(dy, dx) - old.theta) + poses[:, 2]
+        c, s = np.cos(bearing), np.sin(bearing)
+        tr = math.sqrt(trans2) + rng.normal(0.0, 1.0, n) * s_trans
+        rt = rot + rng.normal(0.0, 1.0, n) * s_rot
+        st = rng.normal(0.0, 1.0, n) * s_strafe
+        return np.column_stack((poses[:, 0] + tr * c + st * s, poses[:, 1] + tr * s - st * c,
+                                normalize_angles(poses[:, 2] + rt)))

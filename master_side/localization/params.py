@@ -8,8 +8,8 @@ from dataclasses import dataclass
 from common.config import load_params, param
 
 # ROS amcl keys zenav accepts so a ROS amcl.yaml loads unchanged, but does not use (beam model,
-# omni drive, map service, pose saving).
-UNUSED = ("laser_z_short", "laser_z_max", "laser_lambda_short", "odom_alpha5", "use_map_topic",
+# map service, pose saving).
+UNUSED = ("laser_z_short", "laser_z_max", "laser_lambda_short", "use_map_topic",
           "first_map_only", "save_pose_rate", "gui_publish_rate", "tf_broadcast", "beam_skip_distance",
           "beam_skip_threshold", "beam_skip_error_threshold", "do_beamskip", "restore_defaults",
           "receive_map_topic", "selective_resampling")
@@ -57,12 +57,14 @@ class AmclParams:
                               "by a laser SLAM (ROS: off)")
     refine_max_beams: int = param(180, lo=2, hi=100_000, doc="zenav: evenly spaced beams refine_pose scores")
     # -- odometry
-    odom_model_type: str = param("diff", choices=("diff", "diff-corrected"),
-                                 doc="'diff' keeps ROS's original noise (variance used as std)")
+    odom_model_type: str = param("diff", choices=("diff", "diff-corrected", "omni", "omni-corrected"),
+                                 doc="'diff' / 'omni' keep ROS's original noise (variance used as std); omni: "
+                                     "the alphas' roles differ (motion_model.OmniMotionModel)")
     odom_alpha1: float = param(0.2, lo=0.0, hi=100.0, doc="rotation noise from rotation")
     odom_alpha2: float = param(0.2, lo=0.0, hi=100.0, doc="rotation noise from translation")
     odom_alpha3: float = param(0.2, lo=0.0, hi=100.0, doc="translation noise from translation")
     odom_alpha4: float = param(0.2, lo=0.0, hi=100.0, doc="translation noise from rotation")
+    odom_alpha5: float = param(0.2, lo=0.0, hi=100.0, doc="omni only: strafe noise from translation")
     # -- frames
     odom_frame_id: str = param("odom", doc="odometry frame")
     base_frame_id: str = param("base_link", doc="robot frame")

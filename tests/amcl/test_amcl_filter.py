@@ -170,7 +170,7 @@ def test_amcl_params_load_ros_names_and_reject_bad_values():
     p = load_amcl_params({"min_particles": 500, "max_particles": 2000, "odom_model_type": "diff-corrected",
                           "laser_z_short": 0.1, "use_map_topic": True}, "amcl.yaml")
     assert (p.min_particles, p.max_particles, p.odom_model_type) == (500, 2000, "diff-corrected")
-    bad = [{"kld_err": 0.0}, {"laser_max_beams": 1}, {"odom_model_type": "omni"}, {"min_particles": 10,
+    bad = [{"kld_err": 0.0}, {"laser_max_beams": 1}, {"odom_model_type": "tricycle"}, {"min_particles": 10,
            "max_particles": 5}, {"laser_sigma_hit": "wide"}, {"no_such_key": 1}, {"resample_interval": 0}]
     for cfg in bad:
         with pytest.raises(ConfigError, match="amcl.yaml"):
