@@ -61,16 +61,20 @@ class EscapeMove:
         return f"{what}: clearance {self.clearance_before:.2f} -> {self.clearance_after:.2f} m"
 
 
-def _poses_along(pose: Pose2D, distance: float, turn: float, res: float, outline_r: float) -> np.ndarray:
-    """(K, 3) poses from ``pose`` along the move, dense enough that no outline point skips a cell."""
+def _poses_along(pose: Pose2D, distance: float, turn: float, res: float, outline_r: float,
+                 center_x: float = 0.0) -> np.ndarray:
+    """(K, 3) poses from ``pose`` along the move, dense enough that no outline point skips a cell; a turn is
+    about the point ``center_x`` ahead of base_link (the local planner's ``rotation_center_x``)."""
     if distance:
         n = max(1, int(math.ceil(abs(distance) / (0.5 * res))))
         s = np.linspace(0.0, distance, n + 1)[1:]
         return np.column_stack((pose.x + s * math.cos(pose.theta), pose.y + s * math.sin(pose.theta),
                                 np.full_like(s, pose.theta)))
-    n = max(1, int(math.ceil(abs(turn) * outline_r / (0.5 * res))))
+    n = max(1, int(math.ceil(abs(turn) * (outline_r + abs(center_x)) / (0.5 * res))))
     a = np.linspace(0.0, turn, n + 1)[1:]
-    return np.column_stack((np.full_like(a, pose.x), np.full_like(a, pose.y), pose.theta + a))
+    px, py = pose.x + center_x * math.cos(pose.theta), pose.y + center_x * math.sin(pose.theta)  # turned about
+    return np.column_stack((px - center_x * np.cos(pose.theta + a), py - center_x * np.sin(pose.theta + a),
+                            pose.theta + a))
 
 
 def _cells(poses: np.ndarray, outline: np.ndarray, res: float, origin: tuple[float, float]) -> np.ndarray:
@@ -92,10 +96,10 @@ def _outline(footprint: np.ndarray, res: float) -> tuple[np.ndarray, float]:
 
 
 def _sweep(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, distance: float, turn: float,
-           outline: np.ndarray, outline_r: float) -> tuple[np.ndarray | None, str]:
+           outline: np.ndarray, outline_r: float, center_x: float = 0.0) -> tuple[np.ndarray | None, str]:
     """The outline's cells at every pose along the move, or None when one is lethal, unknown or off the grid;
     and what blocks it: "" (nothing), "off the costmap", "an obstacle", "unknown cells"."""
-    cells = _cells(_poses_along(pose, distance, turn, res, outline_r), outline, res, origin)
+    cells = _cells(_poses_along(pose, distance, turn, res, outline_r, center_x), outline, res, origin)
     if not _inside(cells, grid.shape).all():
         return None, "off the costmap"
     cost = grid[cells[..., 1], cells[..., 0]]
@@ -120,7 +124,7 @@ def _leaving(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Po
 
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
                 params: EscapeParams = EscapeParams(), against: tuple[float, float] | None = None,
-                why: list[str] | None = None) -> EscapeMove | None:
+                why: list[str] | None = None, center_x: float = 0.0) -> EscapeMove | None:
     """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
     robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
     farthest), free for the outline all the way (no lethal or unknown cell, not off the grid; a lethal cell
@@ -134,7 +138,10 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     w), at least ``STALL_BACKOFF`` of it, whatever the clearance, the most clearance first.
 
     ``why``: when no move is found, a sentence saying why is appended to it (what blocked the moves, or the
-    most clearance a free one reaches), for the log of a robot that stays where it is."""
+    most clearance a free one reaches), for the log of a robot that stays where it is.
+
+    ``center_x``: where on base_link's x axis the base turns about (a skid-steered base pivots toward its
+    more loaded axle; the local planner's ``rotation_center_x``)."""
     grid = np.asarray(grid)
     outline, outline_r = _outline(footprint, res)
     way = _leaving(grid, res, origin, pose, outline)
@@ -159,7 +166,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     for d, a in moves:
         if against is not None and not _against(float(d), float(a), against):
             continue
-        cells, by = _sweep(way, res, origin, pose, float(d), float(a), outline, outline_r)
+        cells, by = _sweep(way, res, origin, pose, float(d), float(a), outline, outline_r, center_x)
         if cells is None:
             blocked[by] = blocked.get(by, 0) + 1
             continue
@@ -213,9 +220,12 @@ class EscapeRecovery:
     def __init__(self, view: View, footprint: np.ndarray, params: EscapeParams = EscapeParams(),
                  name: str = "escape", log: Callable[[str], None] | None = None,
                  stalled: Callable[[], tuple[float, float] | None] | None = None,
-                 on_stall: Callable[[tuple[float, float, float]], None] | None = None) -> None:
-        """``stalled``: the (v, w) the robot stalled on when a stall started this recovery, else None."""
+                 on_stall: Callable[[tuple[float, float, float]], None] | None = None,
+                 center_x: float = 0.0) -> None:
+        """``stalled``: the (v, w) the robot stalled on when a stall started this recovery, else None;
+        ``center_x``: where the base turns about (plan_escape)."""
         self._view, self.footprint, self.params, self.name = view, np.asarray(footprint, float), params, name
+        self.center_x = center_x
         self._log, self._stalled, self._on_stall = log, stalled, on_stall
         self.move: EscapeMove | None = None
         self._start: Pose2D | None = None
@@ -233,7 +243,7 @@ class EscapeRecovery:
         why: list[str] = [] if view is not None else ["no local costmap yet"]
         if view is not None:
             grid, res, origin, pose = view
-            self.move = plan_escape(grid, res, origin, pose, self.footprint, self.params, against, why)
+            self.move = plan_escape(grid, res, origin, pose, self.footprint, self.params, against, why, self.center_x)
             self._start = pose
         if self._log is not None:
             what = self.move.describe() if self.move else (
@@ -271,6 +281,6 @@ class EscapeRecovery:
             return stop, True
         outline, outline_r = _outline(self.footprint, res)
         way = _leaving(np.asarray(grid), res, origin, here, outline)
-        if left <= 0.0 or _sweep(way, res, origin, here, *check, outline, outline_r)[0] is None:
+        if left <= 0.0 or _sweep(way, res, origin, here, *check, outline, outline_r, self.center_x)[0] is None:
             return stop, True
         return cmd, False

@@ -91,7 +91,8 @@ class MoveBaseNode:
         recoveries = recoveries_from_params(p, c.recovery_namespaces, source, self._clear_costmaps, self._blocked,
                                             c.circumscribed_radius, c.rotate, self._local_view, c.bare_footprint,
                                             node.log.info, self._stalled_on,
-                                            lambda cmd: self.machine.note_stall(cmd))
+                                            lambda cmd: self.machine.note_stall(cmd),
+                                            getattr(c.local_params, "rotation_center_x", 0.0))
         self.machine = MoveBaseMachine(p, self.planner, self.controller, recoveries)
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None

@@ -125,11 +125,13 @@ def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked
                            view: View | None = None, bare_footprint: np.ndarray | None = None,
                            log: Callable[[str], None] | None = None,
                            stalled: Callable[[], tuple[float, float] | None] | None = None,
-                           on_stall: Callable[[tuple[float, float, float]], None] | None = None) -> list:
+                           on_stall: Callable[[tuple[float, float, float]], None] | None = None,
+                           rotation_center_x: float = 0.0) -> list:
     """The ``recovery_behaviors`` list ([{name, type}], each name's parameters in ``namespaces``), or the
     default list when it is not set. An escape needs ``view`` (the local costmap and the robot's pose in
     it) and the robot's ``bare_footprint`` (unpadded); ``stalled`` tells it the command a stall stopped, and
-    it tells ``on_stall`` the command of a move of its own that stalled."""
+    it tells ``on_stall`` the command of a move of its own that stalled; ``rotation_center_x``: where the
+    base turns about (the local planner's parameter), for the escape's turns."""
     spec = params.recovery_behaviors
     if spec is None:
         return default_recoveries(params, clear, blocked, circumscribed_radius, rotate)
@@ -151,7 +153,7 @@ def recoveries_from_params(params, namespaces: dict, source: str, clear, blocked
         elif kind in ESCAPE_TYPES:
             ep = load_params(EscapeParams, ns, source, name)
             fp = np.zeros((0, 2)) if bare_footprint is None else bare_footprint
-            out.append(EscapeRecovery(view or (lambda: None), fp, ep, name, log, stalled, on_stall))
+            out.append(EscapeRecovery(view or (lambda: None), fp, ep, name, log, stalled, on_stall, rotation_center_x))
         else:
             raise ConfigError(source, f"recovery_behaviors[{names.index(name)}].type",
                               f"{kind!r} is not implemented (known: {CLEAR_TYPES[0]}, {ROTATE_TYPES[0]}, "

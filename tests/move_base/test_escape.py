@@ -275,3 +275,19 @@ def test_no_gain_at_all_is_no_move():
     grid = slanted_wall(0.0, 0.05)
     assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(max_turn=0.0), why=why) is None
     assert why and "reaches 0.05 m" in why[0], why
+
+
+def test_an_escape_turn_sweeps_the_outline_about_the_bases_turning_centre():
+    """A base that pivots 0.12 m behind base_link swings its front the other way round it: a turn free for a
+    base turning about base_link may not be free for it, and the escape plans with where the base turns."""
+    from master_side.move_base.escape import _poses_along
+
+    pose = Pose2D(1.0, 2.0, 0.5)
+    about_base = _poses_along(pose, 0.0, 1.0, 0.025, 0.4)
+    np.testing.assert_allclose(about_base[:, :2], [[1.0, 2.0]] * len(about_base))
+    cx = -0.12
+    pivoted = _poses_along(pose, 0.0, 1.0, 0.025, 0.4, cx)
+    pivot = np.array([1.0 + cx * np.cos(0.5), 2.0 + cx * np.sin(0.5)])
+    np.testing.assert_allclose(np.hypot(*(pivoted[:, :2] - pivot).T), abs(cx), atol=1e-12)  # on the circle
+    assert pivoted[-1, 2] == pytest.approx(about_base[-1, 2]) == pytest.approx(1.5)
+    assert np.hypot(*(pivoted[-1, :2] - [1.0, 2.0])) > 0.1  # 1 rad about a point 0.12 m behind: 0.115 m moved
