@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from common.bus import Node
 from common.messages import Costmap, MoveBaseStatus
@@ -61,6 +62,21 @@ class Procs:
             p.stop(timeout=10)
 
 
+def _exact_odometry_robot(tmp: Path) -> Path:
+    """The simulated P3-AT of ROBOT_CONFIG with odometry free of noise. The simulator draws odometry
+    noise at every 10 ms step, so odom's path is jagged between its 50 Hz samples; a monitor that missed one
+    best-effort sample (TF is published best effort) interpolates straight over the jag and draws a scan a
+    few millimetres off at a few metres (6.4 mm once in a fresh-clone run). Without the noise odom moves
+    along smooth arcs, a straight interpolation over a missed sample is off by a tenth of a millimetre, and
+    what this test compares, the same scans at the same places, is left to tell."""
+    cfg = yaml.safe_load(ROBOT_CONFIG.read_text())
+    params = cfg["platform"]["sim"]["params"]
+    params["base"] = {**(params.get("base") or {}), "srr": 0.0, "srt": 0.0, "str": 0.0, "stt": 0.0}
+    out = tmp / "p3at_sim_exact_odometry.yaml"
+    out.write_text(yaml.safe_dump(cfg, sort_keys=False))
+    return out
+
+
 def _grids(rec, entity):
     """stamp -> (cell size, format, data) of every GridMap row."""
     out = {}
@@ -82,7 +98,8 @@ def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
     try:
         status = node.subscribe("move_base/status", MoveBaseStatus)
         costmaps = [node.subscribe(f"{n}/costmap", Costmap) for n in ("global_costmap", "local_costmap")]
-        procs.start("robot", ["robot", "--config", str(ROBOT_CONFIG)], _env(robot, robot_port, [test_port]))
+        procs.start("robot", ["robot", "--config", str(_exact_odometry_robot(tmp_path))],
+                    _env(robot, robot_port, [test_port]))
         procs.start("master", ["master", "--config", str(MASTER_DIR / "p3at_known_map.yaml")],
                     _env(robot, master_port, [test_port, robot_port]))
         procs.start("monitor", ["monitor", "--save", str(rrd_a)], _env(robot, None, everyone))
@@ -150,12 +167,14 @@ def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
     assert len(common) >= min(len(sa), len(sb)) // 4, (len(sa), len(sb), len(common))
     # Equal where both monitors had the same transforms around the stamp. TF is published best effort, so on
     # a loaded machine the live monitor or the recorder can miss one odom sample (20 ms): the scans beside it
-    # are then placed by interpolating over 40 ms, off by a millimetre or two (1.3 mm in a CI run). A scan
-    # placed with another instant's transform (one sample off at 0.5 m/s: 1 cm) stays caught.
+    # are then placed by interpolating over 40 ms, which on the smooth noise-free odometry of this robot
+    # (_exact_odometry_robot) is off by well under a millimetre. A scan placed with another instant's
+    # transform (one sample off at 0.5 m/s: 1 cm) stays caught.
     exact = [s for s in common if np.allclose(sa[s], sb[s], atol=1e-6)]
     assert len(exact) >= 0.8 * len(common), (len(exact), len(common))
+    worst = max((float(np.abs(np.asarray(sa[s]) - sb[s]).max()) for s in common), default=0.0)
     for s in common:
-        assert np.allclose(sa[s], sb[s], atol=5e-3), (s, np.abs(np.asarray(sa[s]) - sb[s]).max())
+        assert np.allclose(sa[s], sb[s], atol=2e-3), (s, np.abs(np.asarray(sa[s]) - sb[s]).max())
 
     # Global plans: the monitor shows the same strips for the same plan stamps.
     pa = {r["stamp"]: r["LineStrips3D:strips"] for r in in_span(a["/world/move_base/global_plan"],
@@ -167,7 +186,8 @@ def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
     for s in shared:
         assert np.allclose(np.array(pa[s][0]), np.array(pb[s][0]), atol=1e-9)
 
-    print(f"recorded {end - start:.1f} s: {counts}; monitor scans A={len(sa)} B={len(sb)} common={len(common)}, "
+    print(f"recorded {end - start:.1f} s: {counts}; monitor scans A={len(sa)} B={len(sb)} common={len(common)} "
+          f"(exact {len(exact)}, worst {worst * 1e3:.2f} mm), "
           f"plans A={len(pa)} B={len(pb)} common={len(shared)}")
 
     # Costmaps: same geometry; costs equal up to costmap_2d's OccupancyGrid table (<= 1, special values exact).
