@@ -126,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     for cfg in configs:
         master = masters[cfg][0 if a.mode == "fast" else 1]
         sets = (*ENGINE_SETS.get((cfg, a.engine), ()), *a.set)
+        if a.mode == "fast":  # its TF is exact: no localiser runs, so none of its parameters is said to apply
+            sets = tuple(kv for kv in sets if not kv.startswith("localization."))
         print(f"## {cfg}: {master}{''.join(f' --set {s}' for s in sets)}", flush=True)
         if a.mode == "fast":
             with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:

@@ -60,10 +60,12 @@ class AmclParams:
     odom_model_type: str = param("diff", choices=("diff", "diff-corrected", "omni", "omni-corrected"),
                                  doc="'diff' / 'omni' keep ROS's original noise (variance used as std); omni: "
                                      "the alphas' roles differ (motion_model.OmniMotionModel)")
-    odom_alpha1: float = param(0.2, lo=0.0, hi=100.0, doc="rotation noise from rotation")
+    odom_alpha1: float = param(0.2, lo=0.0, hi=100.0, doc="rotation noise from rotation (omni: translation and "
+                                                         "strafe noise from rotation)")
     odom_alpha2: float = param(0.2, lo=0.0, hi=100.0, doc="rotation noise from translation")
     odom_alpha3: float = param(0.2, lo=0.0, hi=100.0, doc="translation noise from translation")
-    odom_alpha4: float = param(0.2, lo=0.0, hi=100.0, doc="translation noise from rotation")
+    odom_alpha4: float = param(0.2, lo=0.0, hi=100.0, doc="translation noise from rotation (omni: rotation "
+                                                         "noise from rotation)")
     odom_alpha5: float = param(0.2, lo=0.0, hi=100.0, doc="omni only: strafe noise from translation")
     # -- frames
     odom_frame_id: str = param("odom", doc="odometry frame")

@@ -137,7 +137,8 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
         with problems.collect():
             base, base_src = include(data.pop("include"), lp_src, f"{section}.include")
         data = {**dict(base.get(section, base) or {}), **data}
-        lp_src = f"{base_src} (+ overrides in {lp_src})"
+        if base_src != lp_src:
+            lp_src = f"{base_src} (+ overrides in {lp_src})"
     others = [s for s, *_ in kinds.values() if s != section and s in lp]
     for s in others:
         notes.append(f"{lp_src}: {s}: section of another local planner; no effect (base_local_planner is {kind})")

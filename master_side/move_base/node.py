@@ -122,7 +122,7 @@ class MoveBaseNode:
         if p.stall_marks:  # zenav: where a stall pushed a flank, for the local costmap (stall_marks.py)
             stall_pub = node.publisher("stall_pointcloud")
             self.stall_marker = StallMarker(c.bare_footprint, lambda pts, t: stall_pub.publish(
-                PointCloud(Header(t, self.base_frame), pts)))
+                PointCloud(Header(t, self.base_frame), pts)), getattr(c.local_params, "rotation_center_x", 0.0))
         node.subscribe("move_base_simple/goal", PoseStamped, callback=self._on_goal, mode="queue")
         node.subscribe("move_base/goal", MoveBaseGoal, mode="queue", callback=self._on_goal_with_id)
         node.service("move_base/send_goal", self._send_goal_service, MoveBaseGoal)

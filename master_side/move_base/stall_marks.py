@@ -6,7 +6,8 @@ frees it, or by rays passing along it), and DWA turned the flank into it again a
 place, each stall's escape moving the robot off and the next DWA command turning it back in.
 
 A stall (move_base's ``stall_timeout``) tells what command got the robot nowhere. A point of the outline
-pushes outwards under that command where its velocity ``(v - w y, w x)`` has a positive component along the
+pushes outwards under that command where its velocity ``(v - w y, w (x - cx))`` (a base turning about the point
+``cx`` of its x axis, the local planner's ``rotation_center_x``) has a positive component along the
 outline's outward normal; on a flank (an edge whose normal is mostly across the robot) those points are where
 the unseen wall can be. Each gets a point ``offset`` beyond it, outside the padded footprint (which the
 obstacle layer frees), as a bumper press does (robot_side/bumpers/geometry.py). The planner then keeps away
@@ -24,7 +25,7 @@ LEAD_SHARE = 0.25  # points pushing outwards at least this share of the fastest 
 
 
 def flank_push_points(footprint: np.ndarray, v: float, w: float, offset: float = 0.08, spacing: float = 0.05,
-                      z: float = 0.1) -> np.ndarray:
+                      z: float = 0.1, center_x: float = 0.0) -> np.ndarray:
     """(N, 3) float32 points in the base frame, ``offset`` beyond the flank points the command (v, w) pushes
     outwards (a convex footprint polygon (K, 2), either winding); empty when it pushes no flank."""
     fp = np.asarray(footprint, float).reshape(-1, 2)
@@ -46,7 +47,7 @@ def flank_push_points(footprint: np.ndarray, v: float, w: float, offset: float =
     if not points:
         return np.zeros((0, 3), np.float32)
     p, n = np.vstack(points), np.vstack(normals)
-    lead = (v - w * p[:, 1]) * n[:, 0] + w * p[:, 0] * n[:, 1]
+    lead = (v - w * p[:, 1]) * n[:, 0] + w * (p[:, 0] - center_x) * n[:, 1]
     top = float(lead.max())
     if top <= 1e-6:
         return np.zeros((0, 3), np.float32)
@@ -64,8 +65,10 @@ class StallMarker:
     CLEAR_AFTER_S = 1.0
     KEEPALIVE_S = 1.0
 
-    def __init__(self, footprint: np.ndarray, send: Callable[[np.ndarray, float], None]) -> None:
+    def __init__(self, footprint: np.ndarray, send: Callable[[np.ndarray, float], None],
+                 center_x: float = 0.0) -> None:
         self.footprint = np.asarray(footprint, float)
+        self.center_x = center_x
         self.send = send
         self.seen = 0
         self.marked_at: float | None = None  # when the last marks went out (None: cleared since)
@@ -75,7 +78,7 @@ class StallMarker:
         """One control cycle: ``stalls`` counts the stalls so far, ``command`` is the last one's (v, vy, w)."""
         if stalls != self.seen and command is not None:
             self.seen = stalls
-            points = flank_push_points(self.footprint, command[0], command[2])
+            points = flank_push_points(self.footprint, command[0], command[2], center_x=self.center_x)
             if len(points):
                 self._send(points, now)
                 self.marked_at = now

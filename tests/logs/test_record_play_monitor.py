@@ -66,9 +66,9 @@ def _exact_odometry_robot(tmp: Path) -> Path:
     """The simulated P3-AT of ROBOT_CONFIG with odometry free of noise. The simulator draws odometry
     noise at every 10 ms step, so odom's path is jagged between its 50 Hz samples; a monitor that missed one
     best-effort sample (TF is published best effort) interpolates straight over the jag and draws a scan a
-    few millimetres off at a few metres (6.4 mm once in a fresh-clone run). Without the noise odom moves
-    along smooth arcs, a straight interpolation over a missed sample is off by a tenth of a millimetre, and
-    what this test compares, the same scans at the same places, is left to tell."""
+    few millimetres off at a few metres (6.4 mm once in a fresh-clone run, against a 5 mm bound). Without the
+    noise odom moves along smooth arcs, a straight interpolation over a missed sample is off by well under
+    the bound, and what this test compares, the same scans at the same places, is left to tell."""
     cfg = yaml.safe_load(ROBOT_CONFIG.read_text())
     params = cfg["platform"]["sim"]["params"]
     params["base"] = {**(params.get("base") or {}), "srr": 0.0, "srt": 0.0, "str": 0.0, "stt": 0.0}
@@ -167,14 +167,15 @@ def test_record_then_play_shows_the_same_scene_in_the_monitor(tmp_path):
     assert len(common) >= min(len(sa), len(sb)) // 4, (len(sa), len(sb), len(common))
     # Equal where both monitors had the same transforms around the stamp. TF is published best effort, so on
     # a loaded machine the live monitor or the recorder can miss one odom sample (20 ms): the scans beside it
-    # are then placed by interpolating over 40 ms, which on the smooth noise-free odometry of this robot
-    # (_exact_odometry_robot) is off by well under a millimetre. A scan placed with another instant's
+    # are then placed by interpolating over 40 ms. On the noise-free odometry of this robot
+    # (_exact_odometry_robot) that is exact at a constant turn rate and off by at most acc_lim_th * T^2 / 8 =
+    # 0.4 mrad while the rate ramps (2 mm at 5 m, the room's far wall). A scan placed with another instant's
     # transform (one sample off at 0.5 m/s: 1 cm) stays caught.
     exact = [s for s in common if np.allclose(sa[s], sb[s], atol=1e-6)]
     assert len(exact) >= 0.8 * len(common), (len(exact), len(common))
     worst = max((float(np.abs(np.asarray(sa[s]) - sb[s]).max()) for s in common), default=0.0)
     for s in common:
-        assert np.allclose(sa[s], sb[s], atol=2e-3), (s, np.abs(np.asarray(sa[s]) - sb[s]).max())
+        assert np.allclose(sa[s], sb[s], atol=5e-3), (s, np.abs(np.asarray(sa[s]) - sb[s]).max())
 
     # Global plans: the monitor shows the same strips for the same plan stamps.
     pa = {r["stamp"]: r["LineStrips3D:strips"] for r in in_span(a["/world/move_base/global_plan"],

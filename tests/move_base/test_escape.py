@@ -290,4 +290,6 @@ def test_an_escape_turn_sweeps_the_outline_about_the_bases_turning_centre():
     pivot = np.array([1.0 + cx * np.cos(0.5), 2.0 + cx * np.sin(0.5)])
     np.testing.assert_allclose(np.hypot(*(pivoted[:, :2] - pivot).T), abs(cx), atol=1e-12)  # on the circle
     assert pivoted[-1, 2] == pytest.approx(about_base[-1, 2]) == pytest.approx(1.5)
-    assert np.hypot(*(pivoted[-1, :2] - [1.0, 2.0])) > 0.1  # 1 rad about a point 0.12 m behind: 0.115 m moved
+    # base_link ends 0.12 m from the pivot, opposite the heading it turned to (1.5 rad), 0.115 m from the start
+    np.testing.assert_allclose(pivoted[-1, :2], pivot - cx * np.array([np.cos(1.5), np.sin(1.5)]), atol=1e-12)
+    assert np.hypot(*(pivoted[-1, :2] - [1.0, 2.0])) == pytest.approx(2 * 0.12 * np.sin(0.5), abs=1e-9)

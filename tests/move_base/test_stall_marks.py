@@ -79,3 +79,14 @@ def test_the_marker_sends_each_new_stall_once_an_empty_cloud_a_second_later_and_
     assert len(sent) == 2
     marker.tick(2.6, 2, (0.3, 0.0, 0.0))  # a straight stall: the bumpers' business, no marks
     assert all(n == 0 for n, _ in sent[2:])
+
+
+def test_a_base_turning_about_a_point_behind_base_link_pushes_its_flank_from_that_point_on():
+    """A turn pushes a flank outwards ahead of the point the base turns about: base_link for a differential
+    drive, 0.12 m behind it for the P3-AT on physics (the local planner's rotation_center_x)."""
+    square = np.array([[0.25, 0.25], [-0.25, 0.25], [-0.25, -0.25], [0.25, -0.25]])
+    about_base = flank_push_points(square, 0.0, 1.0, spacing=0.02)
+    pivoted = flank_push_points(square, 0.0, 1.0, spacing=0.02, center_x=-0.12)
+    left = lambda pts: pts[pts[:, 1] > 0]  # noqa: E731  (a left turn pushes the left flank's front part)
+    assert left(about_base)[:, 0].min() > 0.0
+    assert -0.12 < left(pivoted)[:, 0].min() < 0.0

@@ -72,8 +72,8 @@ class DWAPlannerParams:
     holonomic_robot: bool = param(True, doc="false: vy is always 0")
     rotation_center_x: float = param(
         0.0, lo=-2.0, hi=2.0, unit="m",
-        doc="zenav: where on base_link's x axis the base turns about when it turns in place; trajectories "
-            "are predicted with base_link moving sideways at -rotation_center_x * w. 0: a differential "
+        doc="zenav: where on base_link's x axis the base turns about; every trajectory is predicted with "
+            "base_link moving sideways at -rotation_center_x * w. 0: a differential "
             "drive (ROS). A skid-steered base pivots toward its more loaded axle: measure it with "
             "`python bench/turning.py`")
     controller_frequency: float = param(
