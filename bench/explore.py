@@ -15,6 +15,7 @@ which SLAM knows only as well as its first metres of odometry); "raw" columns ju
 
   python bench/explore.py                                   # room, office02, mall; laser and Kinect
   python bench/explore.py --worlds room --sensors laser --runs 3
+  python bench/explore.py --worlds office02 --sensors laser --engine mujoco   # the P3-AT on physics
 
 Ends with explore_runs=… explore_coverage_pct=… (the least over the runs) explore_time_95_s=… (the mean of
 the runs that got there) explore_path_m=… explore_map_agreement_pct=… (the least)
