@@ -61,10 +61,12 @@ SAFE_DISTANCE_M = 0.46
 # What zenav's configuration changes on an engine: its model of the robot it drives. On physics the
 # skid-steered P3-AT pivots 0.12 m behind base_link when it turns (its weight rests on the rear axle;
 # `python bench/turning.py --engine mujoco`), which DWA is told (p3at_zenav/dwa_planner_ros_mujoco.yaml), and
-# which its wheel odometry cannot see: AMCL's omni model spreads the particles sideways as the robot turns,
-# where the diff model moves them along their heading only. The kinematic engine turns it about base_link.
+# which its wheel odometry cannot see: AMCL adds the sideways motion of a turn about that point to each
+# odometry increment (odom_rotation_center_x), with the omni model, which takes a sideways increment as one
+# (diff reads it as a turn, a drive and a turn back). The kinematic engine turns it about base_link.
 PHYSICS_DWA = CONFIG / "p3at_zenav" / "dwa_planner_ros_mujoco.yaml"
-ENGINE_SETS = {("zenav", "mujoco"): (f"move_base.local_planner={PHYSICS_DWA}", "localization.odom_model_type=omni")}
+ENGINE_SETS = {("zenav", "mujoco"): (f"move_base.local_planner={PHYSICS_DWA}", "localization.odom_model_type=omni",
+                                     "localization.odom_rotation_center_x=-0.12")}
 
 
 def _fast(job: tuple) -> Result:

@@ -105,6 +105,16 @@ class Amcl:
                 or abs(odom.y - self.last_odom.y) > self.p.update_min_d
                 or abs(normalize_angle(odom.theta - self.last_odom.theta)) > self.p.update_min_a)
 
+    def _turned(self, old: Pose2D, new: Pose2D) -> Pose2D:
+        """``new`` as the base got there: the odometry's increment with the sideways motion of a turn about
+        ``odom_rotation_center_x`` added (a turn by a about the point (c, 0) moves base_link by
+        (c (1 - cos a), -c sin a) in its frame before the turn)."""
+        c = self.p.odom_rotation_center_x
+        if not c:
+            return new
+        d = old.between(new)
+        return old.compose(Pose2D(d.x + c * (1.0 - math.cos(d.theta)), d.y - c * math.sin(d.theta), d.theta))
+
     def update(self, odom: Pose2D, scan: LaserScan, laser: Pose2D | None = None) -> bool:
         """One scan with the odometry pose (odom → base) at its time. Returns True if the filter ran
         (with ``refine_pose`` the estimate may have changed either way)."""
@@ -115,7 +125,7 @@ class Amcl:
                 self._refine(self._at_update.compose(odom), odom, scan)
             return False
         if self.last_odom is not None:
-            self.poses = self.motion.sample(self.poses, self.last_odom, odom, self.rng)
+            self.poses = self.motion.sample(self.poses, self.last_odom, self._turned(self.last_odom, odom), self.rng)
         self.last_odom = odom
         self._sensor_update(scan)
         self.resample_count += 1

@@ -10,8 +10,10 @@ import pytest
 
 from common.config import ConfigError
 from common.geometry import Pose2D
+from master_side.localization.amcl import Amcl
 from master_side.localization.motion_model import DiffMotionModel, OmniMotionModel
 from master_side.localization.params import load_amcl_params
+from tests.amcl.amcl_support import box_map
 
 
 def test_the_increment_moves_each_particle_in_its_own_frame():
@@ -44,3 +46,21 @@ def test_omni_and_alpha5_are_amcl_parameters():
     assert (p.odom_model_type, p.odom_alpha5) == ("omni-corrected", 0.05)
     with pytest.raises(ConfigError, match="odom_model_type"):
         load_amcl_params({"odom_model_type": "tricycle"}, "amcl.yaml")
+
+
+def test_the_odometry_increment_is_turned_about_the_bases_turning_centre():
+    """``odom_rotation_center_x`` (zenav): wheel odometry integrates a turn about base_link; a base that turns
+    about a point 0.12 m behind moves base_link sideways as well, and AMCL adds that to the increment before
+    the motion model. The diff model would read the sideways increment as a turn, a drive and a turn back,
+    with both turns' noise: the parameter requires an omni model."""
+    c, a = -0.12, 1.0
+    amcl = Amcl(load_amcl_params({"odom_model_type": "omni", "odom_rotation_center_x": c, "seed": 1}, "amcl.yaml"),
+                box_map())
+    old = Pose2D(0.5, -0.3, 0.4)
+    turned = amcl._turned(old, Pose2D(0.5, -0.3, 0.4 + a))
+    np.testing.assert_allclose(old.between(turned).as_array(), [c * (1 - math.cos(a)), -c * math.sin(a), a],
+                               atol=1e-12)
+    straight = Pose2D(0.8, -0.3, 0.4)
+    assert amcl._turned(old, straight).as_array() == pytest.approx(straight.as_array())  # no turn, no change
+    with pytest.raises(ConfigError, match="odom_rotation_center_x"):
+        load_amcl_params({"odom_model_type": "diff", "odom_rotation_center_x": c}, "amcl.yaml")
