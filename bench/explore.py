@@ -34,6 +34,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from bench.mrpb import PHYSICS_DWA  # noqa: E402
 from common.geometry import Pose2D  # noqa: E402
 from deploy.mrpb.cases import load_cases, world_map  # noqa: E402
 from deploy.mrpb.exploration import INTERRUPTED, ExploreRun, run_exploration  # noqa: E402
@@ -42,8 +43,7 @@ from deploy.stack.process_group import terminate_as_interrupt  # noqa: E402
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
-# on physics DWA is told where the skid-steered P3-AT turns about (bench/mrpb.py says why)
-PHYSICS_DWA = ROOT / "master_side/config/p3at_zenav/dwa_planner_ros_mujoco.yaml"
+# on physics DWA is told where the skid-steered P3-AT turns about (bench/mrpb.py says why; SLAM, not AMCL, here)
 ENGINE_SETS = {"mujoco": (f"move_base.local_planner={PHYSICS_DWA}",)}
 WORLDS = ("room", "office02", "shopping_mall")
 

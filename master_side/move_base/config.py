@@ -87,6 +87,11 @@ class MoveBaseConfig:
         return pad_footprint(self.footprint, -self.local_costmap.costmap.footprint_padding)
 
     @property
+    def rotation_center_x(self) -> float:
+        """Where the base turns about (the local planner's ``rotation_center_x``; 0 for planners without it)."""
+        return float(getattr(self.local_params, "rotation_center_x", 0.0))
+
+    @property
     def circumscribed_radius(self) -> float:
         return float(footprint_radii(self.footprint)[1])
 

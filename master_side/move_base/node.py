@@ -92,7 +92,7 @@ class MoveBaseNode:
                                             c.circumscribed_radius, c.rotate, self._local_view, c.bare_footprint,
                                             node.log.info, self._stalled_on,
                                             lambda cmd: self.machine.note_stall(cmd),
-                                            getattr(c.local_params, "rotation_center_x", 0.0))
+                                            c.rotation_center_x)
         self.machine = MoveBaseMachine(p, self.planner, self.controller, recoveries)
         self.ids = itertools.count(1)
         self.goal_msg: PoseStamped | None = None
@@ -122,7 +122,7 @@ class MoveBaseNode:
         if p.stall_marks:  # zenav: where a stall pushed a flank, for the local costmap (stall_marks.py)
             stall_pub = node.publisher("stall_pointcloud")
             self.stall_marker = StallMarker(c.bare_footprint, lambda pts, t: stall_pub.publish(
-                PointCloud(Header(t, self.base_frame), pts)), getattr(c.local_params, "rotation_center_x", 0.0))
+                PointCloud(Header(t, self.base_frame), pts)), c.rotation_center_x)
         node.subscribe("move_base_simple/goal", PoseStamped, callback=self._on_goal, mode="queue")
         node.subscribe("move_base/goal", MoveBaseGoal, mode="queue", callback=self._on_goal_with_id)
         node.service("move_base/send_goal", self._send_goal_service, MoveBaseGoal)

@@ -164,9 +164,7 @@ class DWAPlanner(LocalPlanner):
     def _simulate(self, pose: np.ndarray, vel: np.ndarray, samples: np.ndarray) -> Trajectories:
         p = self.params
         steps = num_steps(samples, p.sim_time, p.sim_granularity, p.angular_sim_granularity)
-        if not p.rotation_center_x:
-            return simulate(pose, vel, samples, p.sim_time, steps)
-        trajs = simulate(pose, driven(vel, p.rotation_center_x), driven(samples, p.rotation_center_x), p.sim_time,
-                         steps)
+        cx = p.rotation_center_x
+        trajs = simulate(pose, driven(vel, cx), driven(samples, cx), p.sim_time, steps)
         trajs.vels = samples  # the commands; the poses are where the base goes under them
         return trajs
