@@ -3,6 +3,7 @@ one process (simulator + depth→scan + Amcl, no bus), over several odometry-noi
 
 Run: python bench/amcl.py [--seeds 8] [--config master_side/config/p3at_amcl.yaml] [--set key=value ...]
      [--engine mujoco]   (the skid-steered P3-AT on physics: its odometry error comes from wheel slip)
+     [--odom-rotation-center-x M]   (the simulated driver's: its odometry turns the base about that point)
 
 Each seed drives the same route (start → (-1, 0) → (-1, 1.3) → (1.5, 1.3) → (1.5, -1.2)) with its own
 odometry error and camera noise; errors are map→base_link (AMCL correction ∘ odometry) against ground
@@ -46,10 +47,11 @@ def command(truth: Pose2D, goal) -> tuple[float, float, bool]:
     return (0.0 if abs(err) > 0.15 else min(0.35, dist)), max(-0.8, min(0.8, 1.5 * err)), False
 
 
-def run(seed: int, amcl_cfg: dict, grid, robot: dict, engine: str | None = None) -> dict:
+def run(seed: int, amcl_cfg: dict, grid, robot: dict, engine: str | None = None, odom_cx: float = 0.0) -> dict:
     """One drive of the route with noise ``seed``; ``robot`` is the robot agent's YAML (sim + depth_to_scan)."""
     sim_cfg = dict(robot["platform"]["sim"]["params"])
     sim_cfg["sim"] = {**sim_cfg.get("sim", {}), "seed": seed}
+    sim_cfg["base"] = {**sim_cfg.get("base", {}), "odom_rotation_center_x": odom_cx}
     if engine:
         sim_cfg["engine"] = engine
     _, sim, _ = load_sim(sim_cfg, str(ROBOT_CONFIG))
@@ -92,6 +94,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override an amcl param, e.g. --set laser_model_type=likelihood_field (repeatable)")
     ap.add_argument("--engine", choices=("kinematic", "mujoco"), help="simulator engine (default kinematic)")
+    ap.add_argument("--odom-rotation-center-x", type=float, default=0.0, metavar="M",
+                    help="the simulated driver's odom_rotation_center_x (-0.12 for the P3-AT on mujoco: "
+                         "bench/turning.py); default 0, odometry turning about base_link")
     a = ap.parse_args(argv)
     from master_side import agent as master_agent
 
@@ -104,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{'update ms':>9}", flush=True)
     robot, rows = yaml.safe_load(ROBOT_CONFIG.read_text()), []
     for s in range(a.seeds):
-        r = run(s, amcl_cfg, grid, robot, a.engine)
+        r = run(s, amcl_cfg, grid, robot, a.engine, a.odom_rotation_center_x)
         rows.append(r)
         print(f"{r['seed']:>4} {r['n']:>6} {r['xy_mean']:>9.3f} {r['xy_p95']:>9.3f} {r['xy_max']:>9.3f} "
               f"{r['yaw_max']:>11.4f} {r['update_ms']:>9.2f}", flush=True)

@@ -60,13 +60,14 @@ SAFE_DISTANCE_M = 0.46
 
 # What zenav's configuration changes on an engine: its model of the robot it drives. On physics the
 # skid-steered P3-AT pivots 0.12 m behind base_link when it turns (its weight rests on the rear axle;
-# `python bench/turning.py --engine mujoco`), which DWA is told (p3at_zenav/dwa_planner_ros_mujoco.yaml), and
-# which its wheel odometry cannot see: AMCL adds the sideways motion of a turn about that point to each
-# odometry increment (odom_rotation_center_x), with the omni model, which takes a sideways increment as one
-# (diff reads it as a turn, a drive and a turn back). The kinematic engine turns it about base_link.
+# `python bench/turning.py --engine mujoco`), which DWA is told (p3at_zenav/dwa_planner_ros_mujoco.yaml) and
+# the robot's odometry too (the driver's odom_rotation_center_x: its wheels alone cannot see the sideways
+# motion); AMCL then takes the odometry with the omni model, which reads a sideways increment as one (diff
+# reads it as a turn, a drive and a turn back). The kinematic engine turns the robot about base_link.
+PHYSICS_PIVOT_X = -0.12
 PHYSICS_DWA = CONFIG / "p3at_zenav" / "dwa_planner_ros_mujoco.yaml"
-ENGINE_SETS = {("zenav", "mujoco"): (f"move_base.local_planner={PHYSICS_DWA}", "localization.odom_model_type=omni",
-                                     "localization.odom_rotation_center_x=-0.12")}
+ENGINE_SETS = {("zenav", "mujoco"): (f"move_base.local_planner={PHYSICS_DWA}", "localization.odom_model_type=omni")}
+ENGINE_ROBOT_SETS = {("zenav", "mujoco"): (f"sim.base.odom_rotation_center_x={PHYSICS_PIVOT_X}",)}
 
 
 def _fast(job: tuple) -> Result:
@@ -77,10 +78,10 @@ def _fast(job: tuple) -> Result:
 
 
 def _bus(job: tuple) -> Result:
-    case, robot, master, work, speed, engine, sets = job
+    case, robot, master, work, speed, engine, sets, robot_sets = job
     from deploy.mrpb.bus import run_case_bus
 
-    return run_case_bus(case, robot, master, work, speed, engine=engine, master_set=sets)
+    return run_case_bus(case, robot, master, work, speed, engine=engine, master_set=sets, robot_set=robot_sets)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -128,9 +129,11 @@ def main(argv: list[str] | None = None) -> int:
     for cfg in configs:
         master = masters[cfg][0 if a.mode == "fast" else 1]
         sets = (*ENGINE_SETS.get((cfg, a.engine), ()), *a.set)
-        if a.mode == "fast":  # its TF is exact: no localiser runs, so none of its parameters is said to apply
-            sets = tuple(kv for kv in sets if not kv.startswith("localization."))
-        print(f"## {cfg}: {master}{''.join(f' --set {s}' for s in sets)}", flush=True)
+        robot_sets = ENGINE_ROBOT_SETS.get((cfg, a.engine), ())
+        if a.mode == "fast":  # its TF is exact: no localiser runs and no odometry is read, so neither is said
+            sets, robot_sets = tuple(kv for kv in sets if not kv.startswith("localization.")), ()  # to apply
+        print(f"## {cfg}: {master}{''.join(f' --set {s}' for s in sets)}"
+              f"{''.join(f'; robot --set {s}' for s in robot_sets)}", flush=True)
         if a.mode == "fast":
             with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
                 runs = ex.map(_fast, [(c, a.robot, master, a.engine, sets) for c in cases])
@@ -139,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
             from deploy.stack.process_group import terminate_as_interrupt
 
             with terminate_as_interrupt():  # a killed bench stops each case's agents too
-                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed, a.engine, sets)
+                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed, a.engine, sets, robot_sets)
                             for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
     summary = []

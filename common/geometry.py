@@ -184,6 +184,18 @@ class Pose2D:
         return Transform(Vector3(self.x, self.y, 0.0), Quaternion.from_yaw(self.theta))
 
 
+def pivoted(d: Pose2D, center_x: float) -> Pose2D:
+    """The relative motion ``d`` of a base that turns about the point (``center_x``, 0) of base_link, where ``d``
+    was integrated as if it turned about base_link (as wheel odometry does). A turn by a about (c, 0) also moves
+    base_link by (c (1 - cos a), -c sin a) in its frame before the turn; exact for a constant twist (its
+    effect is linear in the twist). A skid-steered base pivots toward its more loaded axle
+    (``python bench/turning.py``)."""
+    if not center_x:
+        return d
+    a = d.theta
+    return Pose2D(d.x + center_x * (1.0 - math.cos(a)), d.y - center_x * math.sin(a), a)
+
+
 @dataclass(frozen=True)
 class Transform:
     """A 3D rigid transform / pose: translation then rotation (parent ← child)."""

@@ -121,7 +121,8 @@ class Launch:
         e.params_key = ""
 
     def set(self, assignment: str) -> None:
-        """Apply one ``NODE.KEY=VALUE`` (``zenav master --set``); VALUE is read as YAML (``3``, ``1e-3``,
+        """Apply one ``NODE.KEY=VALUE`` (``zenav master --set``, ``zenav robot --set``), or
+        ``NODE.SECTION.KEY=VALUE`` for a key of a nested mapping; VALUE is read as YAML (``3``, ``1e-3``,
         ``true``, ``[1, 2]``); a file named relative to this directory, or else to the node's own parameter
         file, is made absolute (the node reads a generated copy elsewhere)."""
         target, sep, text = assignment.partition("=")
@@ -143,7 +144,20 @@ class Launch:
             value = float(value)
         if isinstance(value, str) and os.path.isfile(value):
             value = os.path.abspath(value)
-        values = absolute_paths({key: value}, Path(self.node_params(e)[1]).parent)  # else beside its file
+        mapping, source = self.node_params(e)
+        top, *inner = key.split(".")
+        values = absolute_paths({inner[-1] if inner else top: value}, Path(source).parent)  # else beside its file
+        if inner:  # NODE.SECTION.KEY: one key of a nested mapping, the section's other keys kept
+            section = copy.deepcopy(mapping.get(top) or {})
+            if not isinstance(section, dict):
+                raise ConfigError("--set", assignment, f"{name}.{top} is not a mapping")
+            leaf = section
+            for k in inner[:-1]:
+                leaf = leaf.setdefault(k, {})
+                if not isinstance(leaf, dict):
+                    raise ConfigError("--set", assignment, f"{k} in {name}.{top} is not a mapping")
+            leaf.update(values)
+            values = {top: section}
         self.override(name, **values)
 
     def _path(self, p: str) -> str:

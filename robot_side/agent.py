@@ -1,5 +1,5 @@
 """The robot agent: ``zenav robot --config FILE [--world W] [--start X Y YAW] [--speed N] [--engine E]``
-``[--robot NAME]``.
+``[--set NODE.KEY=VALUE] [--robot NAME]``.
 
 Reads one YAML laid out like the tutorial's launch file (section 3.6) and runs every node as its own
 process under ``common.supervisor.Supervisor``:
@@ -13,7 +13,8 @@ process under ``common.supervisor.Supervisor``:
                   the base, which then listens on safety/cmd_vel (its cmd_vel_topic)
 
 ``--world``, ``--start``, ``--speed`` and ``--engine`` override the ``world``, ``start``, ``speed`` and
-``engine`` parameters of the simulator node(s) (module ``robot_side.sim.node``). Every node's parameters
+``engine`` parameters of the simulator node(s) (module ``robot_side.sim.node``); ``--set`` changes any node's
+parameter, a nested one by its path (``--set sim.base.odom_rotation_center_x=-0.12``). Every node's parameters
 are checked before anything starts (``common.node_check``). Exit status: 0 after Ctrl-C / SIGTERM, 1 when
 a required node ended or failed, 2 for a bad config file.
 """
@@ -42,8 +43,8 @@ EXIT_CONFIG = 2
 
 
 def load(path: str, world: str | None = None, start: list[float] | None = None,
-         speed: float | None = None, engine: str | None = None) -> Launch:
-    """The validated launch of a robot config, with the simulator overrides applied."""
+         speed: float | None = None, engine: str | None = None, sets: list[str] | tuple[str, ...] = ()) -> Launch:
+    """The validated launch of a robot config, with the simulator overrides and ``--set`` applied."""
     launch = load_launch(path, SECTIONS)
     overrides: dict = {}
     if world is not None:
@@ -63,6 +64,8 @@ def load(path: str, world: str | None = None, start: list[float] | None = None,
             raise ConfigError(path, "platform", f"{opts} need a simulator node (module {SIM_MODULE})")
         for e in sims:
             launch.override(e.name, **overrides)
+    for assignment in sets:
+        launch.set(assignment)
     return launch
 
 
@@ -75,6 +78,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--speed", type=positive, metavar="N", help="simulated time N x real time")
     p.add_argument("--engine", choices=ENGINES,
                    help="simulator engine: kinematic (exact arcs on a grid) or mujoco (rigid-body physics)")
+    p.add_argument("--set", action="append", default=[], metavar="NODE.KEY=VALUE",
+                   help="override one node parameter, a nested one by its path, e.g. --set "
+                        "sim.base.odom_rotation_center_x=-0.12 (repeatable; the value is read as YAML)")
     p.add_argument("--robot", metavar="NAME", default=argparse.SUPPRESS,
                    help="robot name (keys zenav/<robot>/...); "
                                                    "default $ZENAV_ROBOT, then the file's robot:")
@@ -82,7 +88,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     try:
-        launch = load(args.config, args.world, args.start, args.speed, getattr(args, "engine", None))
+        launch = load(args.config, args.world, args.start, args.speed, getattr(args, "engine", None),
+                      getattr(args, "set", None) or ())
     except ConfigError as e:
         print(format_config_error("robot", e), file=sys.stderr)
         return EXIT_CONFIG

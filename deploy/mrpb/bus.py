@@ -79,7 +79,7 @@ def master_sets(master_config: Path, case: Case) -> list[str]:
 
 def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: str | Path = "",
                  speed: float = 1.0, time_limit_s: float = TIME_LIMIT_S, engine: str | None = None,
-                 master_set: tuple[str, ...] = ()) -> Result:
+                 master_set: tuple[str, ...] = (), robot_set: tuple[str, ...] = ()) -> Result:
     wall0 = time.perf_counter()
     work = Path(workdir or tempfile.mkdtemp(prefix="zenav-mrpb-")).resolve() / case.name.replace("/", "_")
     work.mkdir(parents=True, exist_ok=True)
@@ -93,7 +93,8 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
     try:
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(case.world_file),
                               "--start", *map(str, case.start), "--speed", str(speed),
-                              *(["--engine", engine] if engine else [])])
+                              *(["--engine", engine] if engine else []),
+                              *(w for kv in robot_set for w in ("--set", kv))])
         group.spawn("master", ["master", "--config", str(master_config), "--map", str(case.map_file),
                                *master_sets(master_config, case), *(w for kv in master_set for w in ("--set", kv))])
         group.wait("the simulator", lambda: rec.truth.latest() is not None, STARTUP_S)

@@ -59,6 +59,7 @@ class Amcl:
             if p.odom_model_type.startswith("omni") else
             DiffMotionModel(p.odom_alpha1, p.odom_alpha2, p.odom_alpha3, p.odom_alpha4, corrected=corrected))
         self.updates = 0  # filter (sensor) updates done
+        self.sideways_increments = 0  # diff model only: odometry increments it cannot represent (_sideways)
         self._refiner: tuple[float, PoseRefiner] | None = None  # (range cap, its table), refine_pose only
         self.w_slow = self.w_fast = 0.0
         self.init_pose(Pose2D(p.initial_pose_x, p.initial_pose_y, p.initial_pose_a),
@@ -105,15 +106,19 @@ class Amcl:
                 or abs(odom.y - self.last_odom.y) > self.p.update_min_d
                 or abs(normalize_angle(odom.theta - self.last_odom.theta)) > self.p.update_min_a)
 
-    def _turned(self, old: Pose2D, new: Pose2D) -> Pose2D:
-        """``new`` as the base got there: the odometry's increment with the sideways motion of a turn about
-        ``odom_rotation_center_x`` added (a turn by a about the point (c, 0) moves base_link by
-        (c (1 - cos a), -c sin a) in its frame before the turn)."""
-        c = self.p.odom_rotation_center_x
-        if not c:
-            return new
-        d = old.between(new)
-        return old.compose(Pose2D(d.x + c * (1.0 - math.cos(d.theta)), d.y - c * math.sin(d.theta), d.theta))
+    def _sideways(self, old: Pose2D, new: Pose2D) -> bool:
+        """True for an increment the ``diff`` model misreads: base_link moved (over 1 cm) more than 45 deg off
+        its mean heading. A differential drive moves along an arc, whose chord lies on the mean heading; a base
+        that turns about a point off base_link (a skid-steered base whose odometry says so, robot_side's
+        ``odom_rotation_center_x``) or an omni base moves sideways, which ``diff`` reads as a turn, a drive and
+        a turn back, with both turns' noise. The omni models take it as it is."""
+        if self.p.odom_model_type.startswith("omni"):
+            return False
+        dx, dy = new.x - old.x, new.y - old.y
+        if math.hypot(dx, dy) < 0.01:
+            return False
+        off = abs(normalize_angle(math.atan2(dy, dx) - old.theta - normalize_angle(new.theta - old.theta) / 2))
+        return math.pi / 4 < off < 3 * math.pi / 4
 
     def update(self, odom: Pose2D, scan: LaserScan, laser: Pose2D | None = None) -> bool:
         """One scan with the odometry pose (odom → base) at its time. Returns True if the filter ran
@@ -125,7 +130,8 @@ class Amcl:
                 self._refine(self._at_update.compose(odom), odom, scan)
             return False
         if self.last_odom is not None:
-            self.poses = self.motion.sample(self.poses, self.last_odom, self._turned(self.last_odom, odom), self.rng)
+            self.sideways_increments += self._sideways(self.last_odom, odom)
+            self.poses = self.motion.sample(self.poses, self.last_odom, odom, self.rng)
         self.last_odom = odom
         self._sensor_update(scan)
         self.resample_count += 1

@@ -97,7 +97,12 @@ class AmclNode:
             f = self.filter
             if f is None:
                 return
+            sideways = f.sideways_increments
             ran = f.update(odom, scan, laser.transform.to_pose2d())
+            if f.sideways_increments and not sideways:
+                log.warning("the odometry moved base_link sideways (at %.3f): odom_model_type %s reads that as a "
+                            "turn, a drive and a turn back and may lose the robot; a base whose odometry turns "
+                            "it about a point off base_link needs odom_model_type omni", t, self.p.odom_model_type)
             if not ran and not self.p.refine_pose:
                 return
             corr, (mean, _) = f.map_to_odom(), f.estimate()

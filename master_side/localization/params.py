@@ -67,21 +67,12 @@ class AmclParams:
     odom_alpha4: float = param(0.2, lo=0.0, hi=100.0, doc="translation noise from rotation (omni: rotation "
                                                          "noise from rotation)")
     odom_alpha5: float = param(0.2, lo=0.0, hi=100.0, doc="omni only: strafe noise from translation")
-    odom_rotation_center_x: float = param(
-        0.0, lo=-2.0, hi=2.0, unit="m",
-        doc="zenav: where on base_link's x axis the base turns about. Wheel odometry integrates turns about "
-            "base_link; each increment is corrected by the sideways motion a turn about this point makes "
-            "before the motion model moves the particles (a skid-steered base pivots toward its more loaded "
-            "axle: `python bench/turning.py`). 0: as ROS")
     # -- frames
     odom_frame_id: str = param("odom", doc="odometry frame")
     base_frame_id: str = param("base_link", doc="robot frame")
     global_frame_id: str = param("map", doc="map frame")
 
     def validate(self) -> None:
-        if self.odom_rotation_center_x and not self.odom_model_type.startswith("omni"):
-            raise ValueError("odom_rotation_center_x needs odom_model_type omni or omni-corrected: the diff model "
-                             "reads a sideways increment as a turn, a drive and a turn back, with both turns' noise")
         if self.min_particles > self.max_particles:
             raise ValueError(f"min_particles ({self.min_particles}) > max_particles ({self.max_particles})")
         if self.laser_z_hit + self.laser_z_rand <= 0.0:

@@ -59,6 +59,11 @@ class P2OSParams:
     robot_model: str = param("auto", choices=("auto", *MODELS),
                              doc="conversion factors; auto = from the SYNC2 subclass")
     position_wrap_bits: int = param(12, choices=(12, 15), doc="SIP x/y counter wrap used for odometry")
+    odom_rotation_center_x: float = param(
+        0.0, lo=-2.0, hi=2.0, unit="m",
+        doc="zenav: where on base_link's x axis the base turns about. The firmware integrates every turn "
+            "about the axles' middle; a skid-steered base pivots toward its more loaded axle and moves "
+            "base_link sideways as it turns, which the odometry then adds. 0: as the firmware (ROS p2os)")
     sync_timeout: float = param(0.5, lo=0.01, hi=10.0, unit="s", doc="wait for each SYNC echo")
     sync_retries: int = param(5, lo=1, hi=100, doc="attempts per SYNC step before giving up")
     sip_timeout: float = param(2.0, lo=0.1, hi=30.0, unit="s", doc="wait for the first SIP after OPEN")
@@ -188,7 +193,7 @@ class P2OSDriver:
             log.warning("unknown robot subclass %r from %s: using the p3at-sh conversion factors "
                         "(set robot_model to choose)", subclass, self.port_name)
         self.info = RobotInfo(name, cls, subclass, model)
-        self.odometry = OdometryIntegrator(model, p.position_wrap_bits)
+        self.odometry = OdometryIntegrator(model, p.position_wrap_bits, p.odom_rotation_center_x)
         self._write(P.open_())
         self._write(P.pulse())
         self._write(P.sonar(p.use_sonar))

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from common.geometry import Pose2D, normalize_angle
+from common.geometry import Pose2D, normalize_angle, pivoted
 from robot_side.p2os.protocol import ProtocolError
 
 
@@ -191,12 +191,15 @@ class OdometryIntegrator:
     The first SIP defines the odom origin (pose (0, 0, 0)); x/y changes are accumulated in the robot's
     internal frame modulo 2**``wrap_bits`` (12 as p2os — valid for any counter wrapping at a multiple
     of 4096 while one SIP period moves less than 2048 units — or 15 as the ARCOS manual's counters).
+    With ``rotation_center_x`` each SIP's increment is taken as a turn about that point of base_link
+    (``common.geometry.pivoted``) instead of about the axles' middle, where the firmware integrates it.
     """
 
-    def __init__(self, model: RobotModel, wrap_bits: int = 12) -> None:
+    def __init__(self, model: RobotModel, wrap_bits: int = 12, rotation_center_x: float = 0.0) -> None:
         if wrap_bits not in (12, 15):
             raise ValueError("wrap_bits must be 12 or 15")
-        self.model, self.wrap_bits = model, wrap_bits
+        self.model, self.wrap_bits, self.rotation_center_x = model, wrap_bits, rotation_center_x
+        self._firmware = Pose2D()  # the pose as the firmware integrates it (turns about the axles' middle)
         self._last: tuple[int, int] | None = None
         self._origin: Pose2D | None = None
         self._x_m = self._y_m = 0.0
@@ -214,7 +217,10 @@ class OdometryIntegrator:
         internal = Pose2D(self._x_m, self._y_m, theta)
         if self._origin is None:
             self._origin = internal
-        self.pose = self._origin.between(internal)
+        firmware = self._origin.between(internal)
+        c = self.rotation_center_x
+        self.pose = self.pose.compose(pivoted(self._firmware.between(firmware), c)) if c else firmware
+        self._firmware = firmware
         return self.pose
 
 

@@ -17,7 +17,8 @@ so after a single 1 m (1 rad) motion the error std is srr (srt) metres and str (
 variances add, the error after a straight run of length L has std srr*sqrt(L) (independent of dt).
 Odometry integrates (dρ', dθ') from Pose2D(0, 0, 0) in the odom frame, or from Pose2D(0, 0, start yaw)
 with ``odom_start_yaw_from_world`` (an odom frame with the world's axes at the start position, as a
-Jackal's IMU-fused odometry: the BARN challenge sends its goal as (0, 10) in that frame).
+Jackal's IMU-fused odometry: the BARN challenge sends its goal as (0, 10) in that frame); each step as a turn
+about base_link, or about the point ``odom_rotation_center_x`` ahead of it (``common.geometry.pivoted``).
 
 Collision: if the footprint (sampled every <= res/2, inside and on the edge) at the next pose covers a
 cell taller than ``min_obstacle_height``, the robot stays, its velocity drops to zero, ``contact`` records
@@ -34,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from common.config import ConfigError, load_params, param
-from common.geometry import Pose2D, normalize_angle, points_in_polygon
+from common.geometry import Pose2D, normalize_angle, pivoted, points_in_polygon
 from common.messages import Collision, Header, Odometry, Twist
 from robot_side.sim.world import World
 
@@ -72,6 +73,11 @@ class BaseParams:
                                       doc="a contact after this long without one is a new collision")
     min_obstacle_height: float = param(0.02, lo=0.0, hi=10.0, unit="m", doc="lower cells do not collide")
     seed: int = param(0, lo=0, doc="odometry noise RNG seed")
+    odom_rotation_center_x: float = param(
+        0.0, lo=-2.0, hi=2.0, unit="m",
+        doc="where on base_link's x axis the odometry takes the base to turn about (zenav; as p2os's "
+            "odom_rotation_center_x: a skid-steered base pivots toward its more loaded axle, `python "
+            "bench/turning.py`); 0: about base_link, as wheel odometry integrates")
     odom_start_yaw_from_world: bool = param(False, doc="odometry starts at (0, 0, start yaw) instead of "
                                                        "(0, 0, 0): odom axes aligned with the world's")
 
@@ -253,7 +259,7 @@ class DiffDriveBase(CommandedBase):
             e = self.rng.standard_normal(2)
             d_rho += math.sqrt(var_r) * e[0]
             d_th += math.sqrt(var_t) * e[1]
-        self.odom = self.odom.compose(_arc(d_rho, d_th))
+        self.odom = self.odom.compose(pivoted(_arc(d_rho, d_th), p.odom_rotation_center_x))
 
 
 

@@ -13,8 +13,9 @@ Per physics step (``PhysicsParams.timestep``):
    held while clipped; MuJoCo moves the body, with slip, inertia and contacts;
 3. odometry as the robot computes it: v = r (ω_l + ω_r)/2 and w = r (ω_r - ω_l)/s from the wheel
    joints, or w from a gyro (the true yaw rate plus white noise, sampled at the gyro's rate) for bodies
-   whose ekf fuses the IMU (the Jackal); integrated in the odom frame. Wheel slip and skid become
-   odometry error by themselves: no noise is injected into the wheels;
+   whose ekf fuses the IMU (the Jackal); integrated in the odom frame, turning about base_link or, with
+   ``BaseParams.odom_rotation_center_x``, about that point (as the p2os driver with the same parameter).
+   Wheel slip and skid become odometry error by themselves: no noise is injected into the wheels;
 4. a contact between the robot's hull and an obstacle geom is a collision, counted once per contact
    episode (a new one after ``collision_debounce`` without contact), as the kinematic engine counts.
 """
@@ -25,7 +26,7 @@ import math
 
 import numpy as np
 
-from common.geometry import Pose2D
+from common.geometry import Pose2D, pivoted
 from robot_side.sim.base import BaseParams, CommandedBase, _arc, _limit, _toward
 from robot_side.sim.mujoco_scene import add_obstacles, build_scene, import_mujoco, rebuild, wheel_loop_gain
 from robot_side.sim.physics_params import PhysicsParams
@@ -176,7 +177,7 @@ class MujocoBase(CommandedBase):
             self.w = self.true_twist()[1] + self._gyro_bias_sample
         else:
             self.w = r * (wr - wl) / (b.wheel_separation * b.wheel_separation_multiplier)
-        self.odom = self.odom.compose(_arc(self.v * ts, self.w * ts))
+        self.odom = self.odom.compose(pivoted(_arc(self.v * ts, self.w * ts), self.p.odom_rotation_center_x))
 
     def _contacts(self, t: float) -> None:
         d = self.scene.data

@@ -88,3 +88,23 @@ def test_set_reads_numbers_and_files_as_the_node_will(tmp_path, monkeypatch):
     loc = _params(amcl, "localization", tmp_path)
     assert loc["initial_pose_a"] == 0.001  # YAML 1.1 alone would give the string '1e-3'
     assert loc["odom_frame_id"] == "p3at"  # a folder of that name beside the config is not a file
+
+
+def test_robot_set_changes_a_nested_key_and_keeps_the_rest_of_its_section(tmp_path):
+    """`zenav robot --set sim.base.odom_rotation_center_x=-0.12`: a key of the simulator's ``base`` mapping,
+    the node's other parameters (its laser, its world) kept; a value out of range is refused at start with
+    the key and its range, as in the file."""
+    from robot_side import agent as robot_agent
+
+    shipped = Path(__file__).resolve().parents[2] / "robot_side" / "config" / "p3at_sim_laser.yaml"
+    launch = robot_agent.load(str(shipped), engine="mujoco",
+                              sets=["sim.base.odom_rotation_center_x=-0.12", "sim.laser.rate=10"])
+    sim = _params(launch, "sim", tmp_path)
+    assert sim["base"] == {"odom_rotation_center_x": -0.12} and sim["engine"] == "mujoco"
+    assert sim["laser"]["rate"] == 10 and sim["laser"]["samples"] == 361  # the section's other keys kept
+    check_nodes(launch)
+    bad = robot_agent.load(str(shipped), sets=["sim.base.odom_rotation_center_x=5"])
+    with pytest.raises(ConfigError, match=r"odom_rotation_center_x.*\[-2"):
+        check_nodes(bad)
+    with pytest.raises(ConfigError, match="sim.world is not a mapping"):
+        robot_agent.load(str(shipped), sets=["sim.world.size=3"])

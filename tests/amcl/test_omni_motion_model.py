@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from common.config import ConfigError
-from common.geometry import Pose2D
+from common.geometry import Pose2D, pivoted
 from master_side.localization.amcl import Amcl
 from master_side.localization.motion_model import DiffMotionModel, OmniMotionModel
 from master_side.localization.params import load_amcl_params
@@ -48,19 +48,20 @@ def test_omni_and_alpha5_are_amcl_parameters():
         load_amcl_params({"odom_model_type": "tricycle"}, "amcl.yaml")
 
 
-def test_the_odometry_increment_is_turned_about_the_bases_turning_centre():
-    """``odom_rotation_center_x`` (zenav): wheel odometry integrates a turn about base_link; a base that turns
-    about a point 0.12 m behind moves base_link sideways as well, and AMCL adds that to the increment before
-    the motion model. The diff model would read the sideways increment as a turn, a drive and a turn back,
-    with both turns' noise: the parameter requires an omni model."""
-    c, a = -0.12, 1.0
-    amcl = Amcl(load_amcl_params({"odom_model_type": "omni", "odom_rotation_center_x": c, "seed": 1}, "amcl.yaml"),
-                box_map())
+def test_amcl_counts_the_sideways_increments_the_diff_model_misreads():
+    """Odometry of a base that turns about a point off base_link (robot_side's ``odom_rotation_center_x``)
+    moves base_link sideways as it turns. ROS's diff model reads that as a turn, a drive and a turn back,
+    with both turns' noise; AMCL counts such increments (the node warns at the first) and the omni models,
+    which take them as they are, do not. A diff drive's own arcs, forward or backward, are not counted."""
+    c, a = -0.12, 0.5
     old = Pose2D(0.5, -0.3, 0.4)
-    turned = amcl._turned(old, Pose2D(0.5, -0.3, 0.4 + a))
-    np.testing.assert_allclose(old.between(turned).as_array(), [c * (1 - math.cos(a)), -c * math.sin(a), a],
-                               atol=1e-12)
-    straight = Pose2D(0.8, -0.3, 0.4)
-    assert amcl._turned(old, straight).as_array() == pytest.approx(straight.as_array())  # no turn, no change
-    with pytest.raises(ConfigError, match="odom_rotation_center_x"):
-        load_amcl_params({"odom_model_type": "diff", "odom_rotation_center_x": c}, "amcl.yaml")
+    pivot = old.compose(pivoted(Pose2D(0.0, 0.0, a), c))
+    counts = {}
+    for model in ("diff", "omni"):
+        amcl = Amcl(load_amcl_params({"odom_model_type": model, "seed": 1}, "amcl.yaml"), box_map())
+        assert not amcl._sideways(old, old.compose(Pose2D(0.3 * math.sin(a) / a, 0.3 * (1 - math.cos(a)) / a, a)))
+        assert not amcl._sideways(old, old.compose(Pose2D(-0.2, 0.0, 0.0)))  # backing up
+        counts[model] = amcl._sideways(old, pivot)
+    assert counts == {"diff": True, "omni": False}
+    with pytest.raises(ConfigError, match="odom_rotation_center_x"):  # moved to the robot's odometry
+        load_amcl_params({"odom_model_type": "omni", "odom_rotation_center_x": c}, "amcl.yaml")

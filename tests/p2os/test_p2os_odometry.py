@@ -56,3 +56,29 @@ def test_first_sip_is_the_odom_origin():
     p = odo.update(_sip(1234.0 + 100 * math.cos(-1.0), 987.0 + 100 * math.sin(-1.0), -1.0, m))
     assert p.x == pytest.approx(0.1, abs=0.002)
     assert p.y == pytest.approx(0.0, abs=0.002)
+
+
+def test_odometry_told_the_turning_centre_adds_the_pivots_sideways_motion():
+    """``odom_rotation_center_x`` (zenav): the firmware integrates every turn about the axles' middle; a P3-AT
+    that pivots 0.12 m behind it moves base_link sideways as it turns. A 90 deg turn in place in 10 SIPs (the
+    firmware's x, y unchanged) comes out as the turn about (c, 0): base_link at (c, -c) in the start's frame.
+    Straight driving is unchanged."""
+    m, c = MODELS["p3at"], -0.12
+    odo, plain = OdometryIntegrator(m, rotation_center_x=c), OdometryIntegrator(m)
+    for i in range(11):
+        sip = _sip(500.0, -300.0, 0.3 + math.pi / 2 * i / 10, m)
+        out, ref = odo.update(sip), plain.update(sip)
+    assert (ref.x, ref.y) == pytest.approx((0.0, 0.0), abs=1e-9)
+    assert out.as_array() == pytest.approx([c, -c, math.pi / 2], abs=2 * m.angle_conv_factor)
+    later = odo.update(_sip(500.0 + 200 * math.cos(0.3 + math.pi / 2), -300.0 + 200 * math.sin(0.3 + math.pi / 2),
+                            0.3 + math.pi / 2, m))
+    assert out.between(later).as_array() == pytest.approx([0.2, 0.0, 0.0], abs=0.003)
+
+
+def test_the_turning_centre_is_a_driver_parameter_with_a_range():
+    from common.config import ConfigError
+    from robot_side.p2os.node import load
+
+    assert load({"odom_rotation_center_x": -0.12}, "p3at_real.yaml").odom_rotation_center_x == -0.12
+    with pytest.raises(ConfigError, match=r"odom_rotation_center_x.*\[-2"):
+        load({"odom_rotation_center_x": 5.0}, "p3at_real.yaml")

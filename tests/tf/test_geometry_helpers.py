@@ -1,4 +1,5 @@
-"""The shared planar helpers of common/geometry.py: footprint radii, point in polygon, turn counting."""
+"""The shared planar helpers of common/geometry.py: footprint radii, point in polygon, turn counting, a turn
+about a point off base_link."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from common.geometry import TurnCounter, footprint_radii, points_in_polygon
+from common.geometry import Pose2D, TurnCounter, footprint_radii, pivoted, points_in_polygon
 
 P3AT = np.array([[0.3302, -0.0508], [0.254, -0.0508], [0.254, -0.254], [-0.254, -0.254], [-0.254, 0.254],
                  [0.254, 0.254], [0.254, 0.0508], [0.3302, 0.0508]])
@@ -38,3 +39,22 @@ def test_turn_counter_adds_every_turn_across_the_wrap_and_restarts_on_reset():
     assert c.add(-3.0) == pytest.approx(2 * math.pi - 4.0)  # turning back counts too
     c.reset()
     assert c.add(1.0) == 0.0 and c.turned == 0.0
+
+
+def test_pivoted_is_the_turn_about_the_point_and_exact_for_a_constant_twist():
+    """A base that turns about (c, 0) while its odometry integrates about base_link: a turn in place by a is the
+    rotation about that point, and a constant (v, w) split into many steps gives what one step gives (the
+    correction is linear in the twist), so a driver may apply it at any rate."""
+    c, a = -0.12, 1.1
+    turned = pivoted(Pose2D(0.0, 0.0, a), c)
+    centre = np.array([c, 0.0])  # base_link's origin turned by a about the centre
+    expected = centre + np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]]) @ -centre
+    assert [turned.x, turned.y] == pytest.approx(expected.tolist(), abs=1e-12) and turned.theta == a
+    v, w, t, n = 0.3, 0.8, 2.0, 200
+    def arc(s):  # base_link's motion over s seconds as wheel odometry integrates it
+        return Pose2D(v / w * math.sin(w * s), v / w * (1 - math.cos(w * s)), w * s)
+    whole, steps = pivoted(arc(t), c), Pose2D()
+    for _ in range(n):
+        steps = steps.compose(pivoted(arc(t / n), c))
+    assert steps.as_array() == pytest.approx(whole.as_array(), abs=1e-9)
+    assert pivoted(arc(t), 0.0) == arc(t)
