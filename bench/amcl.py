@@ -47,11 +47,13 @@ def command(truth: Pose2D, goal) -> tuple[float, float, bool]:
     return (0.0 if abs(err) > 0.15 else min(0.35, dist)), max(-0.8, min(0.8, 1.5 * err)), False
 
 
-def run(seed: int, amcl_cfg: dict, grid, robot: dict, engine: str | None = None, odom_cx: float = 0.0) -> dict:
+def run(seed: int, amcl_cfg: dict, grid, robot: dict, engine: str | None = None,
+        odom_cx: float | None = None) -> dict:
     """One drive of the route with noise ``seed``; ``robot`` is the robot agent's YAML (sim + depth_to_scan)."""
     sim_cfg = dict(robot["platform"]["sim"]["params"])
     sim_cfg["sim"] = {**sim_cfg.get("sim", {}), "seed": seed}
-    sim_cfg["base"] = {**sim_cfg.get("base", {}), "odom_rotation_center_x": odom_cx}
+    if odom_cx is not None:
+        sim_cfg["base"] = {**sim_cfg.get("base", {}), "odom_rotation_center_x": odom_cx}
     if engine:
         sim_cfg["engine"] = engine
     _, sim, _ = load_sim(sim_cfg, str(ROBOT_CONFIG))
@@ -94,9 +96,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="override an amcl param, e.g. --set laser_model_type=likelihood_field (repeatable)")
     ap.add_argument("--engine", choices=("kinematic", "mujoco"), help="simulator engine (default kinematic)")
-    ap.add_argument("--odom-rotation-center-x", type=float, default=0.0, metavar="M",
+    ap.add_argument("--odom-rotation-center-x", type=float, default=None, metavar="M",
                     help="the simulated driver's odom_rotation_center_x (-0.12 for the P3-AT on mujoco: "
-                         "bench/turning.py); default 0, odometry turning about base_link")
+                         "bench/turning.py); default the robot file's (none: odometry turning about base_link)")
     a = ap.parse_args(argv)
     from master_side import agent as master_agent
 

@@ -9,8 +9,9 @@ simulator's ground truth, the point on base_link's x axis it turns about (``rota
 base's sideways velocity is ``-rotation_center_x * w``) and the ratio of its true to its commanded
 rotation (and its odometry's). ``rotation_center_x`` is the value DWA's parameter of that name takes, and
 the odometry's ``odom_rotation_center_x`` (the simulated driver's, as p2os's): with
-``--odom-rotation-center-x`` the odometry is integrated about that point, and its own fitted centre
-(``turn_odom_center_x_m``) shows whether the odometry now moves as the base does.
+``--odom-rotation-center-x`` the odometry is integrated about that point: its own fitted centre
+(``turn_odom_center_x_m``, the parameter by construction) shows the setting was applied, and beside
+``turn_center_x_m`` whether the odometry now moves as the base does.
 
   python bench/turning.py --engine mujoco                 # the P3-AT on physics
   python bench/turning.py --engine mujoco --robot jackal

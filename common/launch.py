@@ -145,19 +145,22 @@ class Launch:
         if isinstance(value, str) and os.path.isfile(value):
             value = os.path.abspath(value)
         mapping, source = self.node_params(e)
-        top, *inner = key.split(".")
-        values = absolute_paths({inner[-1] if inner else top: value}, Path(source).parent)  # else beside its file
+        top, *inner = parts = key.split(".")
+        if not all(parts):
+            raise ConfigError("--set", assignment, "an empty key in the path, e.g. sim.base.odom_frame_id=odom")
+        values = absolute_paths({parts[-1]: value}, Path(source).parent)  # else beside its file
         if inner:  # NODE.SECTION.KEY: one key of a nested mapping, the section's other keys kept
-            section = copy.deepcopy(mapping.get(top) or {})
-            if not isinstance(section, dict):
-                raise ConfigError("--set", assignment, f"{name}.{top} is not a mapping")
-            leaf = section
-            for k in inner[:-1]:
-                leaf = leaf.setdefault(k, {})
-                if not isinstance(leaf, dict):
-                    raise ConfigError("--set", assignment, f"{k} in {name}.{top} is not a mapping")
+            section = copy.deepcopy(mapping)
+            leaf, path = section, name
+            for k in parts[:-1]:
+                path += f".{k}"
+                if k not in leaf:
+                    leaf[k] = {}
+                elif not isinstance(leaf[k], dict):  # null switches a sensor off: --set does not switch it on
+                    raise ConfigError("--set", assignment, f"{path} is {leaf[k]!r}, not a mapping of parameters")
+                leaf = leaf[k]
             leaf.update(values)
-            values = {top: section}
+            values = {top: section[top]}
         self.override(name, **values)
 
     def _path(self, p: str) -> str:

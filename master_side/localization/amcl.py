@@ -111,13 +111,14 @@ class Amcl:
         its mean heading. A differential drive moves along an arc, whose chord lies on the mean heading; a base
         that turns about a point off base_link (a skid-steered base whose odometry says so, robot_side's
         ``odom_rotation_center_x``) or an omni base moves sideways, which ``diff`` reads as a turn, a drive and
-        a turn back, with both turns' noise. The omni models take it as it is."""
+        a turn back, with both turns' noise. The omni models take it as it is. An increment that turns more than
+        90 deg (scans dropped, a large ``update_min_a``) may be a drive and a turn in either order: not judged."""
         if self.p.odom_model_type.startswith("omni"):
             return False
-        dx, dy = new.x - old.x, new.y - old.y
-        if math.hypot(dx, dy) < 0.01:
+        dx, dy, turn = new.x - old.x, new.y - old.y, normalize_angle(new.theta - old.theta)
+        if math.hypot(dx, dy) < 0.01 or abs(turn) > math.pi / 2:
             return False
-        off = abs(normalize_angle(math.atan2(dy, dx) - old.theta - normalize_angle(new.theta - old.theta) / 2))
+        off = abs(normalize_angle(math.atan2(dy, dx) - old.theta - turn / 2))
         return math.pi / 4 < off < 3 * math.pi / 4
 
     def update(self, odom: Pose2D, scan: LaserScan, laser: Pose2D | None = None) -> bool:

@@ -98,7 +98,7 @@ class P2OSNode(DeviceNode):
         p, r = self.p, s.reading
         now = self.node.clock.now()
         tf = s.pose.to_transform()
-        twist = Twist.planar(r.v, r.w)
+        twist = Twist.planar(r.v, r.w)  # as the wheels measure it, also when the pose pivots (odom_rotation_center_x)
         self.pub_odom.publish(Odometry(Header(now, p.odom_frame_id), p.base_frame_id, tf, twist))
         self.tf.send(TransformStamped(Header(now, p.odom_frame_id), p.base_frame_id, tf))
         with self._lock:

@@ -18,7 +18,8 @@ variances add, the error after a straight run of length L has std srr*sqrt(L) (i
 Odometry integrates (dρ', dθ') from Pose2D(0, 0, 0) in the odom frame, or from Pose2D(0, 0, start yaw)
 with ``odom_start_yaw_from_world`` (an odom frame with the world's axes at the start position, as a
 Jackal's IMU-fused odometry: the BARN challenge sends its goal as (0, 10) in that frame); each step as a turn
-about base_link, or about the point ``odom_rotation_center_x`` ahead of it (``common.geometry.pivoted``).
+about base_link, or about the point ``odom_rotation_center_x`` ahead of it (negative: behind;
+``common.geometry.pivoted``). Only the odometry: the kinematic engine's robot itself turns about base_link.
 
 Collision: if the footprint (sampled every <= res/2, inside and on the edge) at the next pose covers a
 cell taller than ``min_obstacle_height``, the robot stays, its velocity drops to zero, ``contact`` records
@@ -175,6 +176,8 @@ class CommandedBase:
         return max(-p.max_vel_x, min(p.max_vel_x, tv)), max(-p.max_vel_theta, min(p.max_vel_theta, tw))
 
     def odometry(self, stamp: float) -> Odometry:
+        # the twist stays (v, 0, w), as the wheels measure it, while the pose may move sideways
+        # (odom_rotation_center_x): a consumer that predicts the pivot (DWA's rotation_center_x) adds it itself
         return Odometry(Header(stamp, self.p.odom_frame_id), self.p.base_frame_id, self.odom.to_transform(),
                         Twist.planar(self.v, self.w))
 

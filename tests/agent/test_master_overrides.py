@@ -106,5 +106,11 @@ def test_robot_set_changes_a_nested_key_and_keeps_the_rest_of_its_section(tmp_pa
     bad = robot_agent.load(str(shipped), sets=["sim.base.odom_rotation_center_x=5"])
     with pytest.raises(ConfigError, match=r"odom_rotation_center_x.*\[-2"):
         check_nodes(bad)
-    with pytest.raises(ConfigError, match="sim.world is not a mapping"):
+    with pytest.raises(ConfigError, match="sim.world is 'room', not a mapping"):
         robot_agent.load(str(shipped), sets=["sim.world.size=3"])
+    with pytest.raises(ConfigError, match="empty key"):
+        robot_agent.load(str(shipped), sets=["sim..x=3"])
+    # a sensor the file leaves out stays out: a nested --set does not create it
+    no_laser = robot_agent.load(str(shipped), sets=["sim.laser=null"])
+    with pytest.raises(ConfigError, match="sim.laser is None, not a mapping"):
+        no_laser.set("sim.laser.rate=10")

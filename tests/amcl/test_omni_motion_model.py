@@ -62,6 +62,8 @@ def test_amcl_counts_the_sideways_increments_the_diff_model_misreads():
         assert not amcl._sideways(old, old.compose(Pose2D(0.3 * math.sin(a) / a, 0.3 * (1 - math.cos(a)) / a, a)))
         assert not amcl._sideways(old, old.compose(Pose2D(-0.2, 0.0, 0.0)))  # backing up
         counts[model] = amcl._sideways(old, pivot)
+        # a drive and a 1.6 rad turn in one increment (scans dropped): either order is possible, not judged
+        assert not amcl._sideways(old, old.compose(Pose2D(0.05, 0.0, 0.0)).compose(Pose2D(0.0, 0.0, 1.6)))
     assert counts == {"diff": True, "omni": False}
     with pytest.raises(ConfigError, match="odom_rotation_center_x"):  # moved to the robot's odometry
         load_amcl_params({"odom_model_type": "omni", "odom_rotation_center_x": c}, "amcl.yaml")
