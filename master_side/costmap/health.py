@@ -104,8 +104,10 @@ class SensorWatch:
             state = SILENT if elapsed >= self.grace or (rate > 0 and elapsed > rate) else OK
         if state == SILENT:
             detail = f"{s.head()} has delivered nothing since start {elapsed:.1f} s ago"
-            if s.messages:
+            if s.why:
                 detail += f": {s.messages} message(s) arrived, none usable (last: {s.why})"
+            elif s.messages:  # received, neither buffered nor dropped yet: still being processed
+                detail += f": {s.messages} message(s) arrived, none processed yet"
             elif s.malformed:
                 detail += f": {s.malformed} payload(s) on the topic are not {s.kind} (data_type)"
         elif state == LATE:

@@ -79,6 +79,10 @@ def test_messages_the_costmap_cannot_use_do_not_count_as_delivered_and_say_why()
     assert (st.state, st.messages, st.delivered) == (SILENT, 3, False)
     assert "3 message(s) arrived, none usable (last: no transform odom <- laser" in st.detail
     assert "nothing publishes" not in events[0][1]  # something does: the hint would mislead
+    w2, _ = watch_of()
+    w2.received("obstacle_layer", "scan")  # still being processed (waiting for its transform) at the report
+    st, _ = report(w2, 0.0, 102.0)
+    assert st.detail.endswith("1 message(s) arrived, none processed yet")  # not "none usable (last: )"
 
 
 def test_payloads_of_another_type_are_named_in_the_silent_detail():
