@@ -34,19 +34,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench.mrpb import PHYSICS_DWA, PHYSICS_PIVOT_X  # noqa: E402
 from common.geometry import Pose2D  # noqa: E402
 from deploy.mrpb.cases import load_cases, world_map  # noqa: E402
 from deploy.mrpb.exploration import INTERRUPTED, ExploreRun, run_exploration  # noqa: E402
+from deploy.stack.physics_sets import master_sets, robot_sets  # noqa: E402
 from deploy.stack.process_group import terminate_as_interrupt  # noqa: E402
 
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
-# on physics DWA and the robot's odometry are told where the skid-steered P3-AT turns about (bench/mrpb.py says
-# why; gmapping's motion model takes a sideways increment as it is)
-ENGINE_SETS = {"mujoco": (f"move_base.local_planner={PHYSICS_DWA}",)}
-ENGINE_ROBOT_SETS = {"mujoco": (f"sim.base.odom_rotation_center_x={PHYSICS_PIVOT_X}",)}
 WORLDS = ("room", "office02", "shopping_mall")
 
 
@@ -88,9 +84,10 @@ def main(argv: list[str] | None = None) -> int:
                          "P3-AT on rigid-body physics, with DWA and its odometry told where it turns about")
     ap.add_argument("--out", default="", help="where each run's logs and map go (default: a new temp dir)")
     a = ap.parse_args(argv)
-    master_set = (*ENGINE_SETS.get(a.engine or "", ()), *a.master_set)
+    # on physics DWA and the robot's odometry are told where the P3-AT turns about (deploy/stack/physics_sets.py)
+    master_set = (*master_sets(a.engine, amcl=False), *a.master_set)
     robot_args = (*(("--engine", a.engine) if a.engine else ()),
-                  *(w for kv in ENGINE_ROBOT_SETS.get(a.engine or "", ()) for w in ("--set", kv)))
+                  *(w for kv in robot_sets(a.engine) for w in ("--set", kv)))
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
     runs: list[ExploreRun] = []
     print(f"logs and maps under {out}", file=sys.stderr)

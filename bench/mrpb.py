@@ -45,6 +45,7 @@ sys.path.insert(0, str(ROOT))
 
 from deploy.mrpb import metrics as mm  # noqa: E402
 from deploy.mrpb.cases import STATIC_ENVS, Case, Result, load_cases  # noqa: E402
+from deploy.stack.physics_sets import master_sets, robot_sets  # noqa: E402
 
 DATA = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOT = ROOT / "robot_side" / "config" / "p3at_sim_laser.yaml"
@@ -58,16 +59,10 @@ MASTERS = {  # (fast mode, bus mode): the fast mode's TF is exact, so it takes t
 SAFE_DISTANCE_M = 0.46
 
 
-# What zenav's configuration changes on an engine: its model of the robot it drives. On physics the
-# skid-steered P3-AT pivots 0.12 m behind base_link when it turns (its weight rests on the rear axle;
-# `python bench/turning.py --engine mujoco`), which DWA is told (p3at_zenav/dwa_planner_ros_mujoco.yaml) and
-# the robot's odometry too (the driver's odom_rotation_center_x: its wheels alone cannot see the sideways
-# motion); AMCL then takes the odometry with the omni model, which reads a sideways increment as one (diff
-# reads it as a turn, a drive and a turn back). The kinematic engine turns the robot about base_link.
-PHYSICS_PIVOT_X = -0.12
-PHYSICS_DWA = CONFIG / "p3at_zenav" / "dwa_planner_ros_mujoco.yaml"
-ENGINE_SETS = {("zenav", "mujoco"): (f"move_base.local_planner={PHYSICS_DWA}", "localization.odom_model_type=omni")}
-ENGINE_ROBOT_SETS = {("zenav", "mujoco"): (f"sim.base.odom_rotation_center_x={PHYSICS_PIVOT_X}",)}
+# What zenav's configuration changes on an engine: its model of the robot it drives (deploy/stack/physics_sets.py
+# says what and why); the tutorial's files stay as ROS has them.
+ENGINE_SETS = {("zenav", "mujoco"): master_sets("mujoco", amcl=True)}
+ENGINE_ROBOT_SETS = {("zenav", "mujoco"): robot_sets("mujoco")}
 
 
 def _fast(job: tuple) -> Result:
@@ -129,11 +124,11 @@ def main(argv: list[str] | None = None) -> int:
     for cfg in configs:
         master = masters[cfg][0 if a.mode == "fast" else 1]
         sets = (*ENGINE_SETS.get((cfg, a.engine), ()), *a.set)
-        robot_sets = ENGINE_ROBOT_SETS.get((cfg, a.engine), ())
+        robot_set = ENGINE_ROBOT_SETS.get((cfg, a.engine), ())
         if a.mode == "fast":  # its TF is exact: no localiser runs and no odometry is read, so neither is said
-            sets, robot_sets = tuple(kv for kv in sets if not kv.startswith("localization.")), ()  # to apply
+            sets, robot_set = tuple(kv for kv in sets if not kv.startswith("localization.")), ()  # to apply
         print(f"## {cfg}: {master}{''.join(f' --set {s}' for s in sets)}"
-              f"{''.join(f'; robot --set {s}' for s in robot_sets)}", flush=True)
+              f"{''.join(f'; robot --set {s}' for s in robot_set)}", flush=True)
         if a.mode == "fast":
             with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
                 runs = ex.map(_fast, [(c, a.robot, master, a.engine, sets) for c in cases])
@@ -142,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
             from deploy.stack.process_group import terminate_as_interrupt
 
             with terminate_as_interrupt():  # a killed bench stops each case's agents too
-                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed, a.engine, sets, robot_sets)
+                runs = map(_bus, [(c, Path(a.robot), master, work / cfg, a.speed, a.engine, sets, robot_set)
                             for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
     summary = []

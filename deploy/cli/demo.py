@@ -26,7 +26,8 @@ zenav-demo.rrd (open it with `rerun zenav-demo.rrd`, or serve it to a browser wi
 Kinect, --sensor kinect) starts in MRPB's office02 (or ENV: shopping_mall, room02, ...) with gmapping and
 no map, and `zenav explore` drives it to frontiers until nothing is left; the monitor shows the map
 growing, the frontiers and the chosen target. Exits 0 when exploration ends by itself with 95 % of the
-reachable free area known and no collision.
+reachable free area known and no collision. With --engine mujoco the robot's odometry and DWA are told where
+the skid-steered P3-AT turns about on physics (deploy/stack/physics_sets.py), as bench/explore.py does.
 
 Bus: --robot names the robot (default "demo"); --connect / --listen / --mode / --no-multicast are refused
 (the network is private). The demo prints its endpoint, e.g. for `zenav --robot demo --no-multicast
@@ -157,6 +158,7 @@ def _explore(args) -> int:
 
     from deploy.mrpb.cases import STATIC_ENVS, load_cases, world_map
     from deploy.mrpb.exploration import run_exploration
+    from deploy.stack.physics_sets import master_sets, robot_sets
     from deploy.stack.process_group import terminate_as_interrupt
 
     root = Path(__file__).resolve().parents[2]
@@ -175,13 +177,16 @@ def _explore(args) -> int:
     robot_cfg = root / "robot_side" / "config" / ("p3at_sim_laser.yaml" if args.sensor == "laser" else "p3at_sim.yaml")
     work = Path(args.workdir or tempfile.mkdtemp(prefix="zenav-demo-explore-"))
     print(f"[demo] exploring MRPB {env} from ({start.x:.1f}, {start.y:.1f}) with the P3-AT's {args.sensor}, gmapping "
-          f"and `zenav explore`; logs and the map in {work}", flush=True)
+          f"and `zenav explore` ({'MuJoCo physics' if args.engine == 'mujoco' else 'kinematic engine'}); logs and "
+          f"the map in {work}", flush=True)
+    robot_args = ("--engine", args.engine, *(w for kv in robot_sets(args.engine) for w in ("--set", kv)))
     with terminate_as_interrupt():
         try:
             r = run_exploration(env, str(world_map(mrpb, env)), start, robot_cfg,
                                 root / "master_side" / "config" / "p3at_slam_zenav.yaml", work, args.speed,
                                 echo=lambda s: print(f"[demo]{s}", flush=True), monitor_args=monitor_args(args),
-                                robot=getattr(args, "robot", None) or "demo",
+                                robot=getattr(args, "robot", None) or "demo", robot_args=robot_args,
+                                master_set=master_sets(args.engine, amcl=False),
                                 before_stop=(lambda r: (_explore_summary(r, args), keep_serving(args)))
                                 if args.serve_web else None)
         except KeyboardInterrupt:

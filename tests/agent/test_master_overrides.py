@@ -114,3 +114,22 @@ def test_robot_set_changes_a_nested_key_and_keeps_the_rest_of_its_section(tmp_pa
     no_laser = robot_agent.load(str(shipped), sets=["sim.laser=null"])
     with pytest.raises(ConfigError, match="sim.laser is None, not a mapping"):
         no_laser.set("sim.laser.rate=10")
+
+
+def test_the_physics_sets_apply_to_the_shipped_files_and_nothing_changes_on_the_kinematic_engine(tmp_path):
+    """deploy/stack/physics_sets.py: what zenav's configurations are told about the P3-AT on MuJoCo (the
+    benches and `zenav demo --explore --engine mujoco` pass it). Each value must pass the nodes' checks on the
+    shipped files, so a renamed parameter fails here and not 30 minutes into a benchmark."""
+    from deploy.stack.physics_sets import PHYSICS_PIVOT_X, master_sets, robot_sets
+    from robot_side import agent as robot_agent
+
+    assert robot_sets("kinematic") == robot_sets(None) == () == master_sets("kinematic", amcl=True)
+    robot = robot_agent.load(str(CONFIG.parent.parent / "robot_side" / "config" / "p3at_sim_laser.yaml"),
+                             engine="mujoco", sets=robot_sets("mujoco"))
+    check_nodes(robot)
+    assert _params(robot, "sim", tmp_path)["base"]["odom_rotation_center_x"] == PHYSICS_PIVOT_X
+    for config, amcl in (("p3at_zenav.yaml", True), ("p3at_slam_zenav.yaml", False)):
+        launch = agent.load(str(CONFIG / config), sets=master_sets("mujoco", amcl))
+        check_nodes(launch)
+        assert Path(_params(launch, "move_base", tmp_path)["local_planner"]).name == "dwa_planner_ros_mujoco.yaml"
+    assert not any(kv.startswith("localization.") for kv in master_sets("mujoco", amcl=False))  # SLAM: no AMCL
