@@ -66,10 +66,10 @@ ENGINE_ROBOT_SETS = {("zenav", "mujoco"): robot_sets("mujoco")}
 
 
 def _fast(job: tuple) -> Result:
-    case, robot, master, engine, sets = job
+    case, robot, master, engine, sets, robot_sets = job
     from deploy.mrpb.inproc import run_case_fast
 
-    return run_case_fast(case, robot, master, engine=engine, master_set=sets)
+    return run_case_fast(case, robot, master, engine=engine, master_set=sets, robot_set=robot_sets)
 
 
 def _bus(job: tuple) -> Result:
@@ -125,13 +125,13 @@ def main(argv: list[str] | None = None) -> int:
         master = masters[cfg][0 if a.mode == "fast" else 1]
         sets = (*ENGINE_SETS.get((cfg, a.engine), ()), *a.set)
         robot_set = ENGINE_ROBOT_SETS.get((cfg, a.engine), ())
-        if a.mode == "fast":  # its TF is exact: no localiser runs and no odometry is read, so neither is said
-            sets, robot_set = tuple(kv for kv in sets if not kv.startswith("localization.")), ()  # to apply
+        if a.mode == "fast":  # map -> odom is exact: no localiser runs, so none of its parameters is said to
+            sets = tuple(kv for kv in sets if not kv.startswith("localization."))  # apply (odom is the odometry)
         print(f"## {cfg}: {master}{''.join(f' --set {s}' for s in sets)}"
               f"{''.join(f'; robot --set {s}' for s in robot_set)}", flush=True)
         if a.mode == "fast":
             with ProcessPoolExecutor(max_workers=max(1, a.jobs)) as ex:
-                runs = ex.map(_fast, [(c, a.robot, master, a.engine, sets) for c in cases])
+                runs = ex.map(_fast, [(c, a.robot, master, a.engine, sets, robot_set) for c in cases])
                 results[cfg] = list(_progress(runs, cases, fields, a.safe_distance, t0))
         else:
             from deploy.stack.process_group import terminate_as_interrupt

@@ -17,11 +17,12 @@ from master_side.move_base.state_machine import State
 
 def run_case_fast(case: Case, robot_config, master_config, seed: int = 0,
                   time_limit_s: float = TIME_LIMIT_S, engine: str | None = None,
-                  master_set: tuple[str, ...] = ()) -> Result:
-    """``engine``: the simulator's (None: the robot file's); ``master_set``: ``zenav master --set`` values."""
+                  master_set: tuple[str, ...] = (), robot_set: tuple[str, ...] = ()) -> Result:
+    """``engine``: the simulator's (None: the robot file's); ``master_set`` / ``robot_set``: ``zenav master
+    --set`` / ``zenav robot --set`` values."""
     wall0 = time.perf_counter()
     stack = InProcessStack(case.world_file, robot_config, master_config, seed=seed, start=case.start,
-                           map_file=case.map_file, engine=engine, master_set=master_set)
+                           map_file=case.map_file, engine=engine, master_set=master_set, robot_set=robot_set)
     sim = stack.sim
     goal = stack.frame_from_world(stack.global_frame).compose(Pose2D(*case.goal))
     t0, hits0 = sim.time, sim.base.collisions

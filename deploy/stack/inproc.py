@@ -110,12 +110,12 @@ class InProcessStack:
                  master_config: str | Path, plan_hz: float = 5.0, seed: int = 0,
                  engine: str | None = None, friction: float | None = None,
                  start: tuple[float, float, float] | None = None, map_file: str | Path | None = None,
-                 master_set: tuple[str, ...] = ()):
-        """``start``, ``map_file`` and ``master_set`` as ``zenav robot --start``, ``zenav master --map`` and
-        ``zenav master --set NODE.KEY=VALUE``."""
+                 master_set: tuple[str, ...] = (), robot_set: tuple[str, ...] = ()):
+        """``start``, ``map_file``, ``master_set`` and ``robot_set`` as ``zenav robot --start``, ``zenav master
+        --map``, ``zenav master --set NODE.KEY=VALUE`` and ``zenav robot --set NODE.KEY=VALUE``."""
         robot_config, master_config = Path(robot_config), Path(master_config)
         robot = robot_agent.load(str(robot_config), world=str(world_path), engine=engine,  # as the agent reads it
-                                 start=list(start) if start is not None else None)
+                                 start=list(start) if start is not None else None, sets=robot_set)
         sim_cfg = dict(next(e.params for e in robot.entries if e.opts.module == robot_agent.SIM_MODULE) or {})
         sim_cfg["sim"] = {**(sim_cfg.get("sim") or {}), "seed": seed}
         if friction is not None:
