@@ -38,7 +38,7 @@ from common.geometry import Pose2D  # noqa: E402
 from deploy.mrpb.cases import load_cases, world_map  # noqa: E402
 from deploy.mrpb.exploration import INTERRUPTED, ExploreRun, run_exploration  # noqa: E402
 from deploy.stack.physics_sets import master_sets, robot_sets  # noqa: E402
-from deploy.stack.process_group import terminate_as_interrupt  # noqa: E402
+from deploy.stack.process_group import set_options, terminate_as_interrupt  # noqa: E402
 
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
@@ -86,8 +86,7 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     # on physics DWA and the robot's odometry are told where the P3-AT turns about (deploy/stack/physics_sets.py)
     master_set = (*master_sets(a.engine, amcl=False), *a.master_set)
-    robot_args = (*(("--engine", a.engine) if a.engine else ()),
-                  *(w for kv in robot_sets(a.engine) for w in ("--set", kv)))
+    robot_args = (*(("--engine", a.engine) if a.engine else ()), *set_options(robot_sets(a.engine)))
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
     runs: list[ExploreRun] = []
     print(f"logs and maps under {out}", file=sys.stderr)

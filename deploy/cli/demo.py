@@ -159,7 +159,7 @@ def _explore(args) -> int:
     from deploy.mrpb.cases import STATIC_ENVS, load_cases, world_map
     from deploy.mrpb.exploration import run_exploration
     from deploy.stack.physics_sets import master_sets, robot_sets
-    from deploy.stack.process_group import terminate_as_interrupt
+    from deploy.stack.process_group import set_options, terminate_as_interrupt
 
     root = Path(__file__).resolve().parents[2]
     mrpb = root.parent / "shared" / "datasets" / "mrpb" / "map10cm"
@@ -179,7 +179,7 @@ def _explore(args) -> int:
     print(f"[demo] exploring MRPB {env} from ({start.x:.1f}, {start.y:.1f}) with the P3-AT's {args.sensor}, gmapping "
           f"and `zenav explore` ({'MuJoCo physics' if args.engine == 'mujoco' else 'kinematic engine'}); logs and "
           f"the map in {work}", flush=True)
-    robot_args = ("--engine", args.engine, *(w for kv in robot_sets(args.engine) for w in ("--set", kv)))
+    robot_args = ("--engine", args.engine, *set_options(robot_sets(args.engine)))
     with terminate_as_interrupt():
         try:
             r = run_exploration(env, str(world_map(mrpb, env)), start, robot_cfg,

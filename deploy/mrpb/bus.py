@@ -20,7 +20,7 @@ from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.mrpb.cases import TIME_LIMIT_S, Case, Result
 from deploy.stack.goals import send_goal
-from deploy.stack.process_group import ProcessGroup
+from deploy.stack.process_group import ProcessGroup, set_options
 from master_side import agent as master_agent
 
 STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
@@ -66,15 +66,12 @@ class _Recorder:
                 self.collisions, self.contact = m.count, (m.x, m.y)
 
 
-def master_sets(master_config: Path, case: Case) -> list[str]:
-    """``--set`` options starting the master's AMCL at the case's start (none for other localisers)."""
+def amcl_start_sets(master_config: Path, case: Case) -> list[str]:
+    """``NODE.KEY=VALUE`` assignments starting the master's AMCL at the case's start (none for other
+    localisers)."""
     launch = master_agent.load(str(master_config))
-    out = []
-    for e in launch.entries:
-        if e.opts.module == AMCL_MODULE:
-            for key, value in zip(("initial_pose_x", "initial_pose_y", "initial_pose_a"), case.start):
-                out += ["--set", f"{e.name}.{key}={value}"]
-    return out
+    return [f"{e.name}.{key}={value}" for e in launch.entries if e.opts.module == AMCL_MODULE
+            for key, value in zip(("initial_pose_x", "initial_pose_y", "initial_pose_a"), case.start)]
 
 
 def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: str | Path = "",
@@ -93,10 +90,9 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
     try:
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(case.world_file),
                               "--start", *map(str, case.start), "--speed", str(speed),
-                              *(["--engine", engine] if engine else []),
-                              *(w for kv in robot_set for w in ("--set", kv))])
+                              *(["--engine", engine] if engine else []), *set_options(robot_set)])
         group.spawn("master", ["master", "--config", str(master_config), "--map", str(case.map_file),
-                               *master_sets(master_config, case), *(w for kv in master_set for w in ("--set", kv))])
+                               *set_options((*amcl_start_sets(master_config, case), *master_set))])
         group.wait("the simulator", lambda: rec.truth.latest() is not None, STARTUP_S)
         group.wait("move_base", lambda: rec.status.latest() is not None, STARTUP_S)
         answer: list = []

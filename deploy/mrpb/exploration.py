@@ -30,7 +30,7 @@ from common.messages import Collision, Costmap, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.stack.map_check import NO_OFFSET, WorldTruth
-from deploy.stack.process_group import ProcessGroup
+from deploy.stack.process_group import ProcessGroup, set_options
 from master_side.costmap.cost_values import LETHAL
 from master_side.mapping.map_io import load_map
 
@@ -176,7 +176,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(world),
                               "--start", str(start.x), str(start.y), str(start.theta), "--speed", str(speed),
                               *robot_args])
-        sets = [w for kv in master_set for w in ("--set", kv)]
+        sets = set_options(master_set)
         group.spawn("master", ["master", "--config", str(master_config), *sets])
         if monitor_args:
             group.spawn("monitor", ["monitor", *monitor_args])

@@ -23,7 +23,7 @@ from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, O
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.stack.map_check import map_accuracy
-from deploy.stack.process_group import ProcessGroup
+from deploy.stack.process_group import ProcessGroup, set_options
 from deploy.stack.world_maps import export_world_map, world_path
 from master_side.mapping.map_io import save_map
 from robot_side.sim.world import parse_pose
@@ -101,9 +101,7 @@ def master_args(world: str, planner: str, out_dir: Path, slam: bool | str = Fals
     args = ["--config", str(config)]
     if not method:
         args += ["--map", str(export_world_map(world, out_dir))]
-    for s in sets:
-        args += ["--set", s]
-    return args
+    return args + set_options(sets)
 
 
 class Demo:

@@ -13,6 +13,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterable
 from pathlib import Path
 
 _deferral = {"depth": 0, "pending": 0}  # a signal that came inside _deferred_interrupts()
@@ -52,6 +53,11 @@ def terminate_as_interrupt():
         for s, h in old.items():
             signal.signal(s, h)
 
+
+
+def set_options(assignments: Iterable[str]) -> list[str]:
+    """``NODE.KEY=VALUE`` assignments as the options of ``zenav robot`` / ``zenav master``: ``--set A --set B``."""
+    return [w for kv in assignments for w in ("--set", kv)]
 
 
 def checkout_env(base: dict[str, str] | None = None, drop_zenav: bool = False) -> dict[str, str]:
