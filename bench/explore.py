@@ -44,6 +44,7 @@ MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
 WORLDS = ("room", "office02", "shopping_mall")
+RECORDED = ("scan", "odom", "tf_static", "ground_truth", "collision")  # --record: what SLAM and a judge need
 
 
 def world_and_start(world: str) -> tuple[str, Pose2D]:
@@ -82,6 +83,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--engine", choices=("kinematic", "mujoco"), default=None,
                     help="simulator engine (default: the robot YAML's, the kinematic one); mujoco: the skid-steered "
                          "P3-AT on rigid-body physics, with DWA and its odometry told where it turns about")
+    ap.add_argument("--record", action="store_true",
+                    help="also record each run's scan, odometry, tf_static and ground truth into <run dir>/run.mcap "
+                         "(zenav record): `zenav slam run run.mcap` maps the same data again offline")
     ap.add_argument("--out", default="", help="where each run's logs and map go (default: a new temp dir)")
     a = ap.parse_args(argv)
     # on physics DWA and the robot's odometry are told where the P3-AT turns about (deploy/stack/physics_sets.py)
@@ -99,7 +103,7 @@ def main(argv: list[str] | None = None) -> int:
         with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
             r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
                                 echo=lambda s: print(s, file=sys.stderr, flush=True), master_set=master_set,
-                                robot_args=robot_args)
+                                robot_args=robot_args, record=RECORDED if a.record else ())
         runs.append(r)
         print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
               f"({time.monotonic() - t0:.0f} s wall)" + "".join(

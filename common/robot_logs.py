@@ -37,6 +37,7 @@ class ScanRecord:
     stamp: float  # s (CARMEN ipc_timestamp / bag header stamp)
     odom: Pose2D  # odometry pose of the base at ``stamp``
     scan: LaserScan
+    laser: Pose2D | None = None  # base frame <- the scan's frame, when the log says (else: the base's own)
 
 
 # -- CARMEN --------------------------------------------------------------------------------------

@@ -6,8 +6,9 @@ import argparse
 
 DESCRIPTION = """\
 run LOG --out DIR [--config gmapping.yaml] [--particles N] [--max-scans N] [--set KEY=VALUE]
-    gmapping-style SLAM over a CARMEN log (FLASER/ODOM) or a ROS1 bag (/scan, /odom); writes
-    DIR/map.pgm, DIR/map.yaml and DIR/trajectory.txt (one `timestamp x y theta` line per scan).
+    gmapping-style SLAM over a CARMEN log (FLASER/ODOM), a ROS1 bag (/scan, /odom) or an MCAP file of
+    `zenav record` (scan, odom, tf_static: the laser's place on the base); writes DIR/map.pgm,
+    DIR/map.yaml and DIR/trajectory.txt (one `timestamp x y theta` line per scan).
 eval --relations REL DIR/trajectory.txt
     Kümmerle et al. relation metric; the last line is machine-readable
     (trans_mean_m=... trans_std_m=... rot_mean_deg=... rot_std_deg=... relations=...).
@@ -39,6 +40,11 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
+    from deploy.logs.mcap_io import read_records
     from master_side.slam.cli import main
+    from master_side.slam.logs import register_reader, scan_records
+
+    # MCAP is parsed here, in deploy (as `zenav play` parses it); SLAM reads its messages as scan records
+    register_reader(".mcap", lambda path: scan_records(((r.topic, r.msg) for r in read_records(path)), str(path)))
 
     return main([args.action, *args.rest])

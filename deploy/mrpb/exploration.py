@@ -150,14 +150,15 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
                     workdir: Path, speed: float = 2.0, time_limit_s: float = 1800.0, explore_args=(),
                     echo=print, monitor_args: tuple[str, ...] = (), robot: str = "",
                     endpoint: str = "", before_stop=None, master_set: tuple[str, ...] = (),
-                    robot_args: tuple[str, ...] = ()) -> ExploreRun:
+                    robot_args: tuple[str, ...] = (), record: tuple[str, ...] = ()) -> ExploreRun:
     """``world``: a zenav world name or a map YAML; ``start``: where the robot starts in it (SLAM's map
     frame); ``time_limit_s``: simulated seconds from the first map; ``monitor_args``: also run
     ``zenav monitor`` with these (e.g. ``--serve-web PORT``); ``robot`` / ``endpoint``: the private
     network's robot name and endpoint (default: new ones); ``before_stop(run)``: called with the measured
     run once the robot and master are stopped, before the monitor is (``zenav demo --serve-web`` keeps
     the page up there); ``master_set``: ``NODE.KEY=VALUE`` overrides for ``zenav master --set``;
-    ``robot_args``: more ``zenav robot`` options (``--engine mujoco``)."""
+    ``robot_args``: more ``zenav robot`` options (``--engine mujoco``); ``record``: topics ``zenav record``
+    writes into ``<run dir>/run.mcap`` (``zenav slam run`` reads it again: SLAM offline on the same data)."""
     wall0 = time.monotonic()
     work = Path(workdir) / name.replace("/", "_")
     work.mkdir(parents=True, exist_ok=True)
@@ -173,6 +174,8 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     out = ExploreRun(name, "failed", free_m2=truth.free_m2, log_dir=str(work))
     completed = False
     try:
+        if record:  # first, so it has the robot's tf_static and the first scans
+            group.spawn("record", ["record", str(work / "run.mcap"), "--topics", ",".join(record)])
         group.spawn("robot", ["robot", "--config", str(robot_config), "--world", str(world),
                               "--start", str(start.x), str(start.y), str(start.theta), "--speed", str(speed),
                               *robot_args])
@@ -185,7 +188,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         next_note = time.monotonic() + 30.0
         try:
             while explore.poll() is None:
-                group.check_alive(ignore=("explore",))
+                group.check_alive(ignore=("explore", "record"))
                 watch.judge()
                 if watch.t0 is not None and watch.now() - watch.t0 > time_limit_s:
                     out.end = "time limit"

@@ -18,7 +18,7 @@ from master_side.slam.params import load_gmapping
 
 def _run(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="zenav slam run", description="gmapping-style SLAM over a log")
-    ap.add_argument("log", help="CARMEN .clf/.log or ROS1 .bag (/scan, /odom)")
+    ap.add_argument("log", help="CARMEN .clf/.log, ROS1 .bag (/scan, /odom) or MCAP (zenav record)")
     ap.add_argument("--out", required=True, help="output folder (map.pgm, map.yaml, trajectory.txt)")
     ap.add_argument("--method", choices=("gmapping", "hector"), default="gmapping",
                     help="gmapping (particle filter with odometry) or hector (scan matching only: the log's "
@@ -110,7 +110,7 @@ def _odom_noise(argv: list[str]) -> int:
         description="amcl's odom_alpha1..4 measured from a log's odometry against a trajectory of the same log "
                     "(zenav slam run's trajectory.txt): the alphas under which the odometry's errors over "
                     "amcl's update steps are most likely (master_side/localization/odom_noise.py)")
-    _log_and_trajectory(ap, "CARMEN .clf/.log or ROS1 .bag (/scan, /odom): the odometry at each scan")
+    _log_and_trajectory(ap, "CARMEN .clf/.log, ROS1 .bag (/scan, /odom) or MCAP: the odometry at each scan")
     ap.add_argument("--model", choices=("diff", "diff-corrected"), default="diff",
                     help="amcl's odom_model_type the alphas are for (default diff, ROS's default)")
     ap.add_argument("--update-min-d", type=positive, default=0.2, help="amcl's update_min_d (m, default 0.2)")
@@ -142,7 +142,7 @@ def _laser_noise(argv: list[str]) -> int:
         description="amcl's laser_sigma_hit measured from a log's scans, seen from a trajectory of the same log, "
                     "against a map of the place (zenav slam run's trajectory.txt and map.yaml): the deviation "
                     "of the beams' end points from the map's obstacles (master_side/localization/laser_noise.py)")
-    _log_and_trajectory(ap, "CARMEN .clf/.log or ROS1 .bag (/scan, /odom)")
+    _log_and_trajectory(ap, "CARMEN .clf/.log, ROS1 .bag (/scan, /odom) or MCAP (zenav record)")
     ap.add_argument("--map", help="map_server YAML (default: map.yaml beside the trajectory)")
     ap.add_argument("--laser-max-range", type=positive, default=None,
                     help="amcl's laser_max_range (m; default: the scans' range_max): longer beams are left out")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -13,7 +14,7 @@ import numpy as np
 from common.geometry import Pose2D
 from master_side.mapping.map_io import save_map
 from master_side.slam.gridslam import GridSlam
-from master_side.slam.logs import read_log
+from master_side.slam.logs import ScanRecord, read_log
 from master_side.slam.params import GMappingParams
 
 
@@ -63,19 +64,23 @@ def full_trajectory(odoms: list[Pose2D], processed: list[tuple[int, Pose2D]],
 
 
 def run(log: str | Path, params: GMappingParams, max_scans: int | None = None,
-        progress: TextIO | None = sys.stderr, every_s: float = 2.0, track_between: bool = True) -> RunResult:
+        progress: TextIO | None = sys.stderr, every_s: float = 2.0, track_between: bool = True,
+        records: Iterable[ScanRecord] | None = None) -> RunResult:
     """SLAM over a log. ``track_between``: also scan-match the skipped scans against the best map
-    (better poses for them than odometry; off = pure odometry interpolation)."""
-    slam = GridSlam(params, track_between=track_between)
+    (better poses for them than odometry; off = pure odometry interpolation). ``records``: the log's,
+    already read (``log`` then only names it)."""
+    slam: GridSlam | None = None
     stamps: list[float] = []
     odoms: list[Pose2D] = []
     t0 = time.perf_counter()
     c0 = time.process_time()
     last = t0
     update_cpu = 0.0
-    for rec in read_log(log):
+    for rec in (records if records is not None else read_log(log)):
         if max_scans is not None and len(stamps) >= max_scans:
             break
+        if slam is None:  # the laser's place on the base: the log's, when it says (a recording's tf_static)
+            slam = GridSlam(params, laser=rec.laser, track_between=track_between)
         stamps.append(rec.stamp)
         odoms.append(rec.odom)
         u0 = time.process_time()
@@ -90,7 +95,7 @@ def run(log: str | Path, params: GMappingParams, max_scans: int | None = None,
                            f"neff {slam.last_neff:5.1f} resamples {slam.resamples}   ")
             progress.flush()
     wall = time.perf_counter() - t0
-    if not stamps:
+    if slam is None:
         raise ValueError(f"{log}: no scans")
     poses = full_trajectory(odoms, slam.trajectory(), slam.between)
     res = RunResult(np.array(stamps), poses, len(stamps), slam.processed, stamps[-1] - stamps[0], wall, slam,

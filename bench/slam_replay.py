@@ -1,0 +1,114 @@
+"""SLAM replayed on a recorded exploration: the same scans and odometry mapped again offline with other
+gmapping parameters, each map judged against the world the simulator drove in.
+
+An exploration's map is one draw of a closed loop: where the robot went depended on the map it had. To
+compare SLAM's parameters on the same data, record a run (`python bench/explore.py --record ...`: its
+`run.mcap` holds scan, odom, tf_static and the simulator's ground truth) and replay it here, in this
+process (master_side.slam.offline, as `zenav slam run` does; no bus, as fast as the filter goes).
+
+Per variant: the map's walls within two cells of a true wall and its free cells on true free space, judged
+where the map fits best on the world (bench/explore.py's figures; the fitted turn and shift beside them),
+the share of the reachable free area it knows, and the trajectory's distance from the ground truth at each
+scan (in the fitted frame): mean, p95, max. Variants are `KEY=VALUE ...` strings of slam_gmapping
+parameters over the master file's (p3at_slam_zenav.yaml's: the tutorial's gmapping.yaml, 30 particles).
+
+  python bench/slam_replay.py RUN_DIR --world shopping_mall
+  python bench/slam_replay.py RUN_DIR --world shopping_mall --variant "" --variant "maxUrange=30" \\
+      --variant "maxUrange=30 particles=100"
+
+Ends with slam_replay_variants=… slam_replay_walls_pct=… (the first variant's) slam_replay_traj_p95_m=…
+slam_replay_best=… (the variant with the most walls right)
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from common.config import merge_included, read_yaml  # noqa: E402
+from deploy.logs.mcap_io import read_records  # noqa: E402
+from deploy.stack.map_check import WorldTruth  # noqa: E402
+from master_side.slam import node as slam_node  # noqa: E402
+from master_side.slam.logs import scan_records  # noqa: E402
+from master_side.slam.offline import run  # noqa: E402
+
+MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
+
+
+def gmapping_params(master: Path, variant: str):
+    """slam_gmapping's parameters as `zenav master --config master` gives them, with ``variant``'s over them."""
+    cfg = dict(read_yaml(master)["nodes"]["slam_gmapping"]["params"])
+    for kv in variant.split():
+        k, _, v = kv.partition("=")
+        cfg[k] = float(v) if any(c in v for c in ".e") else int(v)
+    params, _ = slam_node.load(*merge_included(cfg, "gmapping", str(master)))
+    return params
+
+
+def _interp(ts: np.ndarray, xy: np.ndarray, t: np.ndarray) -> np.ndarray:
+    return np.column_stack([np.interp(t, ts, xy[:, k]) for k in range(xy.shape[1])])
+
+
+def main(argv: list[str] | None = None) -> int:
+    from bench.explore import world_and_start
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("run", help="a run directory of bench/explore.py --record, or its run.mcap")
+    ap.add_argument("--world", required=True, help="the world it drove in (room, office02, shopping_mall)")
+    ap.add_argument("--variant", action="append", default=None, metavar="'KEY=VALUE ...'",
+                    help="slam_gmapping parameters over the master file's (repeatable; default: the file's own)")
+    ap.add_argument("--master", default=str(MASTER), help="the master file whose slam_gmapping is replayed")
+    ap.add_argument("--max-scans", type=int, default=None)
+    a = ap.parse_args(argv)
+    path = Path(a.run)
+    path = path / "run.mcap" if path.is_dir() else path
+    variants = a.variant if a.variant is not None else [""]
+    world, start = world_and_start(a.world)
+
+    print(f"reading {path} ...", file=sys.stderr, flush=True)
+    messages = [(r.topic, r.msg) for r in read_records(path)]
+    gt = [(m.header.stamp, m.pose2d) for t, m in messages if t == "ground_truth"]
+    gt_t = np.array([s for s, _ in gt])
+    gt_xy = np.array([(p.x, p.y) for _, p in gt])
+    truth = WorldTruth.of(world, start, 0.05)
+    rows = []
+    for v in variants:
+        params = gmapping_params(Path(a.master), v)
+        t0 = time.monotonic()
+        res = run(path, params, a.max_scans, progress=sys.stderr,
+                  records=scan_records(iter(messages), str(path)))
+        grid = res.slam.occupancy_grid(float(res.stamps[-1]))
+        offset = truth.fit(grid, headings_deg=(-2.0, -1.0, 0.0, 1.0, 2.0))
+        fitted = truth.moved(offset)
+        walls, free = fitted.agreement(grid)
+        known = fitted.explored(grid)
+        frame = start.compose(offset)  # the map's frame in the world
+        est = frame.apply(res.poses[:, :2])
+        err = np.hypot(*(est - _interp(gt_t, gt_xy, res.stamps)).T) if len(gt_t) else np.full(len(est), np.nan)
+        rows.append((v or "as-configured", res, walls, free, known, offset, err, time.monotonic() - t0))
+    print(f"{'variant':34} {'scans':>6} {'upd':>5} {'ms/upd':>7} {'walls%':>6} {'free%':>6} {'known%':>6} "
+          f"{'map frame':>13} {'traj mean':>9} {'p95 m':>6} {'max m':>6} {'wall s':>7}")
+    for name, res, walls, free, known, off, err, wall in rows:
+        fit = f"{math.degrees(off.theta):+.1f}°{math.hypot(off.x, off.y):.2f}m"
+        print(f"{name:34.34} {res.scans:6d} {res.processed:5d} {res.update_ms:7.1f} {100 * walls:6.1f} "
+              f"{100 * free:6.1f} {100 * known:6.1f} {fit:>13} {np.mean(err):9.3f} {np.percentile(err, 95):6.3f} "
+              f"{np.max(err):6.3f} {wall:7.0f}")
+    best = max(rows, key=lambda r: r[2])
+    print(f"slam_replay_variants={len(rows)} slam_replay_walls_pct={100 * rows[0][2]:.1f} "
+          f"slam_replay_traj_p95_m={np.percentile(rows[0][6], 95):.3f} "
+          f"slam_replay_best={best[0].replace(' ', ',')}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
+
