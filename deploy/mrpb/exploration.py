@@ -7,7 +7,8 @@ map). On a private loopback Zenoh network.
 Measured from the bus while it runs: every map SLAM publishes is judged against the world
 (deploy.stack.map_check.WorldTruth: the share of the reachable free area known as free) at the
 simulator's time, so the time to a coverage is the robot's, not the machine's; the distance driven from
-the simulator's ground truth; contacts from its ``collision`` topic. At the end, the saved map's coverage
+the simulator's ground truth; contacts from its ``collision`` topic, each with a snapshot of what the local
+costmap held before it (``<run dir>/contacts/contact_<n>.npz``). At the end, the saved map's coverage
 and agreement with the world (walls within two cells, free cells on free space). Each map is judged laid
 on the world as well as it fits (``WorldTruth.fit``: SLAM's frame is the start only as well as the first
 metres of odometry); the figures in the start's frame are kept beside them (``raw_*``)."""
@@ -73,8 +74,9 @@ class ExploreRun:
 class _Watch:
     """Coverage of each map as it comes (judged in this thread, not in Zenoh's), distance, contacts."""
 
-    def __init__(self, node: Node, truth: WorldTruth):
+    def __init__(self, node: Node, truth: WorldTruth, contact_dir: Path | None = None):
         self.node, self.truth, self.lock = node, truth, threading.Lock()
+        self.contact_dir = contact_dir  # where each contact's snapshot goes (contact_<n>.npz)
         self.maps = node.subscribe("map", OccupancyGrid)
         self.collisions = 0  # the simulator's count
         self.contacts: list[tuple[float, float, float]] = []  # (sim s, x, y) of each new contact
@@ -108,6 +110,31 @@ class _Watch:
                 self.collisions = m.count
                 self.contacts.append((self.now() - (self.t0 or 0.0), m.x, m.y))
                 self.contact_marks.append(self._mark_near(m.x, m.y, m.header.stamp - BEFORE_CONTACT_S))
+                self._snapshot(m)
+
+    def _snapshot(self, m: Collision) -> None:
+        """``contact_<n>.npz``: the touched point (world) and the simulator's stamp, the local costmaps of the
+        last 3 s (``maps`` (k, h, w) uint8, their ``map_stamps``, ``origins`` in the odometry frame,
+        ``resolution``), and the odometry and true poses of the last 4 s (``odom``, ``truth``: rows of
+        stamp, x, y, theta): what the planner knew and where the robot really was, to look at afterwards."""
+        held = list(self.locals)  # the deques fill from other threads
+        maps = [c for c in held if c.data.shape == held[-1].data.shape] if held else []
+        if self.contact_dir is None or not maps:
+            return
+
+        def poses(msgs) -> np.ndarray:
+            return np.array([(o.header.stamp, *o.pose2d.as_array()) for o in msgs]).reshape(-1, 4)
+
+        try:
+            self.contact_dir.mkdir(parents=True, exist_ok=True)
+            np.savez_compressed(self.contact_dir / f"contact_{m.count}.npz", point=np.array([m.x, m.y]),
+                                stamp=m.header.stamp, maps=np.stack([c.data for c in maps]),
+                                map_stamps=np.array([c.header.stamp for c in maps]),
+                                origins=np.array([(c.origin.x, c.origin.y) for c in maps]),
+                                resolution=maps[0].resolution, odom=poses(list(self.odoms)),
+                                truth=poses(list(self.truths)))
+        except OSError as e:  # a full disk must not end the run being measured
+            self.node.log.warning("contact %d: snapshot not saved: %s", m.count, e)
 
     def _mark_near(self, x: float, y: float, before: float) -> float | None:
         """The distance from the world point (x, y) to the nearest lethal cell of the last local costmap
@@ -170,7 +197,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     # the simulator is that far ahead after five minutes (the coverage froze at 43 % in office02)
     node = Node("explore_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)),
                 use_sim_time="auto")
-    watch = _Watch(node, truth)
+    watch = _Watch(node, truth, work / "contacts")
     out = ExploreRun(name, "failed", free_m2=truth.free_m2, log_dir=str(work))
     completed = False
     try:

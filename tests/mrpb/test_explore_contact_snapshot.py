@@ -1,0 +1,42 @@
+"""The exploration bench keeps, for each contact, what the planner knew just before it: the local costmaps
+of the last seconds and the odometry and true poses, in ``contacts/contact_<n>.npz`` of the run."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from common.bus import Node
+from common.geometry import Pose2D
+from common.messages import Collision, Costmap, Header, Odometry
+from common.zenoh_config import BusConfig
+from deploy.mrpb.exploration import _Watch
+from deploy.stack.map_check import WorldTruth
+from tests.support import free_port, wait_until
+
+
+def test_a_contact_leaves_a_snapshot_of_the_local_costmap_and_the_poses(tmp_path, robot_name):
+    node = Node("watch_test", config=BusConfig(robot=robot_name, multicast=False,
+                                               listen=(f"tcp/127.0.0.1:{free_port()}",)), use_sim_time=False)
+    try:
+        watch = _Watch(node, WorldTruth.of("room", Pose2D(-2.2, 0.0, 0.0), 0.05), tmp_path / "contacts")
+        costmaps, odom, truth = node.publisher("local_costmap/costmap"), node.publisher("odom"), \
+            node.publisher("ground_truth")
+        wall = np.zeros((40, 40), np.uint8)
+        wall[:, 30] = 254  # a wall 0.75 m from the window's left edge
+        for k in range(5):
+            t = 100.0 + 0.1 * k
+            costmaps.publish(Costmap(Header(t, "odom"), 0.025, Pose2D(-0.5, -0.5, 0.0), wall))
+            odom.publish(Odometry(Header(t, "odom"), "base_link", Pose2D(0.01 * k, 0.0, 0.0).to_transform()))
+            truth.publish(Odometry(Header(t, "map"), "base_link", Pose2D(0.01 * k, 0.0, 0.0).to_transform()))
+        wait_until(lambda: len(watch.locals) == 5 and len(watch.truths) == 5 and len(watch.odoms) == 5, 10.0,
+                   "the costmaps and poses")
+        node.publisher("collision", latched=True).publish(Collision(Header(101.0, "map"), 1, 0.27, 0.1))
+        path = tmp_path / "contacts" / "contact_1.npz"
+        wait_until(path.exists, 10.0, "the snapshot")
+        snap = np.load(path)
+        assert snap["maps"].shape == (5, 40, 40) and (snap["maps"][-1] == wall).all()
+        assert snap["point"].tolist() == [0.27, 0.1] and snap["resolution"] == 0.025
+        assert snap["odom"].shape == (5, 4) and snap["truth"][-1, 1] == 0.04
+        assert watch.contact_marks[0] < 0.025  # the touched point lies within a cell of the wall (x 0.25-0.275)
+    finally:
+        node.close()
