@@ -38,7 +38,7 @@ from deploy.logs.mcap_io import read_records  # noqa: E402
 from deploy.stack.map_check import WorldTruth  # noqa: E402
 from master_side.slam import node as slam_node  # noqa: E402
 from master_side.slam.logs import scan_records  # noqa: E402
-from master_side.slam.offline import run  # noqa: E402
+from master_side.slam.offline import run, write_outputs  # noqa: E402
 
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
 
@@ -67,7 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--variant", action="append", default=None, metavar="'KEY=VALUE ...'",
                     help="slam_gmapping parameters over the master file's (repeatable; default: the file's own)")
     ap.add_argument("--master", default=str(MASTER), help="the master file whose slam_gmapping is replayed")
-    ap.add_argument("--max-scans", type=int, default=None)
+    ap.add_argument("--max-scans", type=int, default=None, help="map only the first N scans")
+    ap.add_argument("--save", default="", metavar="DIR",
+                    help="write each variant's map and trajectory there (zenav slam run's files, a folder each)")
     a = ap.parse_args(argv)
     path = Path(a.run)
     path = path / "run.mcap" if path.is_dir() else path
@@ -84,9 +86,12 @@ def main(argv: list[str] | None = None) -> int:
     for v in variants:
         params = gmapping_params(Path(a.master), v)
         t0 = time.monotonic()
-        res = run(path, params, a.max_scans, progress=sys.stderr,
+        print(f"variant {v or 'as-configured'!r} ...", file=sys.stderr, flush=True)
+        res = run(path, params, a.max_scans, progress=None,
                   records=scan_records(iter(messages), str(path)))
         grid = res.slam.occupancy_grid(float(res.stamps[-1]))
+        if a.save:
+            write_outputs(res, Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured"))
         offset = truth.fit(grid, headings_deg=(-2.0, -1.0, 0.0, 1.0, 2.0))
         fitted = truth.moved(offset)
         walls, free = fitted.agreement(grid)
