@@ -34,6 +34,7 @@ from deploy.stack.map_check import NO_OFFSET, WorldTruth
 from deploy.stack.process_group import ProcessGroup, set_options
 from master_side.costmap.cost_values import LETHAL
 from master_side.mapping.map_io import load_map
+from robot_side.sim.world import is_map_world
 
 STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
 REFIT_S = 20.0  # simulated seconds between fits of the map's frame while the run goes on
@@ -185,13 +186,20 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     run once the robot and master are stopped, before the monitor is (``zenav demo --serve-web`` keeps
     the page up there); ``master_set``: ``NODE.KEY=VALUE`` overrides for ``zenav master --set``;
     ``robot_args``: more ``zenav robot`` options (``--engine mujoco``); ``record``: topics ``zenav record``
-    writes into ``<run dir>/run.mcap`` (``zenav slam run`` reads it again: SLAM offline on the same data)."""
+    writes into ``<run dir>/run.mcap`` (``zenav slam run`` reads it again: SLAM offline on the same data).
+
+    A map_server map's world ends at the map's edge (the simulator's ``edge_walls``, the judge's too): the
+    building is what is to be explored, and MRPB's mall has openings in its outer wall with its map's edge
+    beyond them, through which the robot could drive off the map and explore empty floor for ever."""
     wall0 = time.monotonic()
     work = Path(workdir) / name.replace("/", "_")
     work.mkdir(parents=True, exist_ok=True)
     robot = robot or f"explore{uuid.uuid4().hex[:6]}"
     endpoint = endpoint or f"tcp/127.0.0.1:{free_port()}"
-    truth = WorldTruth.of(world, start, 0.05)
+    edge_walls = is_map_world(world)
+    if edge_walls:
+        robot_args = (*robot_args, "--set", "sim.world_params.edge_walls=true")
+    truth = WorldTruth.of(world, start, 0.05, edge_walls=edge_walls)
     group = ProcessGroup(robot, endpoint, work)
     # on the simulator's time: a wall-clock node refuses what is stamped 300 s ahead of it, and at --speed 2
     # the simulator is that far ahead after five minutes (the coverage froze at 43 % in office02)

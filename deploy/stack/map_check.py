@@ -68,10 +68,11 @@ class WorldTruth:
 
     @staticmethod
     def of(world: str, map_in_world: Pose2D, resolution: float, min_height: float = 0.05,
-           margin_m: float = 0.1) -> WorldTruth:
+           margin_m: float = 0.1, edge_walls: bool = False) -> WorldTruth:
         """``margin_m``: cells this near a true obstacle are not judged free or not (a wall's face falls
-        anywhere within a map cell)."""
-        w = load_world(world_path(world), WorldParams(resolution=resolution), start=map_in_world)
+        anywhere within a map cell); ``edge_walls``: the simulator's (``WorldParams.edge_walls``)."""
+        w = load_world(world_path(world), WorldParams(resolution=resolution, edge_walls=edge_walls),
+                       start=map_in_world)
         truth = w.to_occupancy_grid(min_height, unknown_unreachable=True).data
         dist = (ndimage.distance_transform_edt(truth != 100) - ndimage.distance_transform_edt(truth == 100)) \
             * w.resolution

@@ -32,7 +32,7 @@ from common.messages import Header, OccupancyGrid
 from common.pgm import read_pgm
 from robot_side.sim.world_shapes import Box, grid_boxes, parse_shapes
 
-__all__ = ["WorldParams", "World", "load_world", "parse_pose"]
+__all__ = ["WorldParams", "World", "is_map_world", "load_world", "parse_pose"]
 
 
 @dataclass(frozen=True)
@@ -42,6 +42,8 @@ class WorldParams:
                                        doc="height of occupied cells of a map_server map")
     unknown_is_obstacle: bool = param(False, doc="map_server 'unknown' cells become obstacles (else free)")
     margin: float = param(0.5, lo=0.0, hi=100.0, unit="m", doc="free border around shapes without bounds")
+    edge_walls: bool = param(False, doc="a wall along a map_server map's edge: the world ends where its map "
+                             "does (else the floor goes on, empty, beyond it)")
 
 
 def parse_pose(value: Any, source: str = "<world>", key: str = "pose") -> Pose2D:
@@ -222,8 +224,16 @@ class World:
         iy = np.minimum(((np.arange(rows) + 0.5) * res / map_res).astype(np.int64), occupied.shape[0] - 1)
         ix = np.minimum(((np.arange(cols) + 0.5) * res / map_res).astype(np.int64), occupied.shape[1] - 1)
         heights = np.where(occupied[np.ix_(iy, ix)], np.float32(h), np.float32(0.0))
+        if params.edge_walls:  # e.g. MRPB's mall: its outer wall has openings, and the map's edge lies beyond
+            heights[[0, -1], :] = heights[:, [0, -1]] = np.float32(h)
         start = parse_pose(y["start"], src, "start") if "start" in y else Pose2D()
         return cls(heights, res, (x0, y0), start, _goals(y.get("goals"), src), path.stem)
+
+
+def is_map_world(path: str | Path) -> bool:
+    """Is ``path`` a map_server map YAML (not a world name or a shapes YAML)?"""
+    p = Path(path)
+    return p.suffix in (".yaml", ".yml") and p.is_file() and "image" in read_yaml(p)
 
 
 def load_world(path: str | Path, params: WorldParams = WorldParams(), start: Any = None) -> World:

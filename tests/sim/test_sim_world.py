@@ -46,6 +46,22 @@ def test_map_unknown_negate_and_height_override(tmp_path):
     assert w.occupied().sum() == 2 * 25
 
 
+def test_edge_walls_end_a_map_world_at_its_edge(tmp_path):
+    """Without them the floor goes on beyond the map (a ray through an opening in an outer wall finds nothing,
+    the robot can drive off); with them the world's free space is the map's."""
+    img = np.full((8, 10), 254, np.uint8)
+    img[:, 5] = 0  # a wall across the map with one opening
+    img[4, 5] = 254
+    open_ = load_world(_map(tmp_path, img), WorldParams(resolution=0.05))
+    closed = load_world(_map(tmp_path, img), WorldParams(resolution=0.05, edge_walls=True))
+    assert not open_.occupied()[:, [0, -1]].any()  # free floor up to the edge, and beyond it
+    assert closed.occupied()[:, [0, -1]].all() and closed.occupied()[[0, -1], :].all()
+    assert (open_.occupied() & ~closed.occupied()).sum() == 0  # the map's own walls are kept
+    # from a start left of the wall, the opening joins both halves: one region, inside the edge
+    reach = closed.with_start(Pose2D(-0.75, -1.6, 0.0)).to_occupancy_grid(unknown_unreachable=True).data
+    assert (reach == 0).sum() == (~closed.occupied()).sum()
+
+
 def test_ascii_pgm(tmp_path):
     (tmp_path / "a.pgm").write_text("P2\n# comment\n3 2\n255\n0 128 255\n10 20 30\n")
     np.testing.assert_array_equal(read_pgm(tmp_path / "a.pgm"), [[0, 128, 255], [10, 20, 30]])
