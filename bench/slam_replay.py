@@ -39,6 +39,7 @@ from deploy.stack.map_check import WorldTruth  # noqa: E402
 from master_side.slam import node as slam_node  # noqa: E402
 from master_side.slam.logs import scan_records  # noqa: E402
 from master_side.slam.offline import run, write_outputs  # noqa: E402
+from robot_side.sim.world import is_map_world  # noqa: E402
 
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
 
@@ -81,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     gt = [(m.header.stamp, m.pose2d) for t, m in messages if t == "ground_truth"]
     gt_t = np.array([s for s, _ in gt])
     gt_xy = np.array([(p.x, p.y) for _, p in gt])
-    truth = WorldTruth.of(world, start, 0.05)
+    truth = WorldTruth.of(world, start, 0.05, edge_walls=is_map_world(world))  # as the exploration bench
     rows = []
     for v in variants:
         params = gmapping_params(Path(a.master), v)
