@@ -241,8 +241,10 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
             explore.send_signal(signal.SIGINT)  # as Ctrl-C: cancels its goal, saves the map
             explore.wait(60)
         saved = work / "explored.yaml"
-        if saved.exists():
-            grid = load_map(saved)
+        # explore saves the map as it ends; one that failed (e.g. move_base silent) saved none: the last map
+        # SLAM published is judged instead (before, such a run read 0 % known)
+        grid = load_map(saved) if saved.exists() else watch.maps.latest()
+        if grid is not None:
             out.raw_share, (out.raw_walls_ok, _) = truth.explored(grid), truth.agreement(grid)
             out.offset = truth.fit(grid, watch.offset, headings_deg=(-2.0, -1.0, 0.0, 1.0, 2.0))
             fitted = truth.moved(out.offset)
