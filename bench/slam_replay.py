@@ -33,9 +33,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from common.config import merge_included, read_yaml  # noqa: E402
 from deploy.logs.mcap_io import read_records  # noqa: E402
-from deploy.stack.map_check import WorldTruth  # noqa: E402
+from deploy.stack.map_check import FIT_HEADINGS_DEG, WorldTruth  # noqa: E402
 from master_side.slam import node as slam_node  # noqa: E402
 from master_side.slam.logs import scan_records  # noqa: E402
 from master_side.slam.offline import run, write_outputs  # noqa: E402
@@ -45,13 +44,9 @@ MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
 
 
 def gmapping_params(master: Path, variant: str):
-    """slam_gmapping's parameters as `zenav master --config master` gives them, with ``variant``'s over them."""
-    cfg = dict(read_yaml(master)["nodes"]["slam_gmapping"]["params"])
-    for kv in variant.split():
-        k, _, v = kv.partition("=")
-        cfg[k] = float(v) if any(c in v for c in ".e") else int(v)
-    params, _ = slam_node.load(*merge_included(cfg, "gmapping", str(master)))
-    return params
+    """slam_gmapping's parameters as `zenav master --config master --set slam_gmapping.KEY=VALUE ...` gives
+    them, one assignment per ``KEY=VALUE`` of ``variant``."""
+    return slam_node.master_params(str(master), sets=tuple(f"slam_gmapping.{kv}" for kv in variant.split()))
 
 
 def _interp(ts: np.ndarray, xy: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -93,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
         grid = res.slam.occupancy_grid(float(res.stamps[-1]))
         if a.save:
             write_outputs(res, Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured"))
-        offset = truth.fit(grid, headings_deg=(-2.0, -1.0, 0.0, 1.0, 2.0))
+        offset = truth.fit(grid, headings_deg=FIT_HEADINGS_DEG)
         fitted = truth.moved(offset)
         walls, free = fitted.agreement(grid)
         known = fitted.explored(grid)

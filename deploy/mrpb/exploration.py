@@ -30,7 +30,7 @@ from common.geometry import Pose2D
 from common.messages import Collision, Costmap, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
-from deploy.stack.map_check import NO_OFFSET, WorldTruth
+from deploy.stack.map_check import FIT_HEADINGS_DEG, NO_OFFSET, WorldTruth
 from deploy.stack.process_group import ProcessGroup, set_options
 from master_side.costmap.cost_values import LETHAL
 from master_side.mapping.map_io import load_map
@@ -107,11 +107,13 @@ class _Watch:
 
     def _contact(self, m: Collision) -> None:
         with self.lock:
-            if m.count > self.collisions:
+            new = m.count > self.collisions
+            if new:
                 self.collisions = m.count
                 self.contacts.append((self.now() - (self.t0 or 0.0), m.x, m.y))
                 self.contact_marks.append(self._mark_near(m.x, m.y, m.header.stamp - BEFORE_CONTACT_S))
-                self._snapshot(m)
+        if new:  # the file written outside the lock the judging thread also takes
+            self._snapshot(m)
 
     def _snapshot(self, m: Collision) -> None:
         """``contact_<n>.npz``: the touched point (world) and the simulator's stamp, the local costmaps of the
@@ -198,7 +200,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     endpoint = endpoint or f"tcp/127.0.0.1:{free_port()}"
     edge_walls = is_map_world(world)
     if edge_walls:
-        robot_args = (*robot_args, "--set", "sim.world_params.edge_walls=true")
+        robot_args = (*robot_args, *set_options(("sim.world_params.edge_walls=true",)))
     truth = WorldTruth.of(world, start, 0.05, edge_walls=edge_walls)
     group = ProcessGroup(robot, endpoint, work)
     # on the simulator's time: a wall-clock node refuses what is stamped 300 s ahead of it, and at --speed 2
@@ -246,7 +248,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         grid = load_map(saved) if saved.exists() else watch.maps.latest()
         if grid is not None:
             out.raw_share, (out.raw_walls_ok, _) = truth.explored(grid), truth.agreement(grid)
-            out.offset = truth.fit(grid, watch.offset, headings_deg=(-2.0, -1.0, 0.0, 1.0, 2.0))
+            out.offset = truth.fit(grid, watch.offset, headings_deg=FIT_HEADINGS_DEG)
             fitted = truth.moved(out.offset)
             out.final_share = fitted.explored(grid)
             out.walls_ok, out.free_ok = fitted.agreement(grid)

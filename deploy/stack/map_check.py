@@ -51,6 +51,7 @@ def map_accuracy(grid: OccupancyGrid, world: str, map_in_world: Pose2D, min_heig
 FIT_CAP_M = 0.5  # WorldTruth.fit: a mapped wall farther than this from any true one counts as this far
 FIT_MIN_CELLS = 50  # ... and fits nothing on fewer occupied cells than this
 NO_OFFSET = Pose2D(0.0, 0.0, 0.0)
+FIT_HEADINGS_DEG = (-2.0, -1.0, 0.0, 1.0, 2.0)  # a finished map's fit, searched from these turns of the guess
 
 
 @dataclass(frozen=True)

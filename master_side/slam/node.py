@@ -67,6 +67,18 @@ def check(cfg: dict, source: str) -> list[str]:
     return notes
 
 
+def master_params(master_config: str, name: str = "slam_gmapping", sets: tuple[str, ...] = ()) -> GMappingParams:
+    """The gmapping parameters ``zenav master --config master_config --set NAME.KEY=VALUE ...`` gives node
+    ``name`` (the agent's own loading: includes, relative files, value parsing), e.g. to map a recording
+    offline as that master would online."""
+    from common.config import merge_included
+    from master_side import agent as master_agent
+
+    launch = master_agent.load(master_config, sets=sets)
+    cfg, source = launch.node_params(launch.entry(name))
+    return load(*merge_included(cfg, "gmapping", source))[0]
+
+
 class SlamNode:
     def __init__(self, node, cfg: dict, source: str):
         self.node = node

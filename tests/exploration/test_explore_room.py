@@ -9,7 +9,6 @@ from pathlib import Path
 
 import pytest
 
-from common.config import merge_included, read_yaml
 from common.geometry import Pose2D
 from deploy.logs.mcap_io import read_records
 from deploy.mrpb.exploration import run_exploration
@@ -39,9 +38,7 @@ def test_the_room_is_mapped_by_exploration_which_ends_by_itself_without_a_contac
     recs = list(scan_records(((r.topic, r.msg) for r in read_records(mcap)), str(mcap)))
     assert len(recs) > 50, said
     assert recs[0].laser.as_array() == pytest.approx([0.1, 0.0, 0.0], abs=1e-6)  # p3at_sim_laser.yaml's mount
-    params, _ = slam_node.load(*merge_included(dict(read_yaml(MASTER)["nodes"]["slam_gmapping"]["params"]),
-                                               "gmapping", str(MASTER)))
-    res = offline_run(mcap, params, progress=None, records=recs)
+    res = offline_run(mcap, slam_node.master_params(str(MASTER)), progress=None, records=recs)
     grid = res.slam.occupancy_grid(float(res.stamps[-1]))
     truth = WorldTruth.of("room", Pose2D(-2.2, 0.0, 0.0), grid.resolution)
     assert min(truth.agreement(grid)) >= 0.95 and truth.explored(grid) >= 0.95, said
