@@ -32,6 +32,7 @@ from common.query_routes import Queryables, ask_redeclare
 from common.route_watch import RouteWatch
 from common.tcp_linger import open_session
 from common.zenoh_config import BusConfig
+from common.zenoh_threads import JOIN_TIMEOUT_S, cancel_retries, join_all
 
 log = logging.getLogger("zenav.bus")
 
@@ -132,6 +133,12 @@ class Node:
         self.stats_sources.append(sub)
         return sub
 
+    def own(self, obj: Any) -> Any:
+        """Close ``obj`` (its ``close()``) with this node, before the session, and join its ``threads()``
+        after: for helpers with threads of their own that use the node (common.tf.StaticTFBroadcaster)."""
+        self._entities.append(obj)
+        return obj
+
     def stats(self) -> NodeStats:
         """Counters of every subscription (and TF listener) of this node; also served as
         ``node_stats/<name>`` (``zenav nodes --stats``)."""
@@ -212,9 +219,17 @@ class Node:
             with contextlib.suppress(Exception):  # best effort on shutdown
                 e.close() if hasattr(e, "close") else e.undeclare()
         self._pool.shutdown(wait=False, cancel_futures=True)
+        retries = cancel_retries(self.session)
         if self._owns_session:
             with contextlib.suppress(zenoh.ZError):  # "close operation timed out" over a dead link
                 self.session.close()
+        # no thread of this node may still be inside Zenoh when the interpreter ends: it would abort the
+        # process (common/zenoh_threads.py); a call on the closed session returns at once
+        threads = [self.routes.thread, *(t.thread for t in self._timers), *retries,
+                   *(t for e in self._entities if hasattr(e, "threads") for t in e.threads())]
+        left = join_all(threads)
+        if left:
+            self.log.warning("threads still running %.0f s after close: %s", JOIN_TIMEOUT_S, ", ".join(left))
 
     def __enter__(self) -> Node:
         return self

@@ -21,8 +21,8 @@ class LatestSender:
         self._pending: bytes | None = None
         self._closed = False
         self.superseded = 0  # messages replaced before they were sent
-        self._thread = threading.Thread(target=self._run, name=f"send {name}", daemon=True)
-        self._thread.start()
+        self.thread = threading.Thread(target=self._run, name=f"send {name}", daemon=True)
+        self.thread.start()
 
     def send(self, data: bytes) -> None:
         with self._cv:

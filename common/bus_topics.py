@@ -22,6 +22,7 @@ from common.log_util import RateLimitedLog
 from common.msg_check import problem
 from common.query_routes import ask_redeclare
 from common.route_watch import count_source
+from common.zenoh_threads import track_retry
 
 if TYPE_CHECKING:
     from common.bus import Node
@@ -77,8 +78,11 @@ def fetch_latched(session: zenoh.Session, key: str, on_ok: Callable[[zenoh.Sampl
             t = threading.Timer(LATCHED_RETRY_S[attempt], fetch_latched,
                                 (session, key, on_ok, True, closed, attempt + 1, expect))
             t.daemon = True
+            track_retry(t, session)  # cancelled with its session (common/zenoh_threads.py)
             t.start()
 
+    if closed():  # a retry due after its subscriber closed
+        return
     try:
         session.get(key, zenoh.handlers.Callback(on_reply, on_done), target=zenoh.QueryTarget.ALL,
                     consolidation=zenoh.ConsolidationMode.NONE)
@@ -134,6 +138,10 @@ class Publisher:
         else:
             self._pub.put(data, attachment=self._attachment_z)
         self.count += 1
+
+    def threads(self) -> list[threading.Thread]:
+        """Its thread that may be inside Zenoh (the background sender), for the node to join on close."""
+        return [self._sender.thread] if self._sender is not None else []
 
     def close(self) -> None:
         if self._sender is not None:
@@ -314,6 +322,11 @@ class Subscription:
             if not self._wait_for(lambda: bool(self._queue), timeout):
                 raise TimeoutError(f"no message on '{self.topic}' within {timeout} s")
             return self._queue.popleft()
+
+    def threads(self) -> list[threading.Thread]:
+        """Its callback thread (which may be inside Zenoh: a callback that publishes or calls a service),
+        for the node to join on close."""
+        return [self._worker] if self._worker is not None else []
 
     def close(self) -> None:
         with self._cv:

@@ -117,9 +117,9 @@ class Timer:
         self.overruns = 0
         self.last_duration = 0.0
         self.kicks = 0
-        self._thread = threading.Thread(target=self._run if not on_data else self._run_on_data, name=name,
+        self.thread = threading.Thread(target=self._run if not on_data else self._run_on_data, name=name,
                                         daemon=True)
-        self._thread.start()
+        self.thread.start()
 
     def _call(self) -> None:
         t0 = time.perf_counter()
@@ -170,5 +170,5 @@ class Timer:
         self._clock.wake()
 
     def join(self, timeout: float = 2.0) -> None:
-        if threading.current_thread() is not self._thread:
-            self._thread.join(timeout)
+        if threading.current_thread() is not self.thread:
+            self.thread.join(timeout)

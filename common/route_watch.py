@@ -105,8 +105,8 @@ class RouteWatch:
         self.doubts: dict[tuple[str, str], _Doubt] = {}  # (topic, publisher) -> a silent stream
         self.unfed: dict[int, _Doubt] = {}  # id(subscription) -> its doubt, while it has been fed nothing
         self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True, name=f"routes:{node_name}")
-        self._thread.start()
+        self.thread = threading.Thread(target=self._run, daemon=True, name=f"routes:{node_name}")
+        self.thread.start()
 
     def add(self, sub: Watched) -> None:
         self.subs.append(sub)

@@ -35,6 +35,7 @@ from common.tf_buffer import (
     TFError,
     UnknownFrameError,
 )
+from common.zenoh_threads import join_all
 
 __all__ = [
     "TFBuffer", "TFError", "UnknownFrameError", "ConnectivityError", "ExtrapolationError", "EdgeInfo",
@@ -172,9 +173,15 @@ class StaticTFBroadcaster:
         self._all: dict[str, TransformStamped] = {}
         self._lock = threading.Lock()
         self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
         if republish_s is not None:
-            threading.Thread(target=self._republish, args=(republish_s,), daemon=True,
-                             name="tf_static:republish").start()
+            self._thread = threading.Thread(target=self._republish, args=(republish_s,), daemon=True,
+                                            name="tf_static:republish")
+            self._thread.start()
+        node.own(self)  # closed, and its thread joined, with the node
+
+    def threads(self) -> list[threading.Thread]:
+        return [self._thread] if self._thread is not None else []
 
     def send(self, transforms: TransformStamped | list[TransformStamped]) -> None:
         with self._lock:
@@ -196,6 +203,7 @@ class StaticTFBroadcaster:
         self._stop.set()
         with self._lock:
             self._pub.close()
+        join_all([self._thread])  # it may be inside a put (common/zenoh_threads.py)
 
 
 def _frames_problem(msg: TFMessage) -> str | None:

@@ -77,7 +77,7 @@ def test_kicks_align_runs_with_data_but_never_faster_than_the_period():
     finally:
         timer.cancel()
         timer.join()
-    assert not timer._thread.is_alive()
+    assert not timer.thread.is_alive()
 
 
 def test_a_fixed_rate_timer_ignores_kicks():
@@ -92,4 +92,4 @@ def test_a_fixed_rate_timer_ignores_kicks():
     finally:
         timer.cancel()
         timer.join()
-    assert not timer._thread.is_alive()
+    assert not timer.thread.is_alive()
