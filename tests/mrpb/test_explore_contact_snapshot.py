@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from bench.contacts import MASTER, diagnose, local_footprint
 from common.bus import Node
 from common.geometry import Pose2D
 from common.messages import Collision, Costmap, Header, Odometry
@@ -38,5 +39,8 @@ def test_a_contact_leaves_a_snapshot_of_the_local_costmap_and_the_poses(tmp_path
         assert snap["point"].tolist() == [0.27, 0.1] and snap["resolution"] == 0.025
         assert snap["odom"].shape == (5, 4) and snap["truth"][-1, 1] == 0.04
         assert watch.contact_marks[0] < 0.025  # the touched point lies within a cell of the wall (x 0.25-0.275)
+        # and bench/contacts.py reads it: the wall was in every map, up to the contact
+        padded, padding = local_footprint(MASTER)
+        assert diagnose(snap, padded, padding)[0] == "marked"
     finally:
         node.close()
