@@ -10,6 +10,7 @@ stderr; the agents' supervisor does not respawn such a node. A module MAY also d
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import logging
 import signal
 import sys
@@ -68,6 +69,9 @@ def node_main(default_name: str, start: Callable, argv: list[str] | None = None)
     stop = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
+    # a node alive but silent (no status, no log, no service answer): `kill -USR1 <pid>` (the pid is in the
+    # agent's status table) writes every thread's stack to its log, and the node goes on
+    faulthandler.register(signal.SIGUSR1, all_threads=True)
     node = Node(args.name, robot=args.robot)
     try:
         try:
