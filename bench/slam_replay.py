@@ -16,8 +16,10 @@ parameters over the master file's (p3at_slam_zenav.yaml's: the tutorial's gmappi
   python bench/slam_replay.py RUN_DIR --world shopping_mall --variant "" --variant "maxUrange=30" \\
       --variant "maxUrange=30 particles=100"
 
-Ends with slam_replay_variants=… slam_replay_walls_pct=… (the first variant's) slam_replay_traj_p95_m=…
-slam_replay_best=… (the variant with the most walls right)
+`--seeds N` replays each variant with gmapping's seeds 0..N-1 and adds each variant's mean, min and max.
+
+Ends with slam_replay_variants=… slam_replay_seeds=… slam_replay_walls_pct=… (the first variant's, its mean
+over the seeds) slam_replay_traj_p95_m=… slam_replay_best=… (the variant with the most walls right)
 """
 
 from __future__ import annotations
@@ -64,6 +66,9 @@ def main(argv: list[str] | None = None) -> int:
                     help="slam_gmapping parameters over the master file's (repeatable; default: the file's own)")
     ap.add_argument("--master", default=str(MASTER), help="the master file whose slam_gmapping is replayed")
     ap.add_argument("--max-scans", type=int, default=None, help="map only the first N scans")
+    ap.add_argument("--seeds", type=int, default=1, metavar="N",
+                    help="replay each variant with gmapping's seeds 0..N-1 (a particle filter's single draw differs "
+                         "by a few percent from the next: compare variants on their means)")
     ap.add_argument("--save", default="", metavar="DIR",
                     help="write each variant's map and trajectory there (zenav slam run's files, a folder each)")
     a = ap.parse_args(argv)
@@ -78,8 +83,11 @@ def main(argv: list[str] | None = None) -> int:
     gt_t = np.array([s for s, _ in gt])
     gt_xy = np.array([(p.x, p.y) for _, p in gt])
     truth = WorldTruth.of(world, start, 0.05, edge_walls=is_map_world(world))  # as the exploration bench
+    if a.seeds < 1:
+        ap.error(f"--seeds: {a.seeds}: at least 1")
     rows = []
-    for v in variants:
+    runs = [(v, f"{v} seed={k}".strip() if a.seeds > 1 else v) for v in variants for k in range(a.seeds)]
+    for variant, v in runs:
         params = gmapping_params(Path(a.master), v)
         t0 = time.monotonic()
         print(f"variant {v or 'as-configured'!r} ...", file=sys.stderr, flush=True)
@@ -95,18 +103,28 @@ def main(argv: list[str] | None = None) -> int:
         frame = start.compose(offset)  # the map's frame in the world
         est = frame.apply(res.poses[:, :2])
         err = np.hypot(*(est - _interp(gt_t, gt_xy, res.stamps)).T) if len(gt_t) else np.full(len(est), np.nan)
-        rows.append((v or "as-configured", res, walls, free, known, offset, err, time.monotonic() - t0))
+        rows.append((v or "as-configured", res, walls, free, known, offset, err, time.monotonic() - t0, variant))
     print(f"{'variant':34} {'scans':>6} {'upd':>5} {'ms/upd':>7} {'walls%':>6} {'free%':>6} {'known%':>6} "
           f"{'map frame':>13} {'traj mean':>9} {'p95 m':>6} {'max m':>6} {'wall s':>7}")
-    for name, res, walls, free, known, off, err, wall in rows:
+    for name, res, walls, free, known, off, err, wall, _ in rows:
         fit = f"{math.degrees(off.theta):+.1f}°{math.hypot(off.x, off.y):.2f}m"
         print(f"{name:34.34} {res.scans:6d} {res.processed:5d} {res.update_ms:7.1f} {100 * walls:6.1f} "
               f"{100 * free:6.1f} {100 * known:6.1f} {fit:>13} {np.mean(err):9.3f} {np.percentile(err, 95):6.3f} "
               f"{np.max(err):6.3f} {wall:7.0f}")
-    best = max(rows, key=lambda r: r[2])
-    print(f"slam_replay_variants={len(rows)} slam_replay_walls_pct={100 * rows[0][2]:.1f} "
-          f"slam_replay_traj_p95_m={np.percentile(rows[0][6], 95):.3f} "
-          f"slam_replay_best={best[0].replace(' ', ',')}")
+    by = {v: [r for r in rows if r[8] == v] for v in variants}  # each variant's replays (one per seed)
+    walls_mean = {v: float(np.mean([r[2] for r in rs])) for v, rs in by.items()}
+    if a.seeds > 1:
+        print(f"\n{'variant':34} {'seeds':>5} {'walls% mean':>11} {'min':>6} {'max':>6} {'traj p95 mean m':>15}")
+        for v, rs in by.items():
+            w = [100 * r[2] for r in rs]
+            print(f"{v or 'as-configured':34.34} {len(rs):5d} {np.mean(w):11.1f} {min(w):6.1f} {max(w):6.1f} "
+                  f"{np.mean([np.percentile(r[6], 95) for r in rs]):15.3f}")
+    first = by[variants[0]]
+    best = max(variants, key=lambda v: walls_mean[v])
+    print(f"slam_replay_variants={len(variants)} slam_replay_seeds={a.seeds} "
+          f"slam_replay_walls_pct={100 * walls_mean[variants[0]]:.1f} "
+          f"slam_replay_traj_p95_m={np.mean([np.percentile(r[6], 95) for r in first]):.3f} "
+          f"slam_replay_best={(best or 'as-configured').replace(' ', ',')}")
     return 0
 
 
