@@ -115,6 +115,8 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             stop.wait(period)
             continue
         d = ex.plan(frontiers, node.clock.now())
+        for (bx, by), why in ex.take_blacklisted():
+            echo(f"  frontier ({bx:.2f}, {by:.2f}) blacklisted: {why}")
         if params.visualize:
             cells = np.concatenate([f.cells for f in frontiers]) if frontiers else np.zeros((0, 2))
             pts = np.column_stack((cells, np.full(len(cells), 0.02))).astype(np.float32)

@@ -79,6 +79,18 @@ class Explorer:
     _reached_at: tuple[float, float] | None = None  # the goal last reached, kept
     _reaches: int = 0  # how many times in a row a goal there was reached
     _idle_since: float | None = None  # when the search last began to find nothing to go to
+    # each blacklisting since the caller last took them (``take_blacklisted``): the centroid and why
+    _news: list[tuple[tuple[float, float], str]] = field(default_factory=list)
+
+    def _drop(self, point: tuple[float, float], why: str) -> None:
+        self.blacklist.append(point)
+        self._news.append((point, why))
+
+    def take_blacklisted(self) -> list[tuple[tuple[float, float], str]]:
+        """The frontiers blacklisted since the last call, each with why (for the log: a run that ends
+        with frontiers left says which were given up and on what)."""
+        out, self._news = self._news, []
+        return out
 
     def blacklisted(self, point: tuple[float, float]) -> bool:
         r = self.params.blacklist_radius
@@ -123,7 +135,9 @@ class Explorer:
                     self.goal = cur.goal
                     return Decision("send", cur.centroid, cur, "the followed frontier moved")
                 return Decision("keep", cur.centroid, cur)
-            self.blacklist.append(cur.centroid)  # no nearer for progress_timeout: explore_lite's rule
+            # no nearer for progress_timeout: explore_lite's rule
+            self._drop(cur.centroid, f"no nearer for {self.params.progress_timeout:g} s "
+                                     f"(still {cur.min_distance:.1f} m away)")
         self.target = self.goal = None
         reached, self._reached = self._reached, None
         for pick in frontiers:
@@ -137,7 +151,10 @@ class Explorer:
             again = reached is not None and math.dist(pick.goal, reached) <= self.params.commit_radius
             if again and pick.min_distance >= self._best_distance:
                 if now - self._last_progress > self.params.progress_timeout or self._reaches >= 2:
-                    self.blacklist.append(pick.centroid)
+                    how = "twice" if self._reaches >= 2 else \
+                        f"and no nearer for {self.params.progress_timeout:g} s"
+                    self._drop(pick.centroid, f"its goal reached {how}, the frontier still {pick.min_distance:.1f} m "
+                                              "away")
                     continue
             else:
                 self._last_progress, self._best_distance, self._reaches = now, pick.min_distance, 0

@@ -29,6 +29,8 @@ def test_no_progress_for_progress_timeout_blacklists_the_target_and_takes_the_ne
     d = ex.plan(fs, now=31.0)  # 31 s at the same distance
     assert (d.action, d.target) == ("send", (-3, 0))
     assert ex.blacklisted((3.2, 0.1)) and not ex.blacklisted((3.6, 0.0))  # within blacklist_radius 0.5 m
+    assert ex.take_blacklisted() == [((3, 0), "no nearer for 30 s (still 2.0 m away)")]  # said once
+    assert ex.take_blacklisted() == []
 
 
 def test_a_failed_goal_is_never_chosen_again_and_all_blacklisted_is_the_end():
@@ -90,6 +92,7 @@ def test_a_reached_goal_whose_frontier_stays_is_blacklisted_at_its_second_reach(
     ex.goal_reached()
     d = ex.plan([stays, other], now=2.0)
     assert (d.action, d.target) == ("send", (-3, 0)) and ex.blacklisted((3, 0))
+    assert ex.take_blacklisted() == [((3, 0), "its goal reached twice, the frontier still 0.2 m away")]
     # without reaches, the progress clock alone blacklists it
     ex1 = Explorer(ExploreParams(progress_timeout=30.0))
     assert ex1.plan([stays, other], now=0.0).target == (3, 0)
