@@ -15,7 +15,8 @@ the other, while SLAM builds it (zenav master --config master_side/config/p3at_s
 frontier is left; then save the map (--save NAME, default 'explored'). Ctrl-C stops, cancels the goal
 and saves the map too. Frontiers, their cost and the choice are explore_lite's: the cheapest of
 (potential_scale x distance - gain_scale x size) x the map's resolution, frontiers under min_frontier_size ignored, a
-target blacklisted when move_base gives up on it or after progress_timeout without getting nearer; free
+target blacklisted when move_base gives up on it or after progress_timeout without getting nearer (zenav:
+nor driving progress_travel on its way, for up to 4 progress_timeouts); free
 space nearer a wall than inscribed_radius does not count as reachable; goals avoid what move_base's global
 costmap forbids. Nothing left to go to must last done_timeout (15 s, the robot looking around meanwhile)
 before exploration ends.

@@ -114,7 +114,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             echo(f"  {e}")
             stop.wait(period)
             continue
-        d = ex.plan(frontiers, node.clock.now())
+        d = ex.plan(frontiers, node.clock.now(), (pose.x, pose.y))
         for (bx, by), why in ex.take_blacklisted():
             echo(f"  frontier ({bx:.2f}, {by:.2f}) blacklisted: {why}")
         if params.visualize:

@@ -5,7 +5,8 @@ Each ``plan`` call (every 1/planner_frequency s) follows the current target whil
 target is chosen, the cheapest frontier not on the blacklist (within ``blacklist_radius`` of a
 blacklisted centroid), when there is none yet, when move_base reached the goal (``goal_reached``), when
 the frontier is gone (explored), or when its ``min_distance`` has not shrunk for ``progress_timeout`` s
-(blacklisted; a frontier still there after its goal was reached keeps the clock it had, as explore_lite
+(blacklisted; zenav's ``progress_travel``: driving on its way counts too, for a while; a frontier still
+there after its goal was reached keeps the clock it had, as explore_lite
 keeps its previous goal's, and is blacklisted when its goal is reached a second time with it no nearer).
 explore_lite picks the cheapest every cycle: as SLAM's map grew, frontiers of near-equal cost traded
 places and the robot was sent back and forth across office02. A goal
@@ -51,6 +52,12 @@ class ExploreParams:
     circumscribed_radius: float = param(0.36, lo=0.0, hi=10.0, unit="m",
                                         doc="zenav's: goals this clear of walls where one is near, so the robot can "
                                             "turn to face the frontier (the P3-AT's, from the tutorial's footprint)")
+    progress_travel: float = param(1.0, lo=0.0, hi=100.0, unit="m",
+                                   doc="zenav's: a target whose frontier got no nearer is still progressing while "
+                                       "the robot gets this far from where it last progressed within each "
+                                       "progress_timeout, for at most 4 progress_timeouts (the way round a wall "
+                                       "first leads away from the frontier: the mall's shops, their doors 4 m away "
+                                       "by a 12 m path, were given up so); 0: explore_lite's rule")
     done_timeout: float = param(15.0, lo=0.0, hi=3600.0, unit="s",
                                 doc="zenav's: nothing left to go to for this long ends exploration (0: at once, "
                                     "explore_lite's rule); the robot looks around meanwhile")
@@ -79,6 +86,9 @@ class Explorer:
     _reached_at: tuple[float, float] | None = None  # the goal last reached, kept
     _reaches: int = 0  # how many times in a row a goal there was reached
     _idle_since: float | None = None  # when the search last began to find nothing to go to
+    _nearer_at: float = 0.0  # when the followed frontier last got nearer
+    _robot: tuple[float, float] | None = None  # the robot's last position given to ``plan``
+    _mark: tuple[float, float] | None = None  # where it was at the last progress
     # each blacklisting since the caller last took them (``take_blacklisted``): the centroid and why
     _news: list[tuple[tuple[float, float], str]] = field(default_factory=list)
 
@@ -112,7 +122,9 @@ class Explorer:
                 best, best_d = f, d
         return best
 
-    def plan(self, frontiers: list[Frontier], now: float) -> Decision:
+    def plan(self, frontiers: list[Frontier], now: float, robot: tuple[float, float] | None = None) -> Decision:
+        """``robot``: where the robot is (the frontiers' frame), for ``progress_travel``."""
+        self._robot = robot
         d = self._choose(frontiers, now)
         if d.action != "done":
             self._idle_since = None
@@ -127,7 +139,9 @@ class Explorer:
         cur = self._followed(frontiers)
         if cur is not None:
             if cur.min_distance < self._best_distance:
-                self._last_progress, self._best_distance = now, cur.min_distance
+                self._progress(now, cur.min_distance)
+            elif self._on_its_way(now):
+                self._last_progress, self._mark = now, self._robot
             if now - self._last_progress <= self.params.progress_timeout:
                 self.target = cur.centroid
                 moved = math.hypot(cur.goal[0] - self.goal[0], cur.goal[1] - self.goal[1])
@@ -157,11 +171,24 @@ class Explorer:
                                               "away")
                     continue
             else:
-                self._last_progress, self._best_distance, self._reaches = now, pick.min_distance, 0
+                self._progress(now, pick.min_distance)
+                self._reaches = 0
             self.target, self.goal = pick.centroid, pick.goal
             return Decision("send", pick.centroid, pick)
         why = "no frontier left" if not frontiers else f"all {len(frontiers)} frontiers blacklisted"
         return Decision("done", why=why)
+
+    def _progress(self, now: float, distance: float) -> None:
+        self._last_progress = self._nearer_at = now
+        self._best_distance, self._mark = distance, self._robot
+
+    def _on_its_way(self, now: float) -> bool:
+        """No nearer, but driving: ``progress_travel`` from where it last progressed, within
+        4 ``progress_timeout`` of the frontier last getting nearer."""
+        p = self.params
+        return (p.progress_travel > 0 and self._robot is not None and self._mark is not None
+                and math.dist(self._robot, self._mark) >= p.progress_travel
+                and now - self._nearer_at <= 4 * p.progress_timeout)
 
     def goal_reached(self) -> None:
         """move_base reached the goal: the next plan chooses afresh (the same frontier, if it is still the

@@ -105,3 +105,30 @@ def test_a_reached_goal_whose_frontier_stays_is_blacklisted_at_its_second_reach(
     ex2.plan([_f(3, 0, -2.0, dist=0.5)], now=29.0)
     ex2.goal_reached()
     assert ex2.plan([_f(3, 0, -2.0, dist=0.5)], now=50.0).target == (3, 0)  # 21 s since the progress at 29 s
+
+
+def test_driving_on_its_way_counts_as_progress_for_a_while_and_standing_does_not():
+    """The mall: a shop's door 4 m away by a 12 m path round a wall; the first half of the way leads away
+    from it, and 30 s without getting nearer gave the shop up. With ``progress_travel`` a robot that keeps
+    getting 1 m from where it last progressed is on its way; one that stands (or rocks in place) is not; and
+    a way that never gets nearer ends after 4 progress timeouts."""
+    fs = [_f(3, 0, -2.0), _f(-3, 0, -1.0)]
+    ex = Explorer(ExploreParams(progress_timeout=30.0, progress_travel=1.0))
+    assert ex.plan(fs, 0.0, (0.0, 0.0)).target == (3, 0)
+    for t in range(10, 151, 10):  # 1.2 m further along every 10 s, the frontier no nearer
+        d = ex.plan(fs, float(t), (0.0, -0.12 * t))
+        assert d.action == "keep", (t, d)
+    d = ex.plan(fs, 151.0, (0.0, -0.12 * 151))
+    assert (d.action, d.target) == ("send", (-3, 0))  # 4 progress timeouts after it last got nearer
+    assert ex.take_blacklisted()[0][1].startswith("no nearer for 30 s")
+    # rocking back and forth never gets 1 m from where it last progressed
+    ex = Explorer(ExploreParams(progress_timeout=30.0, progress_travel=1.0))
+    ex.plan(fs, 0.0, (0.0, 0.0))
+    for t in range(1, 31):
+        assert ex.plan(fs, float(t), (0.4 * (t % 2), 0.0)).action == "keep"
+    assert ex.plan(fs, 31.0, (0.0, 0.0)).target == (-3, 0)
+    # 0: explore_lite's rule, driving or not
+    ex = Explorer(ExploreParams(progress_timeout=30.0, progress_travel=0.0))
+    ex.plan(fs, 0.0, (0.0, 0.0))
+    ex.plan(fs, 20.0, (0.0, -3.0))
+    assert ex.plan(fs, 31.0, (0.0, -6.0)).target == (-3, 0)
