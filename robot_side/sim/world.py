@@ -42,8 +42,9 @@ class WorldParams:
                                        doc="height of occupied cells of a map_server map")
     unknown_is_obstacle: bool = param(False, doc="map_server 'unknown' cells become obstacles (else free)")
     margin: float = param(0.5, lo=0.0, hi=100.0, unit="m", doc="free border around shapes without bounds")
-    edge_walls: bool = param(False, doc="a wall along a map_server map's edge: the world ends where its map "
-                             "does (else the floor goes on, empty, beyond it)")
+    edge_walls: bool = param(False, doc="a map_server map's world ends where its map's content does: wall outside "
+                             "the bounding box of its occupied and unknown cells, and along the map's edge (else "
+                             "the floor goes on, empty, beyond it)")
 
 
 def parse_pose(value: Any, source: str = "<world>", key: str = "pose") -> Pose2D:
@@ -224,10 +225,25 @@ class World:
         iy = np.minimum(((np.arange(rows) + 0.5) * res / map_res).astype(np.int64), occupied.shape[0] - 1)
         ix = np.minimum(((np.arange(cols) + 0.5) * res / map_res).astype(np.int64), occupied.shape[1] - 1)
         heights = np.where(occupied[np.ix_(iy, ix)], np.float32(h), np.float32(0.0))
-        if params.edge_walls:  # e.g. MRPB's mall: its outer wall has openings, and the map's edge lies beyond
-            heights[[0, -1], :] = heights[:, [0, -1]] = np.float32(h)
+        if params.edge_walls:
+            _close_edges(heights, (p >= free_t)[::-1][np.ix_(iy, ix)], np.float32(h))
         start = parse_pose(y["start"], src, "start") if "start" in y else Pose2D()
         return cls(heights, res, (x0, y0), start, _goals(y.get("goals"), src), path.stem)
+
+
+def _close_edges(heights: np.ndarray, content: np.ndarray, h: np.float32) -> None:
+    """``edge_walls``: the world ends where its map's content does — outside the bounding box of its
+    occupied and unknown cells (``content``) everything is wall, and at the map's edge where the content
+    reaches it. A map's free margin beyond its outer wall is the image's padding, not a place: MRPB's mall
+    has 0.85 m of free floor all round outside its outer wall (118 m², a tenth of its floor), reached through
+    the wall's openings, an alley the P3-AT, 0.83 m across its corners, cannot turn in: every contact of two
+    exploration runs there (2026-11-29). The openings now end at a wall, as closed doors."""
+    rows, cols = np.nonzero(content.any(axis=1))[0], np.nonzero(content.any(axis=0))[0]
+    n, m = heights.shape
+    r0, r1 = (int(rows[0]), int(rows[-1])) if len(rows) else (0, n - 1)
+    c0, c1 = (int(cols[0]), int(cols[-1])) if len(cols) else (0, m - 1)
+    heights[:max(r0, 1), :] = heights[min(r1, n - 2) + 1:, :] = h
+    heights[:, :max(c0, 1)] = heights[:, min(c1, m - 2) + 1:] = h
 
 
 def is_map_world(path: str | Path) -> bool:

@@ -52,14 +52,35 @@ def test_edge_walls_end_a_map_world_at_its_edge(tmp_path):
     img = np.full((8, 10), 254, np.uint8)
     img[:, 5] = 0  # a wall across the map with one opening
     img[4, 5] = 254
+    img[0, 0] = img[-1, -1] = 0  # and content in two corners: it spans the map, whose edge is then the world's
     open_ = load_world(_map(tmp_path, img), WorldParams(resolution=0.05))
     closed = load_world(_map(tmp_path, img), WorldParams(resolution=0.05, edge_walls=True))
-    assert not open_.occupied()[:, [0, -1]].any()  # free floor up to the edge, and beyond it
-    assert closed.occupied()[:, [0, -1]].all() and closed.occupied()[[0, -1], :].all()
+    assert not open_.occupied()[2:-2, [0, -1]].any()  # free floor up to the edge, and beyond it
+    assert closed.occupied()[[0, -1], :].all() and closed.occupied()[:, [0, -1]].all()  # walls along its edge
     assert (open_.occupied() & ~closed.occupied()).sum() == 0  # the map's own walls are kept
-    # from a start left of the wall, the opening joins both halves: one region, inside the edge
+    # from a start left of the wall, the opening joins both sides: one region, inside the edge
     reach = closed.with_start(Pose2D(-0.75, -1.6, 0.0)).to_occupancy_grid(unknown_unreachable=True).data
-    assert (reach == 0).sum() == (~closed.occupied()).sum()
+    assert (reach == 0).sum() == (~closed.occupied()).sum() > 0.6 * closed.occupied().size
+
+
+def test_edge_walls_cut_the_free_margin_outside_a_buildings_outer_wall(tmp_path):
+    """MRPB's mall: free floor all round outside its outer wall, which has openings — an alley the robot can
+    enter and not turn in. With edge_walls the world ends at the bounding box of the map's walls and unknown
+    cells: the margin is wall, the opening ends at it, the inside is the only free space."""
+    img = np.full((14, 16), 254, np.uint8)  # a 2-pixel free margin all round
+    img[2, 2:14] = img[11, 2:14] = 205  # the outer wall, drawn as unknown and occupied cells
+    img[2:12, 2] = img[2:12, 13] = 0
+    img[2, 7] = 254  # an opening in the top wall, onto the margin
+    closed = load_world(_map(tmp_path, img), WorldParams(resolution=0.1, edge_walls=True, unknown_is_obstacle=True))
+    occ = closed.occupied()[::-1]  # image orientation: row 0 at the top
+    assert occ[:2, :].all() and occ[12:, :].all() and occ[:, :2].all() and occ[:, 14:].all()  # margin: wall
+    assert not occ[3:11, 3:13].any()  # the inside stays free
+    assert not occ[2, 7]  # the opening too, ending at the wall beyond it
+    reach = closed.with_start(Pose2D(-0.3, -0.7, 0.0)).to_occupancy_grid(unknown_unreachable=True).data
+    assert (reach == 0).sum() == 8 * 10 + 1  # the inside and its opening: nothing outside
+    # before: the margin was free and joined to the inside through the opening
+    walled_edge = load_world(_map(tmp_path, img), WorldParams(resolution=0.1, unknown_is_obstacle=True))
+    assert not walled_edge.occupied()[::-1][0, :].any()
 
 
 def test_ascii_pgm(tmp_path):
