@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from common.geometry import Pose2D, points_in_polygon  # noqa: E402
-from master_side.costmap.cost_values import LETHAL  # noqa: E402
+from deploy.mrpb.exploration import nearest_mark  # noqa: E402
 from master_side.costmap.footprint import pad_footprint  # noqa: E402
 
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
@@ -39,13 +39,11 @@ VERDICTS = ("marked", "footprint_cleared", "cleared", "never_marked")
 
 def local_footprint(master: Path) -> tuple[np.ndarray, float]:
     """The local costmap's padded footprint (robot frame) and its padding, from the master file's move_base."""
-    import yaml
-
+    from master_side import agent as master_agent
     from master_side.move_base.config import load_move_base_config
 
-    cfg = yaml.safe_load(master.read_text())
-    params = cfg["nodes"]["move_base"]["params"]
-    lc = load_move_base_config(params, str(master.resolve())).local_costmap
+    launch = master_agent.load(str(master))  # as the agent reads it: includes, relative files
+    lc = load_move_base_config(*launch.node_params(launch.entry("move_base"))).local_costmap
     return np.asarray(lc.footprint, float), float(lc.costmap.footprint_padding)
 
 
@@ -75,10 +73,7 @@ def diagnose(snap, padded: np.ndarray, padding: float) -> tuple[str, str, list[t
     for data, t, (ox, oy) in zip(snap["maps"], snap["map_stamps"], snap["origins"]):
         od, tr = _pose_at(odom, t), _pose_at(truth, t)
         px, py = od.compose(tr.inverse()).apply(point[None, :])[0]  # world -> odometry frame at that time
-        rows, cols = np.nonzero(np.asarray(data) == LETHAL)
-        d = float(np.min(np.hypot(ox + (cols + 0.5) * res - px, oy + (rows + 0.5) * res - py))) if len(rows) \
-            else float("inf")
-        history.append((float(t) - stamp, d))
+        history.append((float(t) - stamp, nearest_mark(data, (ox, oy), res, px, py)))
         fp = od.apply(padded)
         inside.append(bool(points_in_polygon(np.array([px]), np.array([py]), fp)[0]))
     marked = [d <= near for _, d in history]

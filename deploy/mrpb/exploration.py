@@ -72,6 +72,16 @@ class ExploreRun:
         return min(self.walls_ok, self.free_ok)
 
 
+def nearest_mark(data: np.ndarray, origin: tuple[float, float], resolution: float, x: float, y: float) -> float:
+    """The distance from (x, y) to the nearest LETHAL cell's centre of a costmap (``data`` rows = y,
+    ``origin`` its lower-left corner, all in one frame); inf if it has none."""
+    rows, cols = np.nonzero(np.asarray(data) == LETHAL)
+    if len(rows) == 0:
+        return float("inf")
+    cx, cy = origin[0] + (cols + 0.5) * resolution, origin[1] + (rows + 0.5) * resolution
+    return float(np.min(np.hypot(cx - x, cy - y)))
+
+
 class _Watch:
     """Coverage of each map as it comes (judged in this thread, not in Zenoh's), distance, contacts."""
 
@@ -150,11 +160,7 @@ class _Watch:
         odom = min(list(self.odoms), key=lambda o: abs(o.header.stamp - t)).pose2d
         true = min(list(self.truths), key=lambda o: abs(o.header.stamp - t)).pose2d
         px, py = odom.compose(true.inverse()).apply(np.array([[x, y]]))[0]
-        rows, cols = np.nonzero(np.asarray(cm.data) == LETHAL)
-        if len(rows) == 0:
-            return float("inf")
-        cx, cy = cm.origin.x + (cols + 0.5) * cm.resolution, cm.origin.y + (rows + 0.5) * cm.resolution
-        return float(np.min(np.hypot(cx - px, cy - py)))
+        return nearest_mark(cm.data, (cm.origin.x, cm.origin.y), cm.resolution, px, py)
 
     def now(self) -> float:
         """The simulator's time (the node is on use_sim_time="auto"), 0 before its first clock."""
