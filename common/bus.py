@@ -219,7 +219,9 @@ class Node:
             with contextlib.suppress(Exception):  # best effort on shutdown
                 e.close() if hasattr(e, "close") else e.undeclare()
         self._pool.shutdown(wait=False, cancel_futures=True)
-        retries = cancel_retries(self.session)
+        # the session's latched-query retries, when the session is this node's: a shared one's belong to its
+        # other users too (this node's own stop by themselves, their subscriptions closed)
+        retries = cancel_retries(self.session) if self._owns_session else []
         if self._owns_session:
             with contextlib.suppress(zenoh.ZError):  # "close operation timed out" over a dead link
                 self.session.close()
