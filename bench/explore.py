@@ -86,6 +86,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--record", action="store_true",
                     help="also record each run's scan, odometry, tf_static and ground truth into <run dir>/run.mcap "
                          "(zenav record): `zenav slam run run.mcap` maps the same data again offline")
+    ap.add_argument("--record-more", default="", metavar="TOPICS",
+                    help="with --record, these topics too (comma-separated), e.g. cmd_vel,move_base/local_plan,"
+                         "move_base/cmd_trace,local_costmap/costmap: what the planner chose and on which costmap")
     ap.add_argument("--out", default="", help="where each run's logs and map go (default: a new temp dir)")
     a = ap.parse_args(argv)
     # on physics DWA and the robot's odometry are told where the P3-AT turns about (deploy/stack/physics_sets.py)
@@ -94,6 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
     runs: list[ExploreRun] = []
     print(f"logs and maps under {out}", file=sys.stderr)
+    record = (*RECORDED, *filter(None, a.record_more.split(","))) if a.record else ()
     todo = [(w, sensor, k) for w in a.worlds for sensor in a.sensors for k in range(a.runs)]
     for w, sensor, k in todo:
         world, start = world_and_start(w)
@@ -103,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
             r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
                                 echo=lambda s: print(s, file=sys.stderr, flush=True), master_set=master_set,
-                                robot_args=robot_args, record=RECORDED if a.record else ())
+                                robot_args=robot_args, record=record)
         runs.append(r)
         print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
               f"({time.monotonic() - t0:.0f} s wall)" + "".join(

@@ -16,6 +16,7 @@ the odometry's ``odom_rotation_center_x`` (the simulated driver's, as p2os's): w
   python bench/turning.py --engine mujoco                 # the P3-AT on physics
   python bench/turning.py --engine mujoco --robot jackal
   python bench/turning.py --engine mujoco --odom-rotation-center-x -0.12
+  python bench/turning.py --engine mujoco --odom-rotation-center-x -0.12 --motions=-0.1,0.15,-0.1,-0.15,0.1,0.15
 
 Ends with turn_center_x_m=… turn_ratio=… turn_odom_ratio=… turn_odom_center_x_m=… (over all motions, after
 each one's first 0.5 s).
@@ -70,6 +71,16 @@ def fit_center_x(vy: np.ndarray, w: np.ndarray) -> float:
     return float(-(vy @ w) / (w @ w))
 
 
+def motions(text: str) -> tuple[tuple[float, float], ...]:
+    """``--motions``' v,w pairs (MOTIONS when empty)."""
+    if not text:
+        return MOTIONS
+    vals = [float(x) for x in text.split(",")]
+    if len(vals) % 2:
+        raise SystemExit(f"--motions: v,w pairs expected, got {len(vals)} numbers")
+    return tuple(zip(vals[::2], vals[1::2]))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  epilog="\n\n".join(__doc__.split("\n\n")[1:]),
@@ -77,6 +88,9 @@ def main() -> int:
     ap.add_argument("--engine", choices=("kinematic", "mujoco"), default="mujoco")
     ap.add_argument("--robot", choices=("p3at", "jackal", "pioneer_lx"), default="p3at")
     ap.add_argument("--seconds", type=float, default=3.0, help="how long each command is held")
+    ap.add_argument("--motions", default="", metavar="V,W,...",
+                    help="the commands to hold, as v,w pairs in one comma-separated list (default: "
+                         + ",".join(f"{v:g},{w:g}" for v, w in MOTIONS) + ")")
     ap.add_argument("--odom-rotation-center-x", type=float, default=0.0, metavar="M",
                     help="the simulated driver's odom_rotation_center_x (default 0: odometry turns about base_link)")
     a = ap.parse_args()
@@ -87,7 +101,7 @@ def main() -> int:
     print("|---|---|---|---|---|---|---|")
     fits: dict[str, list[np.ndarray]] = {"vy": [], "w": [], "ovy": [], "ow": []}
     all_ratio, all_odom = [], []
-    for v, w in MOTIONS:
+    for v, w in motions(a.motions):
         rows = drive(a.engine, a.robot, v, w, a.seconds, a.odom_rotation_center_x)
         t = rows[:, 0]
         _, vy, wt = body_rates(t, rows[:, 1], rows[:, 2], rows[:, 3])
@@ -95,7 +109,7 @@ def main() -> int:
         keep = t[1:] > SETTLE_S
         vy, wt, ovy, wo = vy[keep], wt[keep], ovy[keep], wo[keep]
         ratio, odom = float(np.mean(wt) / w), float(np.mean(wo) / w)
-        print(f"| {v:.1f} | {w:+.1f} | {np.mean(wt):+.3f} | {ratio:.3f} | {odom:.3f} | {fit_center_x(vy, wt):+.3f} "
+        print(f"| {v:.2f} | {w:+.2f} | {np.mean(wt):+.3f} | {ratio:.3f} | {odom:.3f} | {fit_center_x(vy, wt):+.3f} "
               f"| {fit_center_x(ovy, wo):+.3f} |")
         for k, arr in zip(("vy", "w", "ovy", "ow"), (vy, wt, ovy, wo)):
             fits[k].append(arr)

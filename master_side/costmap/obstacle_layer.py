@@ -7,6 +7,8 @@ is merged into the master with combination_method (0 overwrite, 1 maximum, 2 add
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from common.geometry import Pose2D, points_in_polygon
@@ -134,25 +136,39 @@ class ObstacleLayer(CostmapLayer):
         p = self._marking_points(obs)
         mx, my, ok = self.costmap.world_to_map(p[:, 0], p[:, 1])
         if obs.source.min_mark_separation > 0:
-            ok &= self._unmarked_around(mx, my, obs.source.min_mark_separation)
+            ok &= self._unexplained(obs.origin, mx, my, obs.source.min_mark_separation)
         self.costmap.data[my[ok], mx[ok]] = LETHAL
         return bounds.expand_points(p[ok, 0], p[ok, 1])
 
-    def _unmarked_around(self, mx: np.ndarray, my: np.ndarray, radius: float) -> np.ndarray:
-        """Per cell: no LETHAL cell of this layer within ``radius`` (a square window; meant for sparse sources,
-        one window per point). Marks under the footprint do not count: footprint clearing erases them this
-        cycle (a wall within the padding, beside the robot, would otherwise hide the echo of the same wall
-        behind the robot's corner, outside the footprint: office02's rear-corner scrapes)."""
-        lethal = self.costmap.data == LETHAL
+    def _unexplained(self, origin: np.ndarray, mx: np.ndarray, my: np.ndarray, radius: float) -> np.ndarray:
+        """Per cell: does a reading there say something the layer does not have? False where a LETHAL cell of
+        this layer within ``radius`` (a square window; meant for sparse sources, one window per point) lies no
+        farther from the sensor than the reading's own cell, give or take a cell: an echo of a wall already
+        marked (a sonar's, placed on its axis, may lie up to ``range * sin(fov / 2)`` sideways of the surface
+        that returned it, which is no nearer than it). True where nothing is marked within ``radius``, or only
+        farther: the echo says the obstacle is nearer than marked (a wall seen before the odometry slipped,
+        office02's rear corners on physics: their marks 3-7 cm farther than the wall after a backing turn).
+        Marks under the footprint do not count: footprint clearing erases them this cycle (a wall within the
+        padding, beside the robot, would otherwise hide the echo of the same wall behind the robot's corner,
+        outside the footprint: office02's rear-corner scrapes)."""
+        cm = self.costmap
+        lethal = cm.data == LETHAL
         if len(self.footprint_world):
-            fx, fy = self.costmap.polygon_cells(self.footprint_world)
+            fx, fy = cm.polygon_cells(self.footprint_world)
             lethal[fy, fx] = False
-        k = int(np.ceil(radius / self.costmap.resolution))
+        k = int(np.ceil(radius / cm.resolution))
         h, w = lethal.shape
+        # the sensor in cell units, from the map's corner (cell centres at index + 0.5)
+        sx, sy = (origin[0] - cm.origin_x) / cm.resolution - 0.5, (origin[1] - cm.origin_y) / cm.resolution - 0.5
         out = np.ones(len(mx), bool)
         for i, (x, y) in enumerate(zip(mx.tolist(), my.tolist())):
-            if 0 <= x < w and 0 <= y < h:
-                out[i] = not lethal[max(0, y - k):y + k + 1, max(0, x - k):x + k + 1].any()
+            if not (0 <= x < w and 0 <= y < h):
+                continue
+            y0, x0 = max(0, y - k), max(0, x - k)
+            ys, xs = np.nonzero(lethal[y0:y + k + 1, x0:x + k + 1])
+            if ys.size:
+                nearest = np.hypot(xs + x0 - sx, ys + y0 - sy).min()
+                out[i] = nearest > math.hypot(x - sx, y - sy) + 1.0
         return out
 
     def _raytrace(self, obs: Observation, bounds: Bounds) -> Bounds:

@@ -294,18 +294,34 @@ def test_cleared_from_the_base_centre_a_side_sonar_erases_a_corner_outside_its_c
         assert (lc.master.get_cost(*corner) == LETHAL) == kept, origin
 
 
-def test_a_sonar_echo_marks_only_where_nothing_is_marked_near_it():
-    """min_mark_separation: an echo 4 cm inside a wall the laser has marked adds nothing (a displaced second
-    wall narrowed office02's passages until no trajectory was left); an echo where nothing is marked does."""
+def test_a_sonar_echo_marks_only_what_the_marks_near_it_do_not_explain():
+    """min_mark_separation: an echo of a wall the laser has marked adds nothing, also one placed on the sonar's
+    axis in front of an oblique wall whose nearest point in the cone returned it (a displaced second wall
+    narrowed office02's passages until no trajectory was left); an echo where nothing is marked does, and so
+    does one nearer than every mark around it (the wall was marked before the odometry slipped: on physics,
+    office02's rear corners struck walls marked 3-7 cm farther than they were)."""
     lc, layer = laser_and_sonar()
-    wall = np.column_stack((np.full(41, 0.5), np.linspace(-0.5, 0.5, 41), np.zeros(41)))  # y from -0.5 to 0.5
-    layer.add_observation("laser", wall, np.array([0.0, 0.0, 0.3]), 0.0)
-    echoes = np.array([[0.46, 0.1, 0.2], [-0.6, 0.3, 0.2]])  # inside the laser's wall; alone behind the robot
-    layer.add_observation("sonar", echoes, np.array([0.0, 0.0, 0.2]), 0.0)
+    wall = np.column_stack((np.full(41, 0.5), np.linspace(-0.5, 0.5, 41), np.zeros(41)))  # x = 0.5, y -0.5..0.5
+    # an oblique wall behind the robot: from (-0.3, -0.9) to (-0.9, -0.3), at 45 deg to the sonar's axis below
+    oblique = np.column_stack((np.linspace(-0.3, -0.9, 41), np.linspace(-0.9, -0.3, 41), np.zeros(41)))
+    layer.add_observation("laser", np.vstack((wall, oblique)), np.array([0.0, 0.0, 0.3]), 0.0)
+    origin = np.array([0.0, 0.0, 0.2])
+    # the oblique wall's nearest point within 7.5 deg of the axis at -105 deg (its normal is at -135 deg, 0.85 m)
+    axis, normal, d = math.radians(-105.0), math.radians(-135.0), 1.2 / math.sqrt(2.0)
+    r = d / math.cos(normal - axis + math.radians(7.5))
+    on_axis = [r * math.cos(axis), r * math.sin(axis)]
+    echoes = np.array([[0.495, 0.2, 0.2],  # the laser's wall, 5 mm short (sonar noise)
+                       [*on_axis, 0.2],   # in front of the oblique wall, on the axis: its nearest point explains it
+                       [-0.6, 0.3, 0.2],  # nothing else saw it
+                       [0.44, -0.05, 0.2]])  # 6 cm nearer than the laser's wall: it is nearer now
+    layer.add_observation("sonar", echoes, origin, 0.0)
     lc.update_map(Pose2D(0.0, 0.0, 0.0))
-    assert lc.master.get_cost(0.5, 0.1) == LETHAL  # the laser's wall
-    assert lc.master.get_cost(0.46, 0.1) != LETHAL  # the displaced echo beside it: not marked
+    assert lc.master.get_cost(0.5, 0.2) == LETHAL  # the laser's wall
+    assert lc.master.get_cost(0.495, 0.2) != LETHAL  # no second wall in the cell in front of it
+    assert d - r * math.cos(normal - axis) > 0.05  # the axis point lies 5 cm in front of the wall
+    assert lc.master.get_cost(*on_axis) != LETHAL
     assert lc.master.get_cost(-0.6, 0.3) == LETHAL  # the echo nothing else saw
+    assert lc.master.get_cost(0.44, -0.05) == LETHAL  # nearer than the marks: marked
     with pytest.raises(ValueError, match="min_mark_separation"):
         VoxelLayer("voxels", VoxelLayerParams(), {"sonar": SONAR})
 
