@@ -7,7 +7,8 @@ centre of mass 0.1 m behind the axles, so the rear tyres carry most of the weigh
 - the robot's odometry (the simulated driver's ``odom_rotation_center_x``, as the p2os driver's): each
   increment taken as a turn about that point, so AMCL, gmapping and the local costmap see the robot move
   as it does;
-- DWA (``p3at_zenav/dwa_planner_ros_mujoco.yaml``: ``rotation_center_x``), which predicts its trajectories so;
+- DWA (``p3at_zenav/dwa_planner_ros_mujoco.yaml``: ``rotation_center_x``; mapping with SLAM,
+  ``dwa_planner_ros_slam_mujoco.yaml``), which predicts its trajectories so;
 - AMCL, which then reads the odometry with ROS's ``omni`` model (``diff`` takes a sideways increment for a
   turn, a drive and a turn back, with both turns' noise).
 
@@ -22,9 +23,11 @@ from pathlib import Path
 CONFIG = Path(__file__).resolve().parents[2] / "master_side" / "config"
 PHYSICS_PIVOT_X = -0.12  # m, the P3-AT on MuJoCo (bench/turning.py: turn_center_x_m=-0.120)
 PHYSICS_DWA = CONFIG / "p3at_zenav" / "dwa_planner_ros_mujoco.yaml"
+PHYSICS_DWA_SLAM = CONFIG / "p3at_zenav" / "dwa_planner_ros_slam_mujoco.yaml"  # forward only, as while mapping
 
 _ROBOT = {"mujoco": (f"sim.base.odom_rotation_center_x={PHYSICS_PIVOT_X}",)}
 _PLANNER = {"mujoco": (f"move_base.local_planner={PHYSICS_DWA}",)}
+_PLANNER_SLAM = {"mujoco": (f"move_base.local_planner={PHYSICS_DWA_SLAM}",)}
 _AMCL = {"mujoco": ("localization.odom_model_type=omni",)}
 
 
@@ -35,5 +38,8 @@ def robot_sets(engine: str | None) -> tuple[str, ...]:
 
 def master_sets(engine: str | None, amcl: bool) -> tuple[str, ...]:
     """``zenav master --set`` values for zenav's P3-AT configurations on ``engine`` (``amcl``: it localises
-    with AMCL; with SLAM, gmapping's motion model takes a sideways increment as it is)."""
-    return (*_PLANNER.get(engine or "", ()), *(_AMCL.get(engine or "", ()) if amcl else ()))
+    with AMCL on a known map, p3at_zenav.yaml; else it maps with SLAM, p3at_slam_zenav.yaml: DWA drives
+    forward only there, and gmapping's motion model takes a sideways increment as it is)."""
+    if not amcl:
+        return _PLANNER_SLAM.get(engine or "", ())
+    return (*_PLANNER.get(engine or "", ()), *_AMCL.get(engine or "", ()))

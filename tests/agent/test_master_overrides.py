@@ -121,6 +121,7 @@ def test_the_physics_sets_apply_to_the_shipped_files_and_nothing_changes_on_the_
     benches and `zenav demo --explore --engine mujoco` pass it). Each value must pass the nodes' checks on the
     shipped files, so a renamed parameter fails here and not 30 minutes into a benchmark."""
     from deploy.stack.physics_sets import PHYSICS_PIVOT_X, master_sets, robot_sets
+    from master_side.move_base.config import load_move_base_config
     from robot_side import agent as robot_agent
 
     assert robot_sets("kinematic") == robot_sets(None) == () == master_sets("kinematic", amcl=True)
@@ -128,8 +129,13 @@ def test_the_physics_sets_apply_to_the_shipped_files_and_nothing_changes_on_the_
                              engine="mujoco", sets=robot_sets("mujoco"))
     check_nodes(robot)
     assert _params(robot, "sim", tmp_path)["base"]["odom_rotation_center_x"] == PHYSICS_PIVOT_X
-    for config, amcl in (("p3at_zenav.yaml", True), ("p3at_slam_zenav.yaml", False)):
+    for config, amcl, dwa in (("p3at_zenav.yaml", True, "dwa_planner_ros_mujoco.yaml"),
+                              ("p3at_slam_zenav.yaml", False, "dwa_planner_ros_slam_mujoco.yaml")):
         launch = agent.load(str(CONFIG / config), sets=master_sets("mujoco", amcl))
         check_nodes(launch)
-        assert Path(_params(launch, "move_base", tmp_path)["local_planner"]).name == "dwa_planner_ros_mujoco.yaml"
+        assert Path(_params(launch, "move_base", tmp_path)["local_planner"]).name == dwa
+        lp = load_move_base_config(*launch.node_params(launch.entry("move_base"))).local_params
+        assert (lp.rotation_center_x, lp.min_vel_x) == (-0.12, -0.1 if amcl else 0.0)
+    kinematic = agent.load(str(CONFIG / "p3at_slam_zenav.yaml"))  # the SLAM file's own DWA: forward only too
+    assert load_move_base_config(*kinematic.node_params(kinematic.entry("move_base"))).local_params.min_vel_x == 0.0
     assert not any(kv.startswith("localization.") for kv in master_sets("mujoco", amcl=False))  # SLAM: no AMCL
