@@ -46,11 +46,12 @@ class ObservationSourceParams:
     min_mark_separation: float = param(0.0, lo=0.0, hi=5.0, unit="m",
                                        doc="(zenav) mark a point only where no obstacle is marked in the layer "
                                            "within this distance along x and y (a square window; marks under "
-                                           "the footprint do not count; 0: always) that lies as near the sensor "
-                                           "as the point, give or take a cell: an imprecise sensor (a sonar's "
-                                           "echo may be anywhere across its cone) then adds only what the "
-                                           "other sources have not seen, or have seen farther than it is now, "
-                                           "not a second, displaced wall")
+                                           "the footprint do not count; 0: always), unless every mark there "
+                                           "lies farther from the sensor than the point's cell by more than a "
+                                           "cell (centre to centre): an imprecise sensor (a sonar's echo may be "
+                                           "anywhere across its cone) then adds only what the other sources "
+                                           "have not seen, or saw farther than it is now, not a second, "
+                                           "displaced wall")
     footprint_clearing: bool = param(True, doc="(zenav) false: this source's marks are freed under the robot's "
                                                  "own outline only, not under the padded footprint (a near-field "
                                                  "sensor, a sonar, hearing a wall within the padding beside the body)")

@@ -168,7 +168,7 @@ class ObstacleLayer(CostmapLayer):
             ys, xs = np.nonzero(lethal[y0:y + k + 1, x0:x + k + 1])
             if ys.size:
                 nearest = np.hypot(xs + x0 - sx, ys + y0 - sy).min()
-                out[i] = nearest > math.hypot(x - sx, y - sy) + 1.0
+                out[i] = nearest > math.hypot(x - sx, y - sy) + 1.0 + 1e-6  # the next cell in: noise
         return out
 
     def _raytrace(self, obs: Observation, bounds: Bounds) -> Bounds:

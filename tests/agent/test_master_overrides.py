@@ -124,7 +124,8 @@ def test_the_physics_sets_apply_to_the_shipped_files_and_nothing_changes_on_the_
     from master_side.move_base.config import load_move_base_config
     from robot_side import agent as robot_agent
 
-    assert robot_sets("kinematic") == robot_sets(None) == () == master_sets("kinematic", amcl=True)
+    assert robot_sets("kinematic") == robot_sets(None) == () == master_sets("kinematic", amcl=True) \
+        == master_sets("kinematic", amcl=False) == master_sets(None, amcl=False)
     robot = robot_agent.load(str(CONFIG.parent.parent / "robot_side" / "config" / "p3at_sim_laser.yaml"),
                              engine="mujoco", sets=robot_sets("mujoco"))
     check_nodes(robot)

@@ -296,10 +296,11 @@ def test_cleared_from_the_base_centre_a_side_sonar_erases_a_corner_outside_its_c
 
 def test_a_sonar_echo_marks_only_what_the_marks_near_it_do_not_explain():
     """min_mark_separation: an echo of a wall the laser has marked adds nothing, also one placed on the sonar's
-    axis in front of an oblique wall whose nearest point in the cone returned it (a displaced second wall
-    narrowed office02's passages until no trajectory was left); an echo where nothing is marked does, and so
-    does one nearer than every mark around it (the wall was marked before the odometry slipped: on physics,
-    office02's rear corners struck walls marked 3-7 cm farther than they were)."""
+    axis in front of an oblique wall (a displaced second wall narrowed office02's passages until no trajectory
+    was left: the wall's marks in the window, its nearest point in the cone among them, lie no farther than
+    the echo); an echo where nothing is marked does, and so does one nearer than every mark around it by more
+    than a cell (the wall was marked before the odometry slipped: on physics, office02's rear corners struck
+    walls marked 3-7 cm farther than they were); one a cell nearer does not (a sonar's noise)."""
     lc, layer = laser_and_sonar()
     wall = np.column_stack((np.full(41, 0.5), np.linspace(-0.5, 0.5, 41), np.zeros(41)))  # x = 0.5, y -0.5..0.5
     # an oblique wall behind the robot: from (-0.3, -0.9) to (-0.9, -0.3), at 45 deg to the sonar's axis below
@@ -313,7 +314,8 @@ def test_a_sonar_echo_marks_only_what_the_marks_near_it_do_not_explain():
     echoes = np.array([[0.495, 0.2, 0.2],  # the laser's wall, 5 mm short (sonar noise)
                        [*on_axis, 0.2],   # in front of the oblique wall, on the axis: its nearest point explains it
                        [-0.6, 0.3, 0.2],  # nothing else saw it
-                       [0.44, -0.05, 0.2]])  # 6 cm nearer than the laser's wall: it is nearer now
+                       [0.44, -0.05, 0.2],  # 6 cm nearer than the laser's wall: it is nearer now
+                       [0.49, 0.0, 0.2]])  # head-on, the cell in front of the wall's (one cell nearer): noise
     layer.add_observation("sonar", echoes, origin, 0.0)
     lc.update_map(Pose2D(0.0, 0.0, 0.0))
     assert lc.master.get_cost(0.5, 0.2) == LETHAL  # the laser's wall
@@ -322,6 +324,7 @@ def test_a_sonar_echo_marks_only_what_the_marks_near_it_do_not_explain():
     assert lc.master.get_cost(*on_axis) != LETHAL
     assert lc.master.get_cost(-0.6, 0.3) == LETHAL  # the echo nothing else saw
     assert lc.master.get_cost(0.44, -0.05) == LETHAL  # nearer than the marks: marked
+    assert lc.master.get_cost(0.49, 0.0) != LETHAL  # one cell nearer (centre to centre): not
     with pytest.raises(ValueError, match="min_mark_separation"):
         VoxelLayer("voxels", VoxelLayerParams(), {"sonar": SONAR})
 
