@@ -142,8 +142,9 @@ class ObstacleLayer(CostmapLayer):
 
     def _unexplained(self, origin: np.ndarray, mx: np.ndarray, my: np.ndarray, radius: float) -> np.ndarray:
         """Per cell: does a reading there say something the layer does not have? False where a LETHAL cell of
-        this layer within ``radius`` (a square window; meant for sparse sources, one window per point) lies no
-        farther from the sensor than the reading's own cell, give or take a cell: an echo of a wall already
+        this layer within ``radius`` (a square window; meant for sparse sources, one window per point) lies
+        nearer the sensor than the reading's own cell, or farther by one cell at most (centre to centre: the
+        next cell in is a sonar's noise): an echo of a wall already
         marked (a sonar's, placed on its axis, may lie up to ``range * sin(fov / 2)`` sideways of the surface
         that returned it, which is no nearer than it). True where nothing is marked within ``radius``, or only
         farther: the echo says the obstacle is nearer than marked (a wall seen before the odometry slipped,
