@@ -22,9 +22,10 @@ about base_link, or about the point ``odom_rotation_center_x`` ahead of it (nega
 ``common.geometry.pivoted``). Only the odometry: the kinematic engine's robot itself turns about base_link.
 
 Collision: if the footprint (sampled every <= res/2, inside and on the edge) at the next pose covers a
-cell taller than ``min_obstacle_height``, the robot stays, its velocity drops to zero, ``contact`` records
-the mean contact point, and ``collisions`` counts a new collision if the previous blocked step is older
-than ``collision_debounce`` (a robot pushing on a wall counts once).
+cell taller than ``min_obstacle_height``, ``contact`` records the mean contact point, ``collisions`` counts
+a new collision if the previous blocked step is older than ``collision_debounce`` (a robot pushing on a
+wall counts once), and the step happens only as far as it goes no deeper into obstacles (``penetration``):
+the robot slides along a wall or backs away from it; into it, it stays and its velocity drops to zero.
 """
 
 from __future__ import annotations
@@ -137,6 +138,15 @@ def _footprint_samples(poly: np.ndarray, step: float) -> np.ndarray:
     return np.vstack([pts[inside], *edges])
 
 
+def _distance_to_outline(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of each point (N, 2) to the nearest edge of the closed polygon (K, 2)."""
+    a = poly[None, :, :]
+    ab = np.roll(poly, -1, axis=0)[None, :, :] - a
+    ap = pts[:, None, :] - a
+    t = np.clip((ap * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-18), 0.0, 1.0)
+    return np.hypot(*(ap - t[..., None] * ab).transpose(2, 0, 1)).min(axis=1)
+
+
 def _limit(v: float, target: float, acc: float, decel: float | None) -> float:
     """The rate limit that applies when going from v toward target: braking when the speed shrinks."""
     braking = abs(target) < abs(v) or target * v < 0
@@ -200,7 +210,8 @@ class DiffDriveBase(CommandedBase):
         self.in_contact = False  # the last step was blocked
         self._last_contact_time = -math.inf
         self.rng = np.random.default_rng(params.seed)
-        self.samples = _footprint_samples(np.asarray(params.footprint, float), world.resolution / 2)
+        self.poly = np.asarray(params.footprint, float)
+        self.samples = _footprint_samples(self.poly, world.resolution / 2)
 
     def set_motors(self, enabled: bool) -> None:
         self.motors_enabled = bool(enabled)
@@ -211,6 +222,39 @@ class DiffDriveBase(CommandedBase):
         """World points of the footprint samples that lie on an obstacle at ``pose``."""
         pts = pose.apply(self.samples)
         return pts[self.world.height_at(pts[:, 0], pts[:, 1]) > self.p.min_obstacle_height]
+
+    def penetration(self, pose: Pose2D) -> float:
+        """How deep (m) obstacle cells reach into the footprint at ``pose``: the deepest of the obstacle
+        cells' corners inside the outline (its distance to the outline) and of the outline's vertices inside
+        an obstacle cell (its distance to that cell's sides). 0 when the outline only touches obstacles.
+        Every overlap of a square cell and the outline holds one of the two, so this sees what the
+        footprint samples miss between them."""
+        res, (x0, y0) = self.world.resolution, self.world.origin
+        outline = pose.apply(self.poly)
+        (ix0, iy0), (ix1, iy1) = (np.floor((outline.min(0) - (x0, y0)) / res).astype(int),
+                                  np.floor((outline.max(0) - (x0, y0)) / res).astype(int))
+        rows, cols = self.world.shape
+        ix0, iy0, ix1, iy1 = max(ix0, 0), max(iy0, 0), min(ix1, cols - 1), min(iy1, rows - 1)
+        if ix0 > ix1 or iy0 > iy1:
+            return 0.0
+        iy, ix = np.nonzero(self.world.heights[iy0:iy1 + 1, ix0:ix1 + 1] > self.p.min_obstacle_height)
+        if not len(ix):
+            return 0.0
+        ix, iy = ix + ix0, iy + iy0
+        deepest = 0.0
+        corners = np.column_stack([np.concatenate([x0 + (ix + a) * res for a in (0, 1, 0, 1)]),
+                                   np.concatenate([y0 + (iy + b) * res for b in (0, 0, 1, 1)])])
+        local = pose.inverse().apply(corners)
+        inside = points_in_polygon(local[:, 0], local[:, 1], self.poly)
+        if inside.any():
+            deepest = float(_distance_to_outline(local[inside], self.poly).max())
+        cx, cy = self.world.cell_of(outline[:, 0], outline[:, 1])
+        hit = self.world.height_at(outline[:, 0], outline[:, 1]) > self.p.min_obstacle_height
+        if hit.any():
+            fx = outline[hit, 0] - (x0 + cx[hit] * res)  # the vertex within its cell, 0..res
+            fy = outline[hit, 1] - (y0 + cy[hit] * res)
+            deepest = max(deepest, float(np.minimum(np.minimum(fx, res - fx), np.minimum(fy, res - fy)).max()))
+        return deepest
 
     def step(self, dt: float, now: float) -> None:
         """Advance ``dt`` seconds; ``now`` is the clock at the end of the step (for the cmd_vel timeout)."""
@@ -229,13 +273,15 @@ class DiffDriveBase(CommandedBase):
             hits = self.footprint_hits(new)
             if len(hits):
                 self._touch(hits, now)
-                # the obstacle stops what goes into it, not what leaves it: the whole step, its translation
-                # alone or its rotation alone happens if it ends free, or, for a robot already inside an
-                # obstacle (a box dropped onto it), no deeper than now (footprint samples on the obstacle)
-                deep = len(self.footprint_hits(self.pose))
+                # the obstacle stops what goes into it, not what leaves it or slides along it: the whole
+                # step, its translation alone or its rotation alone happens if it ends no deeper in an
+                # obstacle than now (``penetration``: 0 for a robot that only touches, more for a box dropped
+                # onto it). Not the count of footprint samples on obstacles: a cell's corner poking between
+                # two samples of the outline would catch one of them after any move, and pin the robot
+                deep = self.penetration(self.pose)
                 for dr, da, v, w in ((d_rho, d_th, nv, nw), (d_rho, 0.0, nv, 0.0), (0.0, d_th, 0.0, nw)):
                     moved = self.pose.compose(_arc(dr, da))
-                    if (dr != 0.0 or da != 0.0) and len(self.footprint_hits(moved)) <= deep:
+                    if (dr != 0.0 or da != 0.0) and self.penetration(moved) <= deep + 1e-9:
                         self.pose, self.v, self.w = moved, v, w
                         self._odometry(dr, da)
                         return

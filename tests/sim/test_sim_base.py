@@ -158,3 +158,39 @@ def test_a_robot_against_a_wall_can_back_away_but_not_push_into_it(gap):
     _push(base, -0.2, -0.3)  # the escape of issue 32: back up while turning
     assert base.pose.x < x0 - 0.1
     assert not len(base.footprint_hits(base.pose))  # free again
+
+
+def _corner_between_samples(depth: float) -> DiffDriveBase:
+    """A P3-AT turned 39 deg whose left flank has one obstacle cell's corner ``depth`` inside it, halfway
+    between two of the outline's samples (office02, 2026-11-30: a door jamb's corner pinned the robot)."""
+    world = empty_world(size=3.0, res=0.02)
+    ix, iy = world.cell_of(0.99, 1.01)
+    world.heights[iy, ix] = 1.0  # the cell [0.98, 1.00] x [1.00, 1.02]; its corner (1.00, 1.00) points inward
+    theta = 0.68
+    base = DiffDriveBase(world, BaseParams(srr=0, srt=0, str=0, stt=0), Pose2D(0.0, 0.0, theta))
+    flank = base.samples[np.isclose(base.samples[:, 1], 0.254)]
+    xs = np.sort(flank[:, 0])
+    k = np.searchsorted(xs, 0.12)
+    q = np.array([(xs[k - 1] + xs[k]) / 2, 0.254 - depth])  # robot frame
+    c, s = math.cos(theta), math.sin(theta)
+    base.pose = Pose2D(1.0 - (c * q[0] - s * q[1]), 1.0 - (s * q[0] + c * q[1]), theta)
+    return base
+
+
+def test_a_cell_corner_between_outline_samples_does_not_pin_the_robot():
+    base = _corner_between_samples(0.003)
+    assert not len(base.footprint_hits(base.pose))  # the samples miss the corner ...
+    assert base.penetration(base.pose) == pytest.approx(0.003, abs=1e-6)  # ... the penetration does not
+    start = base.pose
+    _push(base, 0.0, 0.5, 0.5)  # turning left pushes the flank into the corner: it stops there
+    assert base.collisions == 1 and base.pose.theta - start.theta < 0.01
+    assert base.penetration(base.pose) < 0.01  # no deeper than the outline's samples are apart
+    _push(base, -0.3, 0.0, 1.5)  # backing slides the flank along the corner and away from it
+    assert base.pose.distance(start) > 0.3
+    assert not len(base.footprint_hits(base.pose)) and base.penetration(base.pose) == 0.0
+
+
+def test_penetration_is_zero_apart_from_walls_and_grows_into_them():
+    assert _touching_wall(0.01).penetration(_touching_wall(0.01).pose) == 0.0
+    shallow, deep = _touching_wall(-0.005), _touching_wall(-0.015)
+    assert 0.0 < shallow.penetration(shallow.pose) < deep.penetration(deep.pose)
