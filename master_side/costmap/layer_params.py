@@ -4,6 +4,7 @@ from (``merge_files``, ``Origins``), so problems name the file and the key as th
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -52,6 +53,11 @@ class ObservationSourceParams:
                                            "anywhere across its cone) then adds only what the other sources "
                                            "have not seen, or saw farther than it is now, not a second, "
                                            "displaced wall")
+    min_mark_separation_fov: float = param(0.0, lo=0.0, hi=math.pi, unit="rad",
+                                           doc="(zenav) with min_mark_separation: only marks within the "
+                                               "sensor's cone of this width about the line from the sensor to "
+                                               "the point count (a sonar: 15 deg, 0.26 rad); 0: the whole "
+                                               "square window")
     footprint_clearing: bool = param(True, doc="(zenav) false: this source's marks are freed under the robot's "
                                                  "own outline only, not under the padded footprint (a near-field "
                                                  "sensor, a sonar, hearing a wall within the padding beside the body)")

@@ -136,11 +136,13 @@ class ObstacleLayer(CostmapLayer):
         p = self._marking_points(obs)
         mx, my, ok = self.costmap.world_to_map(p[:, 0], p[:, 1])
         if obs.source.min_mark_separation > 0:
-            ok &= self._unexplained(obs.origin, mx, my, obs.source.min_mark_separation)
+            ok &= self._unexplained(obs.origin, mx, my, obs.source.min_mark_separation, p[:, :2],
+                                    obs.source.min_mark_separation_fov)
         self.costmap.data[my[ok], mx[ok]] = LETHAL
         return bounds.expand_points(p[ok, 0], p[ok, 1])
 
-    def _unexplained(self, origin: np.ndarray, mx: np.ndarray, my: np.ndarray, radius: float) -> np.ndarray:
+    def _unexplained(self, origin: np.ndarray, mx: np.ndarray, my: np.ndarray, radius: float,
+                     points: np.ndarray | None = None, fov: float = 0.0) -> np.ndarray:
         """Per cell: does a reading there say something the layer does not have? False where a LETHAL cell of
         this layer within ``radius`` (a square window; meant for sparse sources, one window per point) lies
         nearer the sensor than the reading's own cell, or farther by one cell at most (centre to centre: the
@@ -151,7 +153,13 @@ class ObstacleLayer(CostmapLayer):
         office02's rear corners on physics: their marks 3-7 cm farther than the wall after a backing turn).
         Marks under the footprint do not count: footprint clearing erases them this cycle (a wall within the
         padding, beside the robot, would otherwise hide the echo of the same wall behind the robot's corner,
-        outside the footprint: office02's rear-corner scrapes)."""
+        outside the footprint: office02's rear-corner scrapes).
+
+        ``fov`` > 0 (with the readings' ``points``): only marks within the sensor's cone count, within
+        ``fov / 2`` (plus a cell) of the line from the sensor to the reading; a sonar hears the nearest surface
+        in its cone only, so a wall beside it, outside the cone, explains nothing (office02, the Kinect robot:
+        the marks of the wall it drove along, nearer than the wall's end, hid the echo of that end, a door
+        jamb, and its flank struck the jamb turning round it)."""
         cm = self.costmap
         lethal = cm.data == LETHAL
         if len(self.footprint_world):
@@ -167,8 +175,15 @@ class ObstacleLayer(CostmapLayer):
                 continue
             y0, x0 = max(0, y - k), max(0, x - k)
             ys, xs = np.nonzero(lethal[y0:y + k + 1, x0:x + k + 1])
-            if ys.size:
-                nearest = np.hypot(xs + x0 - sx, ys + y0 - sy).min()
+            dx, dy = xs + x0 - sx, ys + y0 - sy
+            dist = np.hypot(dx, dy)
+            if ys.size and fov > 0 and points is not None:
+                ax, ay = (points[i, 0] - origin[0]) / cm.resolution, (points[i, 1] - origin[1]) / cm.resolution
+                off = np.abs(np.arctan2(ax * dy - ay * dx, ax * dx + ay * dy))  # each mark's angle off the axis
+                within = off <= fov / 2 + 1.0 / np.maximum(dist, 1.0)  # a cell's width at its distance
+                dist = dist[within]
+            if dist.size:
+                nearest = dist.min()
                 out[i] = nearest > math.hypot(x - sx, y - sy) + 1.0 + 1e-6  # the next cell in: noise
         return out
 
