@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
         name = f"{w}/{sensor}/{k + 1}"
         print(f"{name}: exploring from ({start.x:.1f}, {start.y:.1f}) ...", file=sys.stderr, flush=True)
         t0 = time.monotonic()
-        with terminate_as_interrupt():  # Ctrl-C, SIGTERM: the run's processes are stopped
+        with terminate_as_interrupt(once=True):  # Ctrl-C, SIGTERM: the run is measured and its processes stopped
             r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
                                 echo=lambda s: print(s, file=sys.stderr, flush=True), master_set=master_set,
                                 robot_args=robot_args, record=record)

@@ -26,6 +26,10 @@ def _interrupt(signum, _frame) -> None:
     raise KeyboardInterrupt(signal.Signals(signum).name)
 
 
+def _already_stopping(signum, _frame) -> None:
+    print(f"{signal.Signals(signum).name}: already stopping", file=sys.stderr, flush=True)
+
+
 @contextlib.contextmanager
 def _deferred_interrupts():
     """Inside: a signal handled by terminate_as_interrupt() waits until the block is over, so a process
@@ -42,11 +46,22 @@ def _deferred_interrupts():
 
 
 @contextlib.contextmanager
-def terminate_as_interrupt():
+def terminate_as_interrupt(once: bool = False):
     """Within the block, SIGINT, SIGTERM and SIGHUP raise KeyboardInterrupt (named after the signal), so
     the caller's ``finally`` stops its process group (Ctrl-C, `timeout`, `kill`, a closed terminal); the
-    old handlers after."""
-    old = {s: signal.signal(s, _interrupt) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+    old handlers after. ``once``: only the first signal does; later ones are noted on stderr and change
+    nothing, so a second Ctrl-C or SIGTERM does not cut short a stop that measures, saves and reports what
+    was done (``bench/explore.py``: it printed a traceback and no table). That stop must be bounded: each
+    process gets a grace period, then SIGKILL."""
+    signals = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+    def first(signum, frame) -> None:
+        if once:  # deferred or not, this one raises (now or at the block's end) and no other does
+            for s in signals:
+                signal.signal(s, _already_stopping)
+        _interrupt(signum, frame)
+
+    old = {s: signal.signal(s, first) for s in signals}
     try:
         yield
     finally:
