@@ -41,6 +41,11 @@ class EscapeParams:
     speed: float = param(0.1, lo=0.01, hi=1.0, unit="m/s", doc="straight drive speed")
     turn_speed: float = param(0.4, lo=0.01, hi=5.0, unit="rad/s", doc="in-place turn speed")
     time_allowance: float = param(10.0, lo=0.1, hi=300.0, unit="s", doc="the move ends after this long")
+    room_ahead: float = param(0.5, lo=0.0, hi=2.0, unit="m",
+                              doc="when no move gains clearance, an obstacle nearer than this ahead of the "
+                                  "robot's front, across its width, makes the longest reverse drive that loses "
+                                  "none the move (nav2's BackUp's role; a forward-only planner cannot back "
+                                  "away); 0: never")
     stall_time: float = param(1.0, lo=0.1, hi=60.0, unit="s",
                               doc="the move ends when it has gained less than 2 cm or 0.05 rad in this long: "
                                   "something no sensor shows holds the robot")
@@ -141,7 +146,12 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     most clearance a free one reaches), for the log of a robot that stays where it is.
 
     ``center_x``: where on base_link's x axis the base turns about (a skid-steered base pivots toward its
-    more loaded axle; the local planner's ``rotation_center_x``)."""
+    more loaded axle; the local planner's ``rotation_center_x``).
+
+    When no move gains clearance but an obstacle lies within ``params.room_ahead`` of the robot's front
+    (``room_ahead``), the longest free reverse drive that loses no clearance is the move: a corridor's
+    corner, a wall 0.3 m ahead and one 0.1 m beside the flank, leaves no turn and no forward arc free, and
+    DWA driving forward only (while mapping) cannot back away to make room (office02, laser, 2026-11-30)."""
     grid = np.asarray(grid)
     outline, outline_r = _outline(footprint, res)
     way = _leaving(grid, res, origin, pose, outline)
@@ -163,6 +173,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     best: tuple[tuple[bool, float, float], EscapeMove] | None = None
     blocked: dict[str, int] = {}
     freest: EscapeMove | None = None  # the free move reaching the most clearance, gained or not
+    backing: EscapeMove | None = None  # the longest free reverse drive that loses no clearance
     for d, a in moves:
         if against is not None and not _against(float(d), float(a), against):
             continue
@@ -173,6 +184,8 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
         after = clearance(cells[-1])
         if freest is None or after > freest.clearance_after:
             freest = EscapeMove(float(d), float(a), here, after)
+        if d < 0 and after >= here - 1e-9 and (backing is None or d < backing.distance):
+            backing = EscapeMove(float(d), 0.0, here, after)
         if after <= here + 1e-9 and against is None:
             continue
         # a whole cell gained first (a smaller gain only when none does), then the most clearance up to
@@ -182,9 +195,33 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
                -((2.0 if d < 0 else 1.0) * abs(d) + abs(a) * outline_r))
         if best is None or key > best[0]:
             best = key, EscapeMove(float(d), float(a), here, after)
+    if best is None and against is None and backing is not None and params.room_ahead > 0:
+        ahead = room_ahead(grid, res, origin, pose, footprint, params.room_ahead)
+        if ahead < params.room_ahead:
+            if why is not None:
+                why.append(f"backing away: no move gains clearance and an obstacle lies {ahead:.2f} m ahead")
+            return backing
     if best is None and why is not None:
         why.append(_why_none(here, blocked, freest))
     return None if best is None else best[1]
+
+
+def room_ahead(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
+               reach: float) -> float:
+    """How far ahead of the footprint's front the first LETHAL cell lies, across the footprint's width (a
+    strip ``reach`` long); ``reach`` when none (or when the strip leaves the grid there)."""
+    fp = np.asarray(footprint, float)
+    front, half = float(fp[:, 0].max()), float(np.abs(fp[:, 1]).max())
+    s = np.arange(0.5 * res, reach + 1e-9, 0.5 * res)
+    lateral = np.linspace(-half, half, max(2, int(math.ceil(2 * half / (0.5 * res))) + 1))
+    pts = pose.apply(np.column_stack((np.repeat(front + s, len(lateral)), np.tile(lateral, len(s)))))
+    cx, cy = (np.floor((pts[:, 0] - origin[0]) / res).astype(np.int64),
+              np.floor((pts[:, 1] - origin[1]) / res).astype(np.int64))
+    ok = (cx >= 0) & (cy >= 0) & (cx < grid.shape[1]) & (cy < grid.shape[0])
+    hit = np.zeros(len(pts), bool)
+    hit[ok] = grid[cy[ok], cx[ok]] == LETHAL
+    rows = hit.reshape(len(s), len(lateral)).any(axis=1)
+    return float(s[np.argmax(rows)] - 0.5 * res) if rows.any() else reach
 
 
 def _why_none(here: float, blocked: dict[str, int], freest: EscapeMove | None) -> str:

@@ -293,3 +293,25 @@ def test_an_escape_turn_sweeps_the_outline_about_the_bases_turning_centre():
     # base_link ends 0.12 m from the pivot, opposite the heading it turned to (1.5 rad), 0.115 m from the start
     np.testing.assert_allclose(pivoted[-1, :2], pivot - cx * np.array([np.cos(1.5), np.sin(1.5)]), atol=1e-12)
     assert np.hypot(*(pivoted[-1, :2] - [1.0, 2.0])) == pytest.approx(2 * 0.12 * np.sin(0.5), abs=1e-9)
+
+
+def test_a_wall_ahead_with_no_clearance_to_gain_backs_the_robot_away_for_room():
+    """A corridor's corner: a wall 0.3 m ahead of the nose, another 0.1 m beside the left flank all along. No
+    turn is free, a drive keeps the 0.1 m, so nothing gains clearance; DWA driving forward only (while
+    mapping) cannot back away to make room to turn (office02, laser, 2026-11-30: every trajectory rejected,
+    the goal aborted). The longest free reverse drive that loses no clearance is taken; not without the wall
+    ahead, and not with ``room_ahead`` 0."""
+    beside = (-2.0, 0.354, 2.0, 0.6)
+    grid = grid_with(beside, (0.63, -2.0, 0.9, 2.0))
+    why: list[str] = []
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, why=why)
+    assert move is not None and move.turn == 0.0 and move.distance == pytest.approx(-0.3)
+    assert move.clearance_after == pytest.approx(move.clearance_before)
+    assert why and why[0].startswith("backing away: no move gains clearance and an obstacle lies 0.2"), why
+    assert min_clearance(grid, Pose2D(-0.3, 0.0, 0.0)) >= move.clearance_before - RES
+    # something 0.15 m behind the rear: the longest free drive back is shorter
+    short = plan_escape(grid_with(beside, (0.63, -2.0, 0.9, 2.0), (-0.6, -2.0, -0.404, 2.0)), RES, ORIGIN,
+                        Pose2D(), P3AT)
+    assert short is not None and -0.15 <= short.distance < 0.0
+    assert plan_escape(grid_with(beside), RES, ORIGIN, Pose2D(), P3AT) is None  # nothing ahead: no move
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(room_ahead=0.0)) is None
