@@ -27,7 +27,8 @@ def _interrupt(signum, _frame) -> None:
 
 
 def _already_stopping(signum, _frame) -> None:
-    print(f"{signal.Signals(signum).name}: already stopping", file=sys.stderr, flush=True)
+    # os.write, not print: a handler that prints while the interrupted code prints raises "reentrant call"
+    os.write(2, f"{signal.Signals(signum).name}: already stopping\n".encode())
 
 
 @contextlib.contextmanager

@@ -68,6 +68,8 @@ class ObservationSourceParams:
         if self.min_obstacle_height > self.max_obstacle_height:
             raise ValueError(f"min_obstacle_height {self.min_obstacle_height} > max_obstacle_height "
                              f"{self.max_obstacle_height}")
+        if self.min_mark_separation_fov > 0 and self.min_mark_separation <= 0:
+            raise ValueError("min_mark_separation_fov needs min_mark_separation > 0 (it narrows that window)")
 
 
 # keys a source inherits from its layer / the costmap when it does not set them (ROS searchParam)

@@ -136,7 +136,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     the outline touches where the robot stands may be left behind). A move that gains less than a cell of
     clearance only when none gains a whole cell (a wall at a slant: 0.07 -> 0.09 m on a 2.5 cm grid, where
     office02's robot stood while DWA rejected every trajectory). None when the robot already has that
-    clearance, or no move gains any.
+    clearance, or no move gains any and there is room ahead (``room_ahead`` below).
 
     ``against``: the (v, w) of a command the robot stalled on (move_base's stall_timeout): something the
     costmap does not show holds it, so the move goes the other way (a drive against v, or a turn against
@@ -208,13 +208,16 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
 
 def room_ahead(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
                reach: float) -> float:
-    """How far ahead of the footprint's front the first LETHAL cell lies, across the footprint's width (a
-    strip ``reach`` long); ``reach`` when none (or when the strip leaves the grid there)."""
+    """How far ahead of the footprint's front the first LETHAL cell lies, within half a cell (the last free
+    sample before it: a lower bound), across the footprint's width, each lateral row from the outline's own
+    front there (the P3-AT's nose, or its body's front beside the nose); ``reach`` when there is none within
+    ``reach`` or the strip leaves the grid there."""
     fp = np.asarray(footprint, float)
-    front, half = float(fp[:, 0].max()), float(np.abs(fp[:, 1]).max())
-    s = np.arange(0.5 * res, reach + 1e-9, 0.5 * res)
+    half = float(np.abs(fp[:, 1]).max())
     lateral = np.linspace(-half, half, max(2, int(math.ceil(2 * half / (0.5 * res))) + 1))
-    pts = pose.apply(np.column_stack((np.repeat(front + s, len(lateral)), np.tile(lateral, len(s)))))
+    front = np.array([_front_at(fp, y) for y in lateral])
+    s = np.arange(0.5 * res, reach + 1e-9, 0.5 * res)
+    pts = pose.apply(np.column_stack(((front[None, :] + s[:, None]).ravel(), np.tile(lateral, len(s)))))
     cx, cy = (np.floor((pts[:, 0] - origin[0]) / res).astype(np.int64),
               np.floor((pts[:, 1] - origin[1]) / res).astype(np.int64))
     ok = (cx >= 0) & (cy >= 0) & (cx < grid.shape[1]) & (cy < grid.shape[0])
@@ -222,6 +225,15 @@ def room_ahead(grid: np.ndarray, res: float, origin: tuple[float, float], pose: 
     hit[ok] = grid[cy[ok], cx[ok]] == LETHAL
     rows = hit.reshape(len(s), len(lateral)).any(axis=1)
     return float(s[np.argmax(rows)] - 0.5 * res) if rows.any() else reach
+
+
+def _front_at(fp: np.ndarray, y: float) -> float:
+    """The largest x of the polygon's outline at lateral position ``y`` (its edges crossing y)."""
+    xs: list[float] = []
+    for (ax, ay), (bx, by) in zip(fp, np.roll(fp, -1, axis=0)):
+        if min(ay, by) - 1e-12 <= y <= max(ay, by) + 1e-12:
+            xs.extend((ax, bx) if ay == by else (ax + (y - ay) / (by - ay) * (bx - ax),))
+    return max(xs) if xs else float(fp[:, 0].max())
 
 
 def _why_none(here: float, blocked: dict[str, int], freest: EscapeMove | None) -> str:

@@ -226,9 +226,11 @@ class DiffDriveBase(CommandedBase):
     def penetration(self, pose: Pose2D) -> float:
         """How deep (m) obstacle cells reach into the footprint at ``pose``: the deepest of the obstacle
         cells' corners inside the outline (its distance to the outline) and of the outline's vertices inside
-        an obstacle cell (its distance to that cell's sides). 0 when the outline only touches obstacles.
-        Every overlap of a square cell and the outline holds one of the two, so this sees what the
-        footprint samples miss between them."""
+        an obstacle cell (its distance to that cell's sides, one cell more where the neighbour across a side
+        is an obstacle too). 0 when the outline only touches obstacles. Every overlap of a square cell and
+        the outline holds one of the two, so this sees what the footprint samples miss between them.
+        One figure for the whole outline: a robot already deep in one obstacle (a box dropped onto it) may
+        go as deep into another."""
         res, (x0, y0) = self.world.resolution, self.world.origin
         outline = pose.apply(self.poly)
         (ix0, iy0), (ix1, iy1) = (np.floor((outline.min(0) - (x0, y0)) / res).astype(int),
@@ -251,9 +253,15 @@ class DiffDriveBase(CommandedBase):
         cx, cy = self.world.cell_of(outline[:, 0], outline[:, 1])
         hit = self.world.height_at(outline[:, 0], outline[:, 1]) > self.p.min_obstacle_height
         if hit.any():
-            fx = outline[hit, 0] - (x0 + cx[hit] * res)  # the vertex within its cell, 0..res
-            fy = outline[hit, 1] - (y0 + cy[hit] * res)
-            deepest = max(deepest, float(np.minimum(np.minimum(fx, res - fx), np.minimum(fy, res - fy)).max()))
+            px, py, cx, cy = outline[hit, 0], outline[hit, 1], cx[hit], cy[hit]
+            fx, fy = px - (x0 + cx * res), py - (y0 + cy * res)  # the vertex within its cell, 0..res
+            # to each side of its cell, one cell farther where the cell beyond is an obstacle too: a vertex
+            # sliding along a wall keeps its depth as it crosses from one wall cell into the next
+            h = self.world.height_at
+            m = self.p.min_obstacle_height
+            sides = [d + res * (h(px + dx, py + dy) > m) for d, dx, dy in
+                     ((fx, -res, 0.0), (res - fx, res, 0.0), (fy, 0.0, -res), (res - fy, 0.0, res))]
+            deepest = max(deepest, float(np.min(sides, axis=0).max()))
         return deepest
 
     def step(self, dt: float, now: float) -> None:

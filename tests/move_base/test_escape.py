@@ -315,3 +315,13 @@ def test_a_wall_ahead_with_no_clearance_to_gain_backs_the_robot_away_for_room():
     assert short is not None and -0.15 <= short.distance < 0.0
     assert plan_escape(grid_with(beside), RES, ORIGIN, Pose2D(), P3AT) is None  # nothing ahead: no move
     assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(room_ahead=0.0)) is None
+
+
+def test_room_ahead_is_measured_from_the_outlines_own_front_row_by_row():
+    """A post in front of the body's front left corner, beside the nose (x 0.254-0.330): 3 cm ahead of that
+    corner, though behind the nose's tip; measured from the nose alone it was never seen."""
+    from master_side.move_base.escape import room_ahead
+
+    grid = grid_with((0.285, 0.15, 0.31, 0.2))
+    assert room_ahead(grid, RES, ORIGIN, Pose2D(), P3AT, 0.5) == pytest.approx(0.03, abs=RES)
+    assert room_ahead(grid_with(), RES, ORIGIN, Pose2D(), P3AT, 0.5) == 0.5  # nothing ahead

@@ -194,3 +194,18 @@ def test_penetration_is_zero_apart_from_walls_and_grows_into_them():
     assert _touching_wall(0.01).penetration(_touching_wall(0.01).pose) == 0.0
     shallow, deep = _touching_wall(-0.005), _touching_wall(-0.015)
     assert 0.0 < shallow.penetration(shallow.pose) < deep.penetration(deep.pose)
+
+
+def test_a_corner_in_a_wall_keeps_its_depth_as_it_slides_along_it():
+    """The outline's corner 5 mm into a wall face: sliding along the face, from one wall cell into the next,
+    the penetration stays 5 mm (measured to its own cell's sides it fell to 0 at each cell border)."""
+    world = empty_world(size=3.0, res=0.02)
+    ix, iy = world.cell_of(np.array([-3.0, 2.9]), np.array([1.01, 1.09]))
+    world.heights[iy[0]:iy[1] + 1, ix[0]:ix[1] + 1] = 1.0  # a wall from y = 1.0 up
+    base = DiffDriveBase(world, BaseParams(srr=0, srt=0, str=0, stt=0), Pose2D())
+    theta = 0.3
+    c, s = math.cos(theta), math.sin(theta)
+    corner = (0.254, 0.254)  # the front left corner, the outline's highest point at this heading
+    y = 1.005 - (s * corner[0] + c * corner[1])
+    depths = [base.penetration(Pose2D(x, y, theta)) for x in np.arange(0.0, 0.04, 0.002)]
+    assert depths == pytest.approx([0.005] * len(depths), abs=1e-6)

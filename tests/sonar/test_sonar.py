@@ -414,3 +414,8 @@ def test_when_no_source_frees_the_padding_a_wall_seen_earlier_beside_the_flank_s
     assert lc.master.get_cost(0.7, 0.258) == LETHAL  # in the cell the outline crosses: the flank touches it
     lc.update_map(Pose2D(0.7, -0.1, 0.0))  # the robot on the wall (as a bad pose would put it)
     assert lc.master.get_cost(0.7, -0.284) == FREE_SPACE  # under the body: freed
+
+
+def test_the_cone_option_without_the_window_is_refused():
+    with pytest.raises(ValueError, match="min_mark_separation_fov needs min_mark_separation"):
+        ObservationSourceParams(min_mark_separation_fov=0.26).validate()
