@@ -44,10 +44,16 @@ def footprint_radii(footprint: np.ndarray) -> tuple[float, float]:
     fp = np.asarray(footprint, dtype=float).reshape(-1, 2)
     if len(fp) == 0:
         return 0.0, 0.0
-    a, ab = fp, np.roll(fp, -1, axis=0) - fp
-    t = np.clip(-(a * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-12), 0.0, 1.0)
-    closest = a + ab * t[:, None]
-    return float(np.min(np.hypot(closest[:, 0], closest[:, 1]))), float(np.max(np.hypot(fp[:, 0], fp[:, 1])))
+    return float(distance_to_outline(np.zeros((1, 2)), fp)[0]), float(np.max(np.hypot(fp[:, 0], fp[:, 1])))
+
+
+def distance_to_outline(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of each point (N, 2) to the nearest edge of the closed polygon (K, 2)."""
+    a = poly[None, :, :]
+    ab = np.roll(poly, -1, axis=0)[None, :, :] - a
+    ap = points[:, None, :] - a
+    t = np.clip((ap * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-12), 0.0, 1.0)
+    return np.hypot(*(ap - t[..., None] * ab).transpose(2, 0, 1)).min(axis=1)
 
 
 @dataclass(frozen=True)

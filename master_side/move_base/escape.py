@@ -217,12 +217,11 @@ def room_ahead(grid: np.ndarray, res: float, origin: tuple[float, float], pose: 
     lateral = np.linspace(-half, half, max(2, int(math.ceil(2 * half / (0.5 * res))) + 1))
     front = np.array([_front_at(fp, y) for y in lateral])
     s = np.arange(0.5 * res, reach + 1e-9, 0.5 * res)
-    pts = pose.apply(np.column_stack(((front[None, :] + s[:, None]).ravel(), np.tile(lateral, len(s)))))
-    cx, cy = (np.floor((pts[:, 0] - origin[0]) / res).astype(np.int64),
-              np.floor((pts[:, 1] - origin[1]) / res).astype(np.int64))
-    ok = (cx >= 0) & (cy >= 0) & (cx < grid.shape[1]) & (cy < grid.shape[0])
-    hit = np.zeros(len(pts), bool)
-    hit[ok] = grid[cy[ok], cx[ok]] == LETHAL
+    strip = np.column_stack(((front[None, :] + s[:, None]).ravel(), np.tile(lateral, len(s))))
+    cells = _cells(pose.as_array()[None], strip, res, origin)[0]
+    ok = _inside(cells, grid.shape)
+    hit = np.zeros(len(cells), bool)
+    hit[ok] = grid[cells[ok, 1], cells[ok, 0]] == LETHAL
     rows = hit.reshape(len(s), len(lateral)).any(axis=1)
     return float(s[np.argmax(rows)] - 0.5 * res) if rows.any() else reach
 

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from common.config import ConfigError, load_params, param
-from common.geometry import Pose2D, normalize_angle, pivoted, points_in_polygon
+from common.geometry import Pose2D, distance_to_outline, normalize_angle, pivoted, points_in_polygon
 from common.messages import Collision, Header, Odometry, Twist
 from robot_side.sim.world import World
 
@@ -136,15 +136,6 @@ def _footprint_samples(poly: np.ndarray, step: float) -> np.ndarray:
         n = max(2, math.ceil(np.linalg.norm(b - a) / step) + 1)
         edges.append(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
     return np.vstack([pts[inside], *edges])
-
-
-def _distance_to_outline(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
-    """Distance of each point (N, 2) to the nearest edge of the closed polygon (K, 2)."""
-    a = poly[None, :, :]
-    ab = np.roll(poly, -1, axis=0)[None, :, :] - a
-    ap = pts[:, None, :] - a
-    t = np.clip((ap * ab).sum(-1) / np.maximum((ab * ab).sum(-1), 1e-18), 0.0, 1.0)
-    return np.hypot(*(ap - t[..., None] * ab).transpose(2, 0, 1)).min(axis=1)
 
 
 def _limit(v: float, target: float, acc: float, decel: float | None) -> float:
@@ -249,7 +240,7 @@ class DiffDriveBase(CommandedBase):
         local = pose.inverse().apply(corners)
         inside = points_in_polygon(local[:, 0], local[:, 1], self.poly)
         if inside.any():
-            deepest = float(_distance_to_outline(local[inside], self.poly).max())
+            deepest = float(distance_to_outline(local[inside], self.poly).max())
         cx, cy = self.world.cell_of(outline[:, 0], outline[:, 1])
         hit = self.world.height_at(outline[:, 0], outline[:, 1]) > self.p.min_obstacle_height
         if hit.any():
