@@ -104,7 +104,7 @@ def build(o: Options) -> dict:
     conf["scouting"] = {"multicast": {"enabled": multicast}}
     transport: dict = {"link": {"tx": {"lease": o.lease_ms, "keep_alive": 4,
                                        "queue": {"size": {"data": TX_QUEUE_BATCHES}}}}}
-    usrpwd = {}
+    usrpwd: dict[str, str] = {}
     if o.user:
         usrpwd.update(user=o.user, password=o.password)
     if o.users_file:

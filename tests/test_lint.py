@@ -20,10 +20,10 @@ def test_ruff_finds_nothing():
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-1000:]
 
 
-def test_mypy_finds_no_type_error_in_common_master_side_and_robot_side():
+def test_mypy_finds_no_type_error_in_common_master_side_robot_side_and_deploy():
     """The plugin contracts (move_base/contracts.py, LocalPlannerPlugin, CostmapPlugin) and every annotation
-    of the three packages hold; mypy's settings are [tool.mypy] in pyproject.toml."""
-    proc = subprocess.run([sys.executable, "-m", "mypy", "common", "master_side", "robot_side"],
+    of the four packages hold; mypy's settings are [tool.mypy] in pyproject.toml."""
+    proc = subprocess.run([sys.executable, "-m", "mypy", "common", "master_side", "robot_side", "deploy"],
                           capture_output=True, text=True, cwd=REPO)
     if "No module named mypy" in proc.stderr:
         pytest.fail("mypy is not installed (deploy/install.sh --test installs it)")

@@ -184,7 +184,7 @@ def judge(world: int, trace: np.ndarray | Sequence, collisions: Iterable[float] 
     return run(k0 + j, t0, elapsed[j], bool(n_hits[j] > 0), bool(elapsed[j] >= TIME_LIMIT_S))
 
 
-def held_to_time_limit(trace: np.ndarray, start: tuple[float, float] = START) -> np.ndarray:
+def held_to_time_limit(trace: np.ndarray, start: Sequence[float] = START) -> np.ndarray:
     """A trace that ended without a verdict (move_base gave up, the robot never started), extended as
     BARN's run.py sees it: the robot stays where it is until the time limit after its start of motion (or
     after the trace's first sample if it never moved)."""

@@ -180,6 +180,11 @@ def _explore(args) -> int:
           f"and `zenav explore` ({'MuJoCo physics' if args.engine == 'mujoco' else 'kinematic engine'}); logs and "
           f"the map in {work}", flush=True)
     robot_args = ("--engine", args.engine, *set_options(robot_sets(args.engine)))
+
+    def summary_then_serve(run) -> None:
+        _explore_summary(run, args)
+        keep_serving(args)
+
     with terminate_as_interrupt():
         try:
             r = run_exploration(env, str(world_map(mrpb, env)), start, robot_cfg,
@@ -187,8 +192,7 @@ def _explore(args) -> int:
                                 echo=lambda s: print(f"[demo]{s}", flush=True), monitor_args=monitor_args(args),
                                 robot=getattr(args, "robot", None) or "demo", robot_args=robot_args,
                                 master_set=master_sets(args.engine, amcl=False),
-                                before_stop=(lambda r: (_explore_summary(r, args), keep_serving(args)))
-                                if args.serve_web else None)
+                                before_stop=summary_then_serve if args.serve_web else None)
         except KeyboardInterrupt:
             print("[demo] interrupted", file=sys.stderr)
             return 1

@@ -144,7 +144,7 @@ def save_trajectory(node, slam_node: str, out: str, scans_sent: int, timeout: fl
         except ServiceError as e:
             print(f"zenav play: cannot fetch the trajectory: {e}", file=sys.stderr)
             return 1
-        n_before = None if stamps is None else len(stamps)
+        n_before: int | None = None if stamps is None else len(stamps)
         stamps, poses = from_message(msg)
         if len(stamps) >= scans_sent or len(stamps) == n_before or time.monotonic() > deadline:
             break

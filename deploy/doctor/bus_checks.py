@@ -8,9 +8,13 @@ from __future__ import annotations
 import threading
 import time
 from collections import defaultdict
+from typing import TYPE_CHECKING
 
 from common.live_keys import LiveKey, live_key
 from deploy.doctor.host_checks import Check, sensor_checks, skew_check
+
+if TYPE_CHECKING:
+    from common.messages import CostmapSensors
 
 SCOUT_S = 1.5
 
@@ -28,7 +32,7 @@ class Listener:
         self.offsets: dict[str, list[float]] = defaultdict(list)  # robot -> receive wall - stamp
         self.tf: dict[str, tuple[float, float]] = {}  # robot -> (monotonic, stamp) of odom->base_link
         self.tf_edges: dict[str, set[str]] = defaultdict(set)
-        self.sensors: dict[tuple[str, str], object] = {}  # (robot, costmap) -> latest CostmapSensors
+        self.sensors: dict[tuple[str, str], CostmapSensors] = {}  # (robot, costmap) -> latest CostmapSensors
         self.kind_put = zenoh.SampleKind.PUT
         self.ents = [session.liveliness().declare_subscriber(live_key(robot, "**", ""), self._on_token,
                                                              history=True)]

@@ -18,6 +18,7 @@ import sys
 import threading
 import time
 from collections import defaultdict
+from typing import Any
 
 from common.live_keys import LiveKey, live_key
 from common.tcp_linger import open_session
@@ -34,7 +35,7 @@ def probe(robot: str, topics: list[str], seconds: float) -> dict:
     lock = threading.Lock()
     live: set[tuple[str, str]] = set()
     times: dict[str, list[float]] = defaultdict(list)
-    out = {"robot": robot, "nodes": [], "robots": {}, "rates": {}, "peers": 0, "error": ""}
+    out: dict[str, Any] = {"robot": robot, "nodes": [], "robots": {}, "rates": {}, "peers": 0, "error": ""}
     try:
         session = open_session(BusConfig.from_env(env).to_zenoh())
     except Exception as e:  # noqa: BLE001 - bad config / refused credentials: reported, not raised
@@ -68,8 +69,8 @@ def probe(robot: str, topics: list[str], seconds: float) -> dict:
             out["rates"][t] = round((len(ts) - 1) / max(ts[-1] - ts[0], 1e-6), 2) if len(ts) >= 2 else \
                 round(len(ts) / window, 2)
     out["peers"] = len(list(session.info.peers_zid())) + len(list(session.info.routers_zid()))
-    for e in ents:
-        e.undeclare()
+    for ent in ents:
+        ent.undeclare()
     session.close()
     return out
 

@@ -14,8 +14,9 @@ import logging
 import math
 import struct
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
 from deploy.logs import LogRecord
 from deploy.logs.ros1_decode import Ros1DecodeError, can_decode, deserialize, ros_type_name
@@ -251,7 +252,7 @@ def _records(path, f, reader) -> Iterator[LogRecord]:
 
     with f:
         it = reader.iter_messages(log_time_order=True)
-        decoders: dict[int, object] = {}
+        decoders: dict[int, Callable[[bytes], Any] | None] = {}
         warned: set = set()
         while True:
             try:

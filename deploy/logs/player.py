@@ -94,7 +94,8 @@ class Player:
         if self._clock_pub is not None:
             self._pubs["clock"] = self._clock_pub
         self._clock_t = -math.inf
-        self._wall0 = self._play0 = None
+        self._wall0: float | None = None
+        self._play0: float | None = None
         self._last_progress = 0.0
         self._stop = threading.Event()
 
@@ -125,7 +126,10 @@ class Player:
     # -- playing ---------------------------------------------------------------------------------
     def run(self, stop: threading.Event | None = None) -> PlayStats:
         if stop is not None:
-            threading.Thread(target=lambda: (stop.wait(), self._stop.set()), daemon=True).start()
+            def relay() -> None:
+                stop.wait()
+                self._stop.set()
+            threading.Thread(target=relay, daemon=True).start()
         o = self.o
         for topic in (self.info.counts if self.info is not None else ()):
             if o.topics is None or topic in o.topics:

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from common.config import strip_frame
 from common.geometry import Pose2D
-from common.messages import Header, TFMessage, TransformStamped
+from common.messages import Header, Odometry, TFMessage, TransformStamped
 from common.robot_logs import (
     BAG_CONVERT,
     BAG_KINDS,
@@ -169,11 +169,13 @@ def _bag_records(path, reader, store, conns, laser_pose, has_tf: bool) -> Iterat
                 if msg is None:
                     continue
                 if topic == "tf_static" and laser_pose is not None:
+                    assert isinstance(msg, TFMessage)  # a bag's tf_static holds TF messages
                     msg = TFMessage(tuple(t for t in msg.transforms if t.child_frame_id != laser))
                     if not msg.transforms:
                         continue
                 yield LogRecord(stamp, topic, msg)
                 if kind == "odom" and not has_tf:
+                    assert isinstance(msg, Odometry)  # BAG_CONVERT["odom"]
                     tf = TransformStamped(msg.header, msg.child_frame_id, msg.pose)
                     yield LogRecord(stamp, "tf", TFMessage((tf,)))
         finally:

@@ -124,6 +124,7 @@ class Recorder:
         if h in seen or (reply and self._last_hash.get(topic) == h):
             return
         if reply:
+            assert isinstance(seen, set)  # the setdefault above
             seen.add(h)
         self._last_hash[topic] = h
         try:
@@ -160,10 +161,13 @@ class Recorder:
                 left[0] -= 1
                 if left[0] == 0:
                     done.set()
+
+        def on_reply(r) -> None:
+            if r.ok is not None:
+                self._on_sample(r.ok, True)
         for t in missing:
             try:
-                self.session.get(self.prefix + t, zenoh.handlers.Callback(lambda r: r.ok is not None and
-                                                                          self._on_sample(r.ok, True), finished),
+                self.session.get(self.prefix + t, zenoh.handlers.Callback(on_reply, finished),
                                  target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE,
                                  timeout=timeout)
             except zenoh.ZError:

@@ -106,8 +106,9 @@ _GRID_INFO = struct.Struct("<IIfII7d")
 
 def _laser_scan(r: _Reader) -> m.LaserScan:
     h = r.header()
-    head = [_f32(v) for v in r.unpack(_F32X7)]
-    return m.LaserScan(h, *head, ranges=r.array("<f4"), intensities=r.array("<f4"))
+    a_min, a_max, a_inc, t_inc, scan_t, r_min, r_max = (_f32(v) for v in r.unpack(_F32X7))
+    return m.LaserScan(h, a_min, a_max, a_inc, t_inc, scan_t, r_min, r_max,
+                       ranges=r.array("<f4"), intensities=r.array("<f4"))
 
 
 def _odometry(r: _Reader) -> m.Odometry:

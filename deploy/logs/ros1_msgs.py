@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 import re
 import struct
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -223,7 +225,7 @@ def _pose_stamped(p: m.PoseStamped) -> bytes:
     return _header(p.header) + _pose(p.pose)
 
 
-SERIALIZERS = {
+SERIALIZERS: dict[str, Callable[[Any], bytes]] = {
     "LaserScan": _laser_scan, "Odometry": _odometry, "TFMessage": _tf_message, "OccupancyGrid": _occupancy_grid,
     "Costmap": _costmap, "Path": _path, "DepthImage": _depth_image, "CameraInfo": _camera_info,
     "Twist": _twist, "PoseStamped": _pose_stamped, "Clock": lambda c: _time(c.clock),

@@ -3,8 +3,22 @@ on it."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Protocol, cast
 
-def bus_commands(session, robot: str, deadline: float = 20.0, on_mission=None, leg_timeout: float = 600.0):
+if TYPE_CHECKING:
+    from common.bus import Node
+
+
+class BusCommands(Protocol):
+    """``send(what, msg)`` and the node it sends from (closed with the monitor)."""
+
+    node: Node
+
+    def __call__(self, what: str, msg: object) -> str: ...
+
+
+def bus_commands(session, robot: str, deadline: float = 20.0, on_mission=None,
+                 leg_timeout: float = 600.0) -> BusCommands:
     """``send(what, msg)`` for the page's tools: each command acknowledged by the node that acts on it
     (common/delivery.py), so the page says "accepted by move_base" or who did not answer — never a
     silent put into a link that is down. "mission" ((poses, loop)) drives the page's waypoint queue in a
@@ -67,5 +81,6 @@ def bus_commands(session, robot: str, deadline: float = 20.0, on_mission=None, l
         except ServiceError as e:  # the node answered: no (e.g. AMCL without a map yet)
             raise ValueError(str(e)) from None
 
-    send.node = node  # closed with the monitor
-    return send
+    commands = cast(BusCommands, send)
+    commands.node = node  # closed with the monitor
+    return commands

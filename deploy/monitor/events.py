@@ -4,6 +4,9 @@ states, costmap sensor health, ...). A mixin of ``Monitor`` (it needs ``rec``, `
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
+
+import rerun as rr
 
 from common import messages as m
 from deploy.monitor import loggers as L
@@ -15,7 +18,9 @@ NODE_LEVELS = {"FAILED": "ERROR", "RESTARTING": "WARN", "EXITED": "WARN"}
 
 
 class TextEvents:
+    rec: rr.RecordingStream | L.Prefixed
     _last_text: dict[str, str]
+    _emit: Callable[[str, float | None, Callable[[], None]], None]
 
     def _move_base_status(self, topic: str, msg: m.MoveBaseStatus) -> None:
         """One event per change of goal / status / state / recovery / reason (numbers in it ignored)."""

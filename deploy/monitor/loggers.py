@@ -199,7 +199,7 @@ def log_transform(rec, path: str, ts: m.TransformStamped, static: bool = False) 
     so the caller uses ``tf/<child>``."""
     t, q = ts.transform.translation, ts.transform.rotation
     rec.log(path, rr.Transform3D(
-        translation=[t.x, t.y, t.z], quaternion=[q.x, q.y, q.z, q.w],
+        translation=[t.x, t.y, t.z], quaternion=rr.Quaternion(xyzw=[q.x, q.y, q.z, q.w]),
         parent_frame=frame_of(rec, ts.header.frame_id), child_frame=frame_of(rec, ts.child_frame_id)),
         static=static)
 

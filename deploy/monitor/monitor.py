@@ -54,13 +54,14 @@ class MonitorStats:
 
 
 class Monitor(TextEvents):
-    def __init__(self, session: zenoh.Session, robot: str, rec: rr.RecordingStream,
+    def __init__(self, session: zenoh.Session, robot: str, rec: rr.RecordingStream | L.Prefixed,
                  rates: dict[str, float] | None = None, flush_period: float = 0.05,
                  observers: list[Callable[[str, object], None]] | None = None,
                  base_frame: str = "base_link", subscribe: bool = True, keyframe_period: float = 0.0) -> None:
         self.robot, self.rec, self.session = robot, rec, session
         self.keyframes = Keyframes(keyframe_period)  # > 0 with a history that drops its oldest (--serve-web)
-        self.base_frame, self._views = base_frame, {}  # robot pattern: robot name -> its Monitor
+        self.base_frame = base_frame
+        self._views: dict[str, Monitor] = {}  # robot pattern: robot name -> its Monitor
         self.observers = list(observers or [])  # e.g. the web page's state: every decoded message
         self.throttle = Throttle(rates)
         self.timeline = StampTimeline()
@@ -91,7 +92,7 @@ class Monitor(TextEvents):
         """One robot's view (robot pattern): entities under ``robot/``, observers get ``robot/topic``."""
         with self._lock:
             if robot not in self._views:
-                obs = [lambda t, msg, o=o: o(f"{robot}/{t}", msg) for o in self.observers]
+                obs: list[Callable[..., None]] = [lambda t, msg, o=o: o(f"{robot}/{t}", msg) for o in self.observers]
                 v = Monitor(self.session, robot, L.Prefixed(self.rec, robot), self.throttle.rates, observers=obs,
                             base_frame=self.base_frame, subscribe=False, keyframe_period=self.keyframes.period)
                 v.stats, v._lock = self.stats, self._lock  # one count, one lock (the stream is shared)
@@ -213,11 +214,11 @@ class Monitor(TextEvents):
                     sub(f"tf/{child}", topic, kind, ts.header.stamp, fn)
             return
         stamp = msg.header.stamp if hasattr(msg, "header") else None
-        spatial = {
+        spatial: dict[type, Callable[..., None]] = {
             m.OccupancyGrid: L.log_occupancy_grid, m.Costmap: L.log_costmap,
             m.PolygonStamped: L.log_polygon, m.PoseStamped: L.log_pose,
         }
-        sensors = {m.LaserScan: L.log_scan, m.PointCloud: L.log_cloud}
+        sensors: dict[type, Callable[..., None]] = {m.LaserScan: L.log_scan, m.PointCloud: L.log_cloud}
         if type(msg) in sensors:  # placed with the transform at its stamp, once TF has it (placement.py)
             entity, log_it = "world/" + topic, sensors[type(msg)]
 
@@ -263,7 +264,10 @@ class Monitor(TextEvents):
             self._sensors(topic, msg)
             for s in msg.sources:  # age of each source's last reading: gaps show as saw teeth
                 entity = f"plots/sensors/{msg.costmap or topic}/{s.layer}/{s.source}"
-                sub(entity, topic, kind, stamp, lambda e=entity, v=s.age_s: rec.log(e, rr.Scalars(v)))
+
+                def age(e: str = entity, v: float = s.age_s) -> None:
+                    rec.log(e, rr.Scalars(v))
+                sub(entity, topic, kind, stamp, age)
         elif isinstance(msg, m.GoalStatus):
             name = STATUS_NAMES.get(msg.status, str(msg.status))
             self._text_on_change(f"log/{topic}", stamp, f"goal {msg.goal_id} {name} {msg.text}".strip())

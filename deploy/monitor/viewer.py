@@ -4,6 +4,10 @@ blueprint it shows, refitted when a map first arrives (one robot, or one column 
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import rerun.blueprint as rrb
 
 
 def open_recording(args, robot: str, history_limit: str):
@@ -88,7 +92,7 @@ def fit_view_to_map(rec, args):
     return observe
 
 
-def robots_blueprint(maps: dict[str, tuple]) -> object:
+def robots_blueprint(maps: dict[str, tuple]) -> rrb.Blueprint:
     """Side by side, one column per robot (``maps``: robot -> (centre, eye height) of its map view)."""
     import rerun.blueprint as rrb
 
