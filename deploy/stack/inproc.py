@@ -82,14 +82,17 @@ def _scan_sources(sim, robot: Launch, source: str) -> list[_ScanSource]:
         for e in robot.entries:
             if e.opts.module == "robot_side.depth.depth_to_scan_node":
                 topics, params = split_params(e.params, source, DepthToScanTopics, DepthToScanParams)
-                conv = DepthToScan(params)
                 out.append(_ScanSource("depth_camera", topics.scan_topic.strip("/"),
-                                       lambda conv=conv: conv.convert(*sim.depth_frame()),
-                                       Pose2D(cp.x, cp.y, cp.yaw), cp.z))
+                                       _depth_scan(sim, DepthToScan(params)), Pose2D(cp.x, cp.y, cp.yaw), cp.z))
     if not out:
         raise ValueError(f"{source}: the simulated robot publishes no scan (a laser, or a depth camera with a "
                          "depth_to_scan node)")
     return out
+
+
+def _depth_scan(sim, conv: DepthToScan) -> Callable[[], LaserScan]:
+    """The simulator's latest depth image through ``conv``, read when called."""
+    return lambda: conv.convert(*sim.depth_frame())
 
 
 class _Costmap:
