@@ -19,6 +19,7 @@ from master_side.planning.local import (
     TrajectoryPlannerParams,
 )
 from master_side.planning.local.costs import ObstacleCost
+from master_side.planning.local.grid_distance import MapGrid
 from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories
 from master_side.planning.navfn import NavFn
@@ -208,6 +209,21 @@ def test_a_goal_cut_off_on_the_local_costmap_is_said(dwa_params):
     grid[5:20, 70:73] = NO_INFORMATION
     res = planner.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), grid, RES, (0.0, 0.0), P3AT_FOOTPRINT)
     assert "is cut off from the robot by unknown cells on the local costmap" in res.reason, res.reason
+
+
+def test_the_local_goals_fill_does_not_pass_a_wall_through_the_plans_cells():
+    """The path and goal fills run on one graph; the plan's cells are the path fill's targets and expand even in
+    a wall (ROS's too). They opened the wall for the goal's fill as well where the plan crossed it a cell at a
+    time (a 4-connected row of cells): the goal looked reachable, and DWA wandered in front of the wall."""
+    grid = free_map(80, 120)
+    grid[:, 70:73] = LETHAL
+    grid = inflate(grid, RES)
+    plan = np.column_stack((np.linspace(1.0, 5.0, 81), np.full(81, 2.0)))
+    mg = MapGrid(grid, RES, (0.0, 0.0))
+    path, goal = mg.distances(plan)
+    assert path[40, 20] == 0.0 and np.isinf(goal[40, 20])
+    assert np.isinf(mg.goal_distance(plan)[40, 20])
+    assert goal[40, 110] < np.inf  # beyond the wall, the goal's side
 
 
 def test_dwa_samples_respect_the_dynamic_window(dwa_params):

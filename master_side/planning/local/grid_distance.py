@@ -64,7 +64,8 @@ class _Lattice:
         return self.fill_many(passable, [targets])[0]
 
     def fill_many(self, passable: np.ndarray, target_sets: list[np.ndarray]) -> list[np.ndarray]:
-        """``fill`` for several target sets on the same grid: one graph, one virtual source per set.
+        """``fill`` for several target sets on the same grid: one graph, one virtual source per set (a graph
+        per set when a set has targets the fill may not enter: those open for their own set only).
 
         The last few results are kept (read-only) and handed out again for the same passable cells and
         target sets: the costmap and the plan usually change less often than the planner runs."""
@@ -83,6 +84,10 @@ class _Lattice:
         return list(got)
 
     def _fill_many(self, passable: np.ndarray, sets: list[np.ndarray]) -> list[np.ndarray]:
+        if len(sets) > 1 and any(not passable[t].all() for t in sets):
+            # a set's blocked targets expand for that set only: opened for all, the plan's cells where the
+            # plan crosses a wall on the local costmap let the local goal's fill through the wall
+            return [self._fill_many(passable, [t])[0] for t in sets]
         n, k = self.n, len(sets)
         # Blocked cells are reached but expand nothing (their out-edges lead to the dead end n); their
         # depth is overwritten with IMPOSSIBLE below. Targets expand even when blocked.
