@@ -226,6 +226,37 @@ def test_the_local_goals_fill_does_not_pass_a_wall_through_the_plans_cells():
     assert goal[40, 110] < np.inf  # beyond the wall, the goal's side
 
 
+def test_a_cut_off_plan_is_followed_as_far_as_it_is_open_with_cut_off_plan_min_reach(dwa_params):
+    """zenav's cut_off_plan_min_reach: the same wall across the plan; the robot drives along the plan while its
+    open part reaches at least 0.5 m ahead, and then stops as ROS's planner does at once (no valid command,
+    GoalDistance), never in the wall's inscribed band."""
+    grid = free_map(80, 120)
+    grid[:, 70:73] = LETHAL
+    grid = inflate(grid, RES)
+    plan = np.column_stack((np.linspace(1.0, 5.0, 81), np.full(81, 2.0), np.zeros(81)))  # navfn's: a pose a cell
+    ros = DWAPlanner(dwa_params)
+    ros.set_plan(plan)
+    assert not ros.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), grid, RES, (0.0, 0.0), P3AT_FOOTPRINT).ok
+    planner = DWAPlanner(dataclasses.replace(dwa_params, cut_off_plan_min_reach=0.5))
+    planner.set_plan(plan)
+    reached, poses, cmds, results = drive(planner, Pose2D(1.0, 2.0, 0.0), grid, RES, P3AT_FOOTPRINT, max_cycles=300)
+    assert not reached
+    assert results[0].ok and cmds[0][0] > 0.0, results[0].reason
+    stop = next(i for i, r in enumerate(results) if not r.ok)
+    assert "the local goal (5.00, 2.00) is cut off" in results[stop].reason, results[stop].reason
+    # the open part of the plan ends 0.3 m (the inscribed band, ~6 cells) before the wall at x = 3.5
+    front = poses[stop, 0]
+    assert 2.2 < front < 3.5 - 0.5 - 0.26 + 0.1, front
+    assert all(not r.ok for r in results[stop:stop + 20])  # and stays stopped: patience and recoveries follow
+    # not cut off: the same command as ROS's
+    open_grid = inflate(free_map(80, 120), RES)
+    a = ros.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), open_grid, RES, (0.0, 0.0), P3AT_FOOTPRINT)
+    b = DWAPlanner(dataclasses.replace(dwa_params, cut_off_plan_min_reach=0.5))
+    b.set_plan(plan)
+    assert b.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), open_grid, RES, (0.0, 0.0),
+                              P3AT_FOOTPRINT).cmd == a.cmd
+
+
 def test_dwa_samples_respect_the_dynamic_window(dwa_params):
     p = dataclasses.replace(dwa_params, vx_samples=20, vth_samples=20)
     planner = DWAPlanner(p)

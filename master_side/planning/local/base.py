@@ -19,6 +19,7 @@ from common.geometry import Pose2D
 from master_side.costmap.cost_values import NO_INFORMATION
 from master_side.planning.grid import check_grid
 from master_side.planning.local.costs import ObstacleCost
+from master_side.planning.local.reachable import reachable_plan
 from master_side.planning.local.scoring import ScoredSamplingPlanner
 from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories, simulate
@@ -68,6 +69,7 @@ class Limits:
     trans_stopped_vel: float = 0.1
     rot_stopped_vel: float = 0.1
     rotation_center_x: float = 0.0  # m, in base_link: where the base turns about (see driven())
+    cut_off_plan_min_reach: float = 0.0  # m; > 0: a cut-off plan is followed as far as it is open (reachable.py)
 
 
 def driven(v: np.ndarray, rotation_center_x: float) -> np.ndarray:
@@ -197,6 +199,11 @@ class LocalPlanner:
                 self._brake(v), False, "the plan is not on the local costmap", np.zeros((0, 3)), 0
             )
         ctx.plan, ctx.goal = local, local[-1]
+        if self.limits.cut_off_plan_min_reach > 0:
+            short = reachable_plan(ctx, self.limits.cut_off_plan_min_reach)
+            if short is not None:  # the fills of the whole plan no longer apply; the grid's do
+                grid_fills = ctx._cache.get("grid")
+                ctx.plan, ctx.goal, ctx._cache = short, short[-1], {} if grid_fills is None else {"grid": grid_fills}
         goal = self._plan[-1]
         dist = math.hypot(goal[0] - p[0], goal[1] - p[1])
         if dist <= self.limits.xy_goal_tolerance and self.limits.latch_xy_goal_tolerance:

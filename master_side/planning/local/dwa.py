@@ -79,6 +79,12 @@ class DWAPlannerParams:
     controller_frequency: float = param(
         20.0, lo=0.1, hi=1000.0, unit="Hz", doc="move_base's, sets sim_period"
     )
+    cut_off_plan_min_reach: float = param(
+        0.0, lo=0.0, hi=100.0, unit="m",
+        doc="zenav: when the local costmap cuts the local goal off from the robot, follow the plan to its "
+            "farthest pose the robot can reach, if that lies at least this far along it "
+            "(master_side/planning/local/reachable.py); 0: ROS's (every trajectory rejected until "
+            "controller_patience runs out)")
 
     def validate(self) -> None:
         if self.min_vel_x > self.max_vel_x:
@@ -108,6 +114,7 @@ class DWAPlannerParams:
             trans_stopped_vel=self.trans_stopped_vel,
             rot_stopped_vel=self.rot_stopped_vel,
             rotation_center_x=self.rotation_center_x,
+            cut_off_plan_min_reach=self.cut_off_plan_min_reach,
         )
 
 
