@@ -20,6 +20,7 @@ from master_side.planning.local import (
 )
 from master_side.planning.local.costs import ObstacleCost
 from master_side.planning.local.grid_distance import MapGrid
+from master_side.planning.local.reachable import reachable_plan
 from master_side.planning.local.scoring_context import ScoringContext, angle_diff
 from master_side.planning.local.trajectories import Trajectories
 from master_side.planning.navfn import NavFn
@@ -248,13 +249,21 @@ def test_a_cut_off_plan_is_followed_as_far_as_it_is_open_with_cut_off_plan_min_r
     front = poses[stop, 0]
     assert 2.2 < front < 3.5 - 0.5 - 0.26 + 0.1, front
     assert all(not r.ok for r in results[stop:stop + 20])  # and stays stopped: patience and recoveries follow
-    # not cut off: the same command as ROS's
+    # not cut off: the same command as ROS's, also where the plan runs on into cells no sensor has seen (ROS's
+    # local goal is then the last known cell, which the robot can reach)
     open_grid = inflate(free_map(80, 120), RES)
+    open_grid[:, 70:] = NO_INFORMATION
     a = ros.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), open_grid, RES, (0.0, 0.0), P3AT_FOOTPRINT)
     b = DWAPlanner(dataclasses.replace(dwa_params, cut_off_plan_min_reach=0.5))
     b.set_plan(plan)
     assert b.compute_velocity(Pose2D(1.0, 2.0, 0.0), (0.0, 0.0, 0.0), open_grid, RES, (0.0, 0.0),
                               P3AT_FOOTPRINT).cmd == a.cmd
+    ctx = ScoringContext(np.array([1.0, 2.0, 0.0]), np.zeros(3), open_grid, RES, np.zeros(2), P3AT_FOOTPRINT, plan,
+                         plan[-1])
+    assert reachable_plan(ctx, 0.5) is None
+    ctx = ScoringContext(np.array([1.0, 2.0, 0.0]), np.zeros(3), grid, RES, np.zeros(2), P3AT_FOOTPRINT, plan, plan[-1])
+    short = reachable_plan(ctx, 0.5)
+    assert short is not None and 3.1 < short[-1, 0] < 3.3  # the wall's inscribed band begins 0.26 m before x = 3.5
 
 
 def test_dwa_samples_respect_the_dynamic_window(dwa_params):

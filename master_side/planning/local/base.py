@@ -199,11 +199,6 @@ class LocalPlanner:
                 self._brake(v), False, "the plan is not on the local costmap", np.zeros((0, 3)), 0
             )
         ctx.plan, ctx.goal = local, local[-1]
-        if self.limits.cut_off_plan_min_reach > 0:
-            short = reachable_plan(ctx, self.limits.cut_off_plan_min_reach)
-            if short is not None:  # the fills of the whole plan no longer apply; the grid's do
-                grid_fills = ctx._cache.get("grid")
-                ctx.plan, ctx.goal, ctx._cache = short, short[-1], {} if grid_fills is None else {"grid": grid_fills}
         goal = self._plan[-1]
         dist = math.hypot(goal[0] - p[0], goal[1] - p[1])
         if dist <= self.limits.xy_goal_tolerance and self.limits.latch_xy_goal_tolerance:
@@ -215,6 +210,11 @@ class LocalPlanner:
             rotating and dist <= self.limits.xy_goal_tolerance + ROTATION_HOLD_M
         ):
             return self._approach_goal(ctx, goal)
+        if self.limits.cut_off_plan_min_reach > 0:
+            short = reachable_plan(ctx, self.limits.cut_off_plan_min_reach)
+            if short is not None:  # the fills of the whole plan no longer apply; the grid's do
+                grid_fills = ctx._cache.get("grid")
+                ctx.plan, ctx.goal, ctx._cache = short, short[-1], {} if grid_fills is None else {"grid": grid_fills}
         return self._choose(ctx)
 
     # --- hooks -----------------------------------------------------------------------------------------

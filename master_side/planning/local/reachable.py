@@ -27,17 +27,21 @@ def reachable_plan(ctx: ScoringContext, min_reach: float) -> np.ndarray | None:
     along the plan; else None. A point is reachable when its cell or one beside it is (ROS's flood fills start
     from a goal cell even in the inscribed band)."""
     r, c, inside = ctx.cells(ctx.pose[None, :2])
-    if len(ctx.plan) < 2 or not inside[0]:
-        return None
+    if len(ctx.plan) < 2 or not inside[0] or np.isfinite(ctx.goal_distance()[r[0], c[0]]):
+        return None  # not cut off (the goal distance's fill is the one GoalDistance uses: no extra work)
     mg = ctx.map_grid()
-    # from the robot's cell (expanded even when it is in the inscribed band, as ROS expands its targets); its
-    # own fill, not the goal distance's: that one enters the plan's cells where the plan crosses an obstacle
+    # from the robot's cell (expanded even when it is in the inscribed band, as ROS expands its targets)
     reach = np.pad(np.isfinite(mg.lattice.fill(mg.passable, np.array([r[0] * ctx.grid.shape[1] + c[0]]))), 1)
     plan, along = _dense(ctx.plan, ctx.resolution)
     pr, pc, pin = ctx.cells(plan[:, :2])
     pr, pc = pr + 1, pc + 1
     ok = pin & (reach[pr, pc] | reach[pr - 1, pc] | reach[pr + 1, pc] | reach[pr, pc - 1] | reach[pr, pc + 1])
-    if ok[-1] or not ok.any():  # the local goal is not cut off, or nothing of the plan is reachable
+    goal = mg.local_goal_cell(ctx.plan[:, :2])  # ROS's local goal: the last plan cell on the map and known
+    if goal is not None:
+        gr, gc = divmod(goal, ctx.grid.shape[1])
+        if reach[gr:gr + 3, gc:gc + 3].any():  # reachable after all: only the robot's own cell is blocked
+            return None
+    if not ok.any():
         return None
     k = int(np.flatnonzero(ok)[-1])
     to_start = float(np.hypot(*(plan[0, :2] - ctx.pose[:2])))
