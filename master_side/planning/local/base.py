@@ -212,9 +212,8 @@ class LocalPlanner:
             return self._approach_goal(ctx, goal)
         if self.limits.cut_off_plan_min_reach > 0:
             short = reachable_plan(ctx, self.limits.cut_off_plan_min_reach)
-            if short is not None:  # the fills of the whole plan no longer apply; the grid's do
-                grid_fills = ctx._cache.get("grid")
-                ctx.plan, ctx.goal, ctx._cache = short, short[-1], {} if grid_fills is None else {"grid": grid_fills}
+            if short is not None:
+                ctx.set_plan(short)
         return self._choose(ctx)
 
     # --- hooks -----------------------------------------------------------------------------------------

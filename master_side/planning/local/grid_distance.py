@@ -153,11 +153,18 @@ def densify(xy: np.ndarray, spacing: float) -> np.ndarray:
     xy = np.asarray(xy, float).reshape(-1, 2)
     if len(xy) < 2:
         return xy
+    i, frac = densify_steps(xy, spacing)
+    return np.vstack((xy[i] + (xy[i + 1] - xy[i]) * frac[:, None], xy[-1:]))
+
+
+def densify_steps(xy: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """``densify``'s points but the last, as (segment index, fraction along that segment) of a polyline of two
+    or more points."""
     seg = np.diff(xy, axis=0)
     n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1]) / spacing).astype(int), 1)
     i = np.repeat(np.arange(len(seg)), n)
     t = np.arange(len(i)) - np.repeat(np.cumsum(n) - n, n)  # 0..n_k-1 within each segment
-    return np.vstack((xy[i] + seg[i] * (t / n[i])[:, None], xy[-1:]))
+    return i, t / n[i]
 
 
 def plan_cells(grid: np.ndarray, resolution: float, origin: np.ndarray, plan_xy: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from master_side.planning.local.grid_distance import densify_steps
 from master_side.planning.local.scoring_context import ScoringContext
 
 
@@ -32,15 +33,15 @@ def reachable_plan(ctx: ScoringContext, min_reach: float) -> np.ndarray | None:
     mg = ctx.map_grid()
     # from the robot's cell (expanded even when it is in the inscribed band, as ROS expands its targets)
     reach = np.pad(np.isfinite(mg.lattice.fill(mg.passable, np.array([r[0] * ctx.grid.shape[1] + c[0]]))), 1)
-    plan, along = _dense(ctx.plan, ctx.resolution)
-    pr, pc, pin = ctx.cells(plan[:, :2])
-    pr, pc = pr + 1, pc + 1
-    ok = pin & (reach[pr, pc] | reach[pr - 1, pc] | reach[pr + 1, pc] | reach[pr, pc - 1] | reach[pr, pc + 1])
     goal = mg.local_goal_cell(ctx.plan[:, :2])  # ROS's local goal: the last plan cell on the map and known
     if goal is not None:
         gr, gc = divmod(goal, ctx.grid.shape[1])
         if reach[gr:gr + 3, gc:gc + 3].any():  # reachable after all: only the robot's own cell is blocked
             return None
+    plan, along = _dense(ctx.plan, ctx.resolution)
+    pr, pc, pin = ctx.cells(plan[:, :2])
+    pr, pc = pr + 1, pc + 1
+    ok = pin & (reach[pr, pc] | reach[pr - 1, pc] | reach[pr + 1, pc] | reach[pr, pc - 1] | reach[pr, pc + 1])
     if not ok.any():
         return None
     k = int(np.flatnonzero(ok)[-1])
@@ -49,13 +50,11 @@ def reachable_plan(ctx: ScoringContext, min_reach: float) -> np.ndarray | None:
 
 
 def _dense(plan: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
-    """The plan's poses with points at most ``spacing`` apart between them (each with the heading of the pose
-    its segment starts from), and each point's distance along the plan."""
-    seg = np.diff(plan[:, :2], axis=0)
-    length = np.hypot(seg[:, 0], seg[:, 1])
-    n = np.maximum(np.ceil(length / spacing).astype(int), 1)
-    i = np.repeat(np.arange(len(seg)), n)
-    t = (np.arange(len(i)) - np.repeat(np.cumsum(n) - n, n)) / n[i]
-    pts = np.vstack((np.column_stack((plan[i, :2] + seg[i] * t[:, None], plan[i, 2])), plan[-1:]))
-    along = np.concatenate(((np.cumsum(length) - length)[i] + length[i] * t, [length.sum()]))
+    """``densify``'s points of the plan, each with the heading of the pose its segment starts from, and each
+    point's distance along the plan."""
+    i, frac = densify_steps(plan[:, :2], spacing)
+    seg = plan[i + 1, :2] - plan[i, :2]
+    length = np.hypot(*np.diff(plan[:, :2], axis=0).T)
+    pts = np.vstack((np.column_stack((plan[i, :2] + seg * frac[:, None], plan[i, 2])), plan[-1:]))
+    along = np.concatenate(((np.cumsum(length) - length)[i] + length[i] * frac, [length.sum()]))
     return pts, along

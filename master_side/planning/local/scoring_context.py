@@ -48,6 +48,12 @@ class ScoringContext:
             r, c = np.where(inside, r, 0), np.where(inside, c, 0)
         return r, c, inside
 
+    def set_plan(self, plan: np.ndarray) -> None:
+        """Score against ``plan`` (its last pose the local goal) from here on: the plan's fills go, the
+        grid's stay."""
+        self.plan, self.goal = plan, plan[-1]
+        self._cache = {k: v for k, v in self._cache.items() if k == "grid"}
+
     def map_grid(self) -> MapGrid:
         if "grid" not in self._cache:
             inside = footprint_cells(self.pose, self.footprint, self) if self.within_robot else None
