@@ -45,8 +45,9 @@ def _rotated(pts: np.ndarray, thetas: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray, thetas: np.ndarray,
-                 half: int) -> tuple[np.ndarray, np.ndarray]:
-    """Score pose_p + (i*cell, j*cell, theta) for |i|,|j| <= half, theta in thetas[p] (P, A).
+                 half: int, sel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Score pose_p + (i*cell, j*cell, theta) for |i|,|j| <= half, theta in thetas[p] (P, A), pose p in
+    field ``sel[p]`` (default: field p).
 
     Cells outside a particle's window score 0 (its border is FAR and the buffer is padded).
     Returns (scores (P, A, T), translations (T, 2) in metres).
@@ -58,6 +59,8 @@ def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray,
         flat, off, w, nx, ny, pad = fs.fine, fs.off_f, fs.w_f, fs.nx_f, fs.ny_f, PAD_F
         cell, ox, oy = fs.res, fs.ix0.astype(float), fs.iy0.astype(float)
     assert 2 * half + 1 <= pad
+    if sel is not None:
+        off, w, nx, ny, ox, oy = (a[sel] for a in (off, w, nx, ny, ox, oy))
     scores = kernels.grid_search(flat, off, w, nx, ny, ox, oy, pad, cell, poses, np.cos(thetas), np.sin(thetas),
                                  pts, half)
     r = np.arange(-half, half + 1)
@@ -174,24 +177,43 @@ class ScanMatcher:
         if n == 0:
             return pose0.copy(), np.zeros(len(pose0))
         best = pose0.copy()
-        rows = np.arange(len(best))
         if lin > 0 or ang > 0:
             # coarse: COARSE*res cells, 1 degree steps over the whole window
             half = int(math.ceil(lin / (res * COARSE)))
             na = int(math.ceil(ang / math.radians(1.0)))
-            for coarse, th, h in ((True, np.arange(-na, na + 1) * math.radians(1.0), half),
-                                  # fine: res cells, quarter-degree steps around the coarse winner
-                                  (False, np.arange(-4, 5) * math.radians(0.25), FINE_HALF)):
-                th = best[:, 2:3] + th[None, :]
-                sc, tr = _grid_search(fs, coarse, best, pts, th, h)
-                cand = np.empty(sc.shape + (3,))
-                cand[..., 0] = best[:, None, None, 0] + tr[None, None, :, 0]
-                cand[..., 1] = best[:, None, None, 1] + tr[None, None, :, 1]
-                cand[..., 2] = th[:, :, None]
-                sc = sc - self._penalty(cand, pose0, n, window, prior)
-                k = sc.reshape(len(sc), -1).argmax(axis=1)
-                best = cand.reshape(len(sc), -1, 3)[rows, k].copy()
+            coarse_best, _ = self._search(fs, True, pose0, pose0, pts, np.arange(-na, na + 1) * math.radians(1.0),
+                                          half, window, prior)
+            # fine: res cells, quarter-degree steps, around the coarse winner and around the start pose
+            # itself (where gmapping's hill climb begins). The coarse level's 4x4-cell maxima can rank a
+            # wrong heading first (a turn at a corridor's end: 14 deg scored above the true 11 deg, which
+            # then lay beyond the fine search's +-1 deg); the start's own neighbourhood keeps the match
+            # from ending worse than a search that never left it.
+            fine_th = np.arange(-4, 5) * math.radians(0.25)
+            best, sc = self._search(fs, False, coarse_best, pose0, pts, fine_th, FINE_HALF, window, prior)
+            moved = np.flatnonzero(np.any(coarse_best != pose0, axis=1))  # the others searched there already
+            if len(moved):
+                near, sc0 = self._search(fs, False, pose0[moved], pose0[moved], pts, fine_th, FINE_HALF, window,
+                                         self.sub_prior(prior, moved), moved)
+                keep = sc0 > sc[moved]
+                best[moved[keep]] = near[keep]
         return self._hill_climb(fs, best, pose0, pts, window, prior)
+
+    def _search(self, fs: FieldSet, coarse: bool, centre: np.ndarray, pose0: np.ndarray, pts: np.ndarray,
+                dth: np.ndarray, half: int, window: tuple[float, float], prior: MotionPrior | None,
+                sel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """The best of the grid of poses about ``centre`` (P, 3) (``half`` cells of the level each way,
+        headings ``centre`` + ``dth``) by penalised score: (poses (P, 3), penalised scores (P,)). Pose p
+        in field ``sel[p]`` (default p), ``prior`` and ``pose0`` already taken for those."""
+        th = centre[:, 2:3] + dth[None, :]
+        sc, tr = _grid_search(fs, coarse, centre, pts, th, half, sel)
+        cand = np.empty(sc.shape + (3,))
+        cand[..., 0] = centre[:, None, None, 0] + tr[None, None, :, 0]
+        cand[..., 1] = centre[:, None, None, 1] + tr[None, None, :, 1]
+        cand[..., 2] = th[:, :, None]
+        sc = (sc - self._penalty(cand, pose0, len(pts), window, prior)).reshape(len(sc), -1)
+        k = sc.argmax(axis=1)
+        rows = np.arange(len(sc))
+        return cand.reshape(len(sc), -1, 3)[rows, k].copy(), sc[rows, k]
 
     def _hill_climb(self, fs: FieldSet, pose: np.ndarray, pose0: np.ndarray, pts: np.ndarray,
                     window: tuple[float, float], prior: MotionPrior | None) -> tuple[np.ndarray, np.ndarray]:

@@ -77,24 +77,31 @@ class NumpyMatcher(ScanMatcher):
         if n == 0:
             return pose0.copy(), np.zeros(len(pose0))
         best = pose0.copy()
-        rows = np.arange(len(best))
         if lin > 0 or ang > 0:
             # coarse: COARSE*res cells, 1 degree steps over the whole window
             half = int(math.ceil(lin / (res * COARSE)))
             na = int(math.ceil(ang / math.radians(1.0)))
-            for coarse, th, h in ((True, np.arange(-na, na + 1) * math.radians(1.0), half),
-                                  # fine: res cells, quarter-degree steps around the coarse winner
-                                  (False, np.arange(-4, 5) * math.radians(0.25), FINE_HALF)):
-                th = best[:, 2:3] + th[None, :]
-                sc, tr = _grid_search(fs, coarse, best, pts, th, h)
-                cand = np.empty(sc.shape + (3,))
-                cand[..., 0] = best[:, None, None, 0] + tr[None, None, :, 0]
-                cand[..., 1] = best[:, None, None, 1] + tr[None, None, :, 1]
-                cand[..., 2] = th[:, :, None]
-                sc = sc - self._penalty(cand, pose0, n, window, prior)
-                k = sc.reshape(len(sc), -1).argmax(axis=1)
-                best = cand.reshape(len(sc), -1, 3)[rows, k].copy()
+            coarse_best, _ = self._search(fs, True, pose0, pose0, pts, np.arange(-na, na + 1) * math.radians(1.0),
+                                          half, window, prior)
+            # fine: res cells, quarter-degree steps around the coarse winner and around the start pose
+            fine_th = np.arange(-4, 5) * math.radians(0.25)
+            best, sc = self._search(fs, False, coarse_best, pose0, pts, fine_th, FINE_HALF, window, prior)
+            near, sc0 = self._search(fs, False, pose0, pose0, pts, fine_th, FINE_HALF, window, prior)
+            keep = sc0 > sc
+            best[keep] = near[keep]
         return self._hill_climb(fs, best, pose0, pts, window, prior)
+
+    def _search(self, fs, coarse, centre, pose0, pts, dth, half, window, prior):
+        th = centre[:, 2:3] + dth[None, :]
+        sc, tr = _grid_search(fs, coarse, centre, pts, th, half)
+        cand = np.empty(sc.shape + (3,))
+        cand[..., 0] = centre[:, None, None, 0] + tr[None, None, :, 0]
+        cand[..., 1] = centre[:, None, None, 1] + tr[None, None, :, 1]
+        cand[..., 2] = th[:, :, None]
+        sc = (sc - self._penalty(cand, pose0, len(pts), window, prior)).reshape(len(sc), -1)
+        k = sc.argmax(axis=1)
+        rows = np.arange(len(sc))
+        return cand.reshape(len(sc), -1, 3)[rows, k].copy(), sc[rows, k]
 
     def _hill_climb(self, fs: FieldSet, pose: np.ndarray, pose0: np.ndarray, pts: np.ndarray,
                     window: tuple[float, float], prior: MotionPrior | None) -> tuple[np.ndarray, np.ndarray]:
