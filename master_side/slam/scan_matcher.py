@@ -109,6 +109,8 @@ def _bilinear_scores(fs: FieldSet, poses: np.ndarray, pts: np.ndarray, sel: np.n
 
 
 class ScanMatcher:
+    grid_search = staticmethod(_grid_search)  # the correlative search's scoring (tests/slam's numpy reference swaps it)
+
     def __init__(self, p: GMappingParams):
         self.p = p
         self.floor = -((p.field_radius * p.delta) ** 2) / p.lsigma
@@ -205,7 +207,7 @@ class ScanMatcher:
         headings ``centre`` + ``dth``) by penalised score: (poses (P, 3), penalised scores (P,)). Pose p
         in field ``sel[p]`` (default p), ``prior`` and ``pose0`` already taken for those."""
         th = centre[:, 2:3] + dth[None, :]
-        sc, tr = _grid_search(fs, coarse, centre, pts, th, half, sel)
+        sc, tr = self.grid_search(fs, coarse, centre, pts, th, half, sel)
         cand = np.empty(sc.shape + (3,))
         cand[..., 0] = centre[:, None, None, 0] + tr[None, None, :, 0]
         cand[..., 1] = centre[:, None, None, 1] + tr[None, None, :, 1]

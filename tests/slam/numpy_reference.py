@@ -10,15 +10,16 @@ import numpy as np
 from master_side.slam.field import COARSE, PAD_C, PAD_F, FieldSet
 from master_side.slam.grid import L_FREE, L_MAX, L_MIN, L_OCC, TILE, Window
 from master_side.slam.gridslam import Beams
-from master_side.slam.scan_matcher import FINE_HALF, MotionPrior, ScanMatcher, _bilinear_scores, _rotated
+from master_side.slam.scan_matcher import MotionPrior, ScanMatcher, _bilinear_scores, _rotated
 
 MOVES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
 TURNS = np.array([0, 0, 0, 0, 1, 2])  # MOVES' heading: unchanged, +step, -step
 
 
 def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray, thetas: np.ndarray,
-                 half: int) -> tuple[np.ndarray, np.ndarray]:
-    """Score pose_p + (i*cell, j*cell, theta) for |i|,|j| <= half, theta in thetas[p] (P, A).
+                 half: int, sel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Score pose_p + (i*cell, j*cell, theta) for |i|,|j| <= half, theta in thetas[p] (P, A), pose p in
+    field ``sel[p]`` (default: field p).
 
     Cells outside a particle's window score 0 (its border is FAR and the buffer is padded).
     Returns (scores (P, A, T), translations (T, 2) in metres).
@@ -30,6 +31,8 @@ def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray,
         flat, off, w, nx, ny, pad = fs.fine, fs.off_f, fs.w_f, fs.nx_f, fs.ny_f, PAD_F
         cell, ox, oy = fs.res, fs.ix0.astype(float), fs.iy0.astype(float)
     assert 2 * half + 1 <= pad
+    if sel is not None:
+        off, w, nx, ny, ox, oy = (a[sel] for a in (off, w, nx, ny, ox, oy))
     rx, ry = _rotated(pts, thetas)  # (P, A, B)
     e = (slice(None), None, None)
     base = None
@@ -64,44 +67,7 @@ def _grid_search(fs: FieldSet, coarse: bool, poses: np.ndarray, pts: np.ndarray,
 class NumpyMatcher(ScanMatcher):
     """``ScanMatcher`` with the numpy correlative search and hill climb."""
 
-    def match_many(self, fs: FieldSet, pose0: np.ndarray, pts: np.ndarray,
-                   window: tuple[float, float] | None = None,
-                   prior: MotionPrior | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """``match`` of pose p (P, 3) in field p for every particle at once: (poses (P, 3), scores (P,)).
-        ``prior``: mean (P, 3), weights (P,)."""
-        p, res = self.p, fs.res
-        window = window or (p.search_linear, p.search_angular)
-        lin, ang = window
-        n = len(pts)
-        pose0 = np.asarray(pose0, float)
-        if n == 0:
-            return pose0.copy(), np.zeros(len(pose0))
-        best = pose0.copy()
-        if lin > 0 or ang > 0:
-            # coarse: COARSE*res cells, 1 degree steps over the whole window
-            half = int(math.ceil(lin / (res * COARSE)))
-            na = int(math.ceil(ang / math.radians(1.0)))
-            coarse_best, _ = self._search(fs, True, pose0, pose0, pts, np.arange(-na, na + 1) * math.radians(1.0),
-                                          half, window, prior)
-            # fine: res cells, quarter-degree steps around the coarse winner and around the start pose
-            fine_th = np.arange(-4, 5) * math.radians(0.25)
-            best, sc = self._search(fs, False, coarse_best, pose0, pts, fine_th, FINE_HALF, window, prior)
-            near, sc0 = self._search(fs, False, pose0, pose0, pts, fine_th, FINE_HALF, window, prior)
-            keep = sc0 > sc
-            best[keep] = near[keep]
-        return self._hill_climb(fs, best, pose0, pts, window, prior)
-
-    def _search(self, fs, coarse, centre, pose0, pts, dth, half, window, prior):
-        th = centre[:, 2:3] + dth[None, :]
-        sc, tr = _grid_search(fs, coarse, centre, pts, th, half)
-        cand = np.empty(sc.shape + (3,))
-        cand[..., 0] = centre[:, None, None, 0] + tr[None, None, :, 0]
-        cand[..., 1] = centre[:, None, None, 1] + tr[None, None, :, 1]
-        cand[..., 2] = th[:, :, None]
-        sc = (sc - self._penalty(cand, pose0, len(pts), window, prior)).reshape(len(sc), -1)
-        k = sc.argmax(axis=1)
-        rows = np.arange(len(sc))
-        return cand.reshape(len(sc), -1, 3)[rows, k].copy(), sc[rows, k]
+    grid_search = staticmethod(_grid_search)
 
     def _hill_climb(self, fs: FieldSet, pose: np.ndarray, pose0: np.ndarray, pts: np.ndarray,
                     window: tuple[float, float], prior: MotionPrior | None) -> tuple[np.ndarray, np.ndarray]:
