@@ -216,8 +216,8 @@ class FakeHokuyo(FakeDeviceLink):
             elif kind == "checksum":  # one data character changed, its line's sum left as it was
                 i = len(block) - 4  # the last data character (then its sum, LF, LF)
                 block = block[:i] + bytes([0x30 + ((block[i] - 0x30 + 1) & 0x3F)]) + block[i + 1:]
+        self.scans_sent += 1  # counted before the write: the driver may parse it before _send returns
         self._send(block)
-        self.scans_sent += 1
         if s["scans"] and s["remaining"] <= 0:
             self.stream, self.laser_on = None, False
 
