@@ -10,13 +10,8 @@ at start, ``master_side.planning.warmup``, so its first control cycle does not s
 
 from __future__ import annotations
 
-import math
 import sys
 import time
-
-import numpy as np
-
-from common.geometry import Pose2D
 
 
 def _planners() -> None:
@@ -26,28 +21,10 @@ def _planners() -> None:
     warm_local_planners()
 
 
-def _room_scan(x: float, y: float, th: float, n: int = 181):
-    """A 180-degree scan from (x, y, th) inside a 6 m x 6 m box room centred on the origin."""
-    from common.messages import LaserScan
-
-    ang = th + np.linspace(-math.pi / 2, math.pi / 2, n)
-    c, s = np.cos(ang), np.sin(ang)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tx = np.where(c > 0, (3.0 - x) / c, np.where(c < 0, (-3.0 - x) / c, np.inf))
-        ty = np.where(s > 0, (3.0 - y) / s, np.where(s < 0, (-3.0 - y) / s, np.inf))
-    return LaserScan(angle_min=-math.pi / 2, angle_max=math.pi / 2, angle_increment=math.pi / (n - 1),
-                     range_min=0.1, range_max=30.0, ranges=np.minimum(tx, ty).astype(np.float32))
-
-
 def _slam() -> None:
-    from master_side.slam.gridslam import GridSlam
-    from master_side.slam.params import load_gmapping
+    from master_side.slam.warmup import warm_filter
 
-    slam = GridSlam(load_gmapping(particles=4))
-    for k in range(8):
-        x, th = -1.0 + 0.3 * k, 0.1 * k
-        slam.process(float(k), Pose2D(x, 0.2, th), _room_scan(x, 0.2, th))
-    slam.occupancy_grid()
+    warm_filter()
 
 
 COMPONENTS = {"planners (navfn, DWA, trajectory rollout)": _planners, "SLAM (gmapping filter)": _slam}

@@ -22,6 +22,7 @@ from common.messages import Header, LaserScan, TFMessage, TransformStamped
 from master_side.slam.gridslam import GridSlam
 from master_side.slam.params import NODE_ONLY, GMappingParams
 from master_side.slam.trajectory import ScanLog, to_message
+from master_side.slam.warmup import warm_filter
 
 TF_CACHE_S = 60.0
 
@@ -104,6 +105,10 @@ class SlamNode:
         self.tf = TFListener(node, cache_time=TF_CACHE_S)
         self.tf_out = TFBroadcaster(node)
         self.map_pub = node.publisher("map", latched=True, reliable=True)  # a whole map: never dropped in fragments
+        # the kernels load now, not in the first update: a stall there is a gap in the scans (warmup.py)
+        t0 = time.monotonic()
+        warm_filter()
+        node.log.info("filter kernels ready in %.1f s", time.monotonic() - t0)
         # bounded queue, as ROS's MessageFilter: every scan is processed unless the filter falls behind
         self.sub = None  # _lookup reads its counters; a scan can come in before subscribe() returns
         self.sub = node.subscribe("scan", LaserScan, callback=self._on_scan, mode="queue",
