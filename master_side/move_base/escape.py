@@ -1,7 +1,8 @@
 """An escape recovery (zenav's; nav2's BackUp and DriveOnHeading are its nearest relatives): when the local
 planner finds no move because the padded footprint touches walls on every trajectory, move the robot by
-one short straight drive (forward or back) or one in-place turn to the nearby pose where its outline is
-farthest from obstacles, checking the robot's bare outline (no padding) along the whole way.
+one short straight drive (forward or back), one in-place turn, or a short turn followed by a drive, to the
+nearby pose where its outline is farthest from obstacles, checking the robot's bare outline (no padding)
+along the whole way.
 
 ROS 1's move_base has no recovery that moves the robot out of a tight spot: rotate_recovery ends at once
 when a turn would touch an obstacle, and the costmap resets do not move it. In a narrow doorway, beside
@@ -46,6 +47,9 @@ class EscapeParams:
                                   "robot's front, across its width, makes the longest reverse drive that loses "
                                   "none the move (nav2's BackUp's role; a forward-only planner cannot back "
                                   "away); 0: never")
+    turn_then_drive: bool = param(True, doc="also try an in-place turn followed by a straight drive: beside "
+                                           "a wall along the flank a drive keeps the clearance and a turn "
+                                           "brings a corner nearer, and only a drive at a slant gains it")
     stall_time: float = param(1.0, lo=0.1, hi=60.0, unit="s",
                               doc="the move ends when it has gained less than 2 cm or 0.05 rad in this long: "
                                   "something no sensor shows holds the robot")
@@ -53,7 +57,8 @@ class EscapeParams:
 
 @dataclass(frozen=True)
 class EscapeMove:
-    """A straight drive of ``distance`` m (negative: backwards) or an in-place turn of ``turn`` rad."""
+    """A straight drive of ``distance`` m (negative: backwards), an in-place turn of ``turn`` rad, or (both
+    set) the turn and then the drive on the heading it ends at."""
 
     distance: float
     turn: float
@@ -61,15 +66,21 @@ class EscapeMove:
     clearance_after: float
 
     def describe(self) -> str:
-        what = (f"{'forward' if self.distance > 0 else 'back'} {abs(self.distance):.2f} m" if self.distance
-                else f"turn {math.degrees(self.turn):+.0f} deg")
+        drive = f"{'forward' if self.distance > 0 else 'back'} {abs(self.distance):.2f} m"
+        turn = f"turn {math.degrees(self.turn):+.0f} deg"
+        what = f"{turn}, then {drive}" if self.distance and self.turn else drive if self.distance else turn
         return f"{what}: clearance {self.clearance_before:.2f} -> {self.clearance_after:.2f} m"
 
 
 def _poses_along(pose: Pose2D, distance: float, turn: float, res: float, outline_r: float,
                  center_x: float = 0.0) -> np.ndarray:
     """(K, 3) poses from ``pose`` along the move, dense enough that no outline point skips a cell; a turn is
-    about the point ``center_x`` ahead of base_link (the local planner's ``rotation_center_x``)."""
+    about the point ``center_x`` ahead of base_link (the local planner's ``rotation_center_x``); a turn and a
+    drive: the turn, then the drive from where it ends."""
+    if distance and turn:
+        turned = _poses_along(pose, 0.0, turn, res, outline_r, center_x)
+        end = Pose2D(*(float(v) for v in turned[-1]))
+        return np.vstack((turned, _poses_along(end, distance, 0.0, res, outline_r, center_x)))
     if distance:
         n = max(1, int(math.ceil(abs(distance) / (0.5 * res))))
         s = np.linspace(0.0, distance, n + 1)[1:]
@@ -130,7 +141,8 @@ def _leaving(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Po
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
                 params: EscapeParams = EscapeParams(), against: tuple[float, float] | None = None,
                 why: list[str] | None = None, center_x: float = 0.0) -> EscapeMove | None:
-    """The shortest straight drive or in-place turn (a reverse drive counting double) whose end leaves the
+    """The shortest straight drive, in-place turn or turn then drive (a reverse drive counting double; a turn
+    and a drive only if ``params.turn_then_drive``, and not against a stalled command) whose end leaves the
     robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
     farthest), free for the outline all the way (no lethal or unknown cell, not off the grid; a lethal cell
     the outline touches where the robot stands may be left behind). A move that gains less than a cell of
@@ -170,6 +182,8 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     dists = np.arange(step, params.max_distance + 1e-9, step)
     turns = np.arange(0.1, params.max_turn + 1e-9, 0.1)
     moves = [(s * d, 0.0) for d in dists for s in (-1.0, 1.0)] + [(0.0, s * a) for a in turns for s in (1.0, -1.0)]
+    if params.turn_then_drive and against is None:
+        moves += [(s * d, t * a) for a in turns for t in (1.0, -1.0) for d in dists for s in (-1.0, 1.0)]
     best: tuple[tuple[bool, float, float], EscapeMove] | None = None
     blocked: dict[str, int] = {}
     freest: EscapeMove | None = None  # the free move reaching the most clearance, gained or not
@@ -184,7 +198,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
         after = clearance(cells[-1])
         if freest is None or after > freest.clearance_after:
             freest = EscapeMove(float(d), float(a), here, after)
-        if d < 0 and after >= here - 1e-9 and (backing is None or d < backing.distance):
+        if d < 0 and not a and after >= here - 1e-9 and (backing is None or d < backing.distance):
             backing = EscapeMove(float(d), 0.0, here, after)
         if after <= here + 1e-9 and against is None:
             continue
@@ -279,13 +293,14 @@ class EscapeRecovery:
         self._start: Pose2D | None = None
         self._t0 = 0.0
         self._done, self._done_time = 0.0, 0.0  # progress so far (m or rad) and when it last grew by PROGRESS
+        self._turned = False  # a turn then a drive: the turn is made (self._start is then where the drive began)
 
     def enabled(self, params) -> bool:
         return True
 
     def start(self, now: float) -> None:
         self._t0, self.move, self._start = now, None, None
-        self._done, self._done_time = 0.0, now
+        self._done, self._done_time, self._turned = 0.0, now, False
         view = self._view()
         against = self._stalled() if self._stalled is not None else None
         why: list[str] = [] if view is not None else ["no local costmap yet"]
@@ -308,21 +323,27 @@ class EscapeRecovery:
             return stop, True
         grid, res, origin, here = view
         m, p = self.move, self.params
+        if m.turn and m.distance and not self._turned and \
+                abs(normalize_angle(self._start.between(here).theta)) >= abs(m.turn):  # the turn made: now the drive
+            self._turned, self._start, self._done, self._done_time = True, here, 0.0, now
+        leg_d, leg_a = (m.distance, 0.0) if self._turned or not m.turn else (0.0, m.turn)
         rel = self._start.between(here)
-        if m.distance:
-            left, ahead = abs(m.distance) - abs(rel.x), math.copysign(min(2 * res, abs(m.distance)), m.distance)
-            cmd, check = (math.copysign(p.speed, m.distance), 0.0, 0.0), (ahead, 0.0)
+        # the way checked a step ahead, not beyond the leg's end (a turn's last step toward a wall it stops short of)
+        if leg_d:
+            left = abs(leg_d) - abs(rel.x)
+            ahead = math.copysign(min(2 * res, max(left, 0.5 * res)), leg_d)
+            cmd, check = (math.copysign(p.speed, leg_d), 0.0, 0.0), (ahead, 0.0)
         else:
-            left = abs(m.turn) - abs(normalize_angle(rel.theta))
-            ahead = math.copysign(min(0.1, abs(m.turn)), m.turn)
-            cmd, check = (0.0, 0.0, math.copysign(p.turn_speed, m.turn)), (0.0, ahead)
-        done = abs(m.distance or m.turn) - left
-        if done >= self._done + PROGRESS[0 if m.distance else 1]:
+            left = abs(leg_a) - abs(normalize_angle(rel.theta))
+            ahead = math.copysign(min(0.1, max(left, 0.01)), leg_a)
+            cmd, check = (0.0, 0.0, math.copysign(p.turn_speed, leg_a)), (0.0, ahead)
+        done = abs(leg_d or leg_a) - left
+        if done >= self._done + PROGRESS[0 if leg_d else 1]:
             self._done, self._done_time = done, now
         elif now - self._done_time > p.stall_time and left > 0.0:
             if self._log is not None:
-                unit = "m" if m.distance else "rad"
-                self._log(f"{self.name}: stalled after {done:.2f} of {abs(m.distance or m.turn):.2f} {unit}: "
+                unit = "m" if leg_d else "rad"
+                self._log(f"{self.name}: stalled after {done:.2f} of {abs(leg_d or leg_a):.2f} {unit}: "
                           "something no sensor shows holds the robot")
             if self._on_stall is not None:
                 self._on_stall(cmd)

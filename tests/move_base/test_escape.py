@@ -174,6 +174,30 @@ def test_the_recovery_drives_the_planned_move_and_stops():
     assert "back" in logged[0] and "clearance" in logged[0]
 
 
+def test_the_recovery_turns_then_drives_and_ends_where_the_plan_said():
+    base = FakeBase(grid_with((-2.0, 0.354, 2.0, 0.6), (0.63, -2.0, 0.9, 2.0)))  # the corridor's corner
+    logged: list[str] = []
+    rec = EscapeRecovery(base.view, P3AT, log=logged.append)
+    rec.start(0.0)
+    m = rec.move
+    assert m is not None and m.turn and m.distance and ", then back" in logged[0], logged
+    cmds = []
+    for i in range(1, 400):
+        (v, _, w), done = rec.step(i * 0.1, base.pose, (0.0, 0.0, 0.0))
+        if done:
+            break
+        cmds.append((v, w))
+        base.pose = base.pose.compose(Pose2D(v * 0.1, 0.0, w * 0.1))
+    kinds = [("turn" if w else "drive") for v, w in cmds]
+    assert kinds == sorted(kinds, reverse=True) and kinds[0] == "turn" and kinds[-1] == "drive"  # turn, then drive
+    assert all(v == 0.0 for v, w in cmds if w) and all(v < 0.0 and w == 0.0 for v, w in cmds if v)
+    # where the plan said, within a tick of each leg (0.04 rad, 0.01 m)
+    assert base.pose.theta == pytest.approx(m.turn, abs=0.041)
+    end = (m.distance * math.cos(m.turn), m.distance * math.sin(m.turn))
+    assert math.hypot(base.pose.x - end[0], base.pose.y - end[1]) < 0.015
+    assert min_clearance(base.grid, base.pose) >= m.clearance_after - 2 * RES
+
+
 def test_a_move_held_by_something_unseen_ends_and_is_reported_as_a_stall():
     base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))  # a wall beyond the nose: the escape backs away
     logged: list[str] = []
@@ -242,7 +266,8 @@ def test_a_corridor_as_narrow_as_the_robot_says_its_freest_move_gains_nothing():
     grid = grid_with((-2.0, 0.284, 2.0, 0.5), (-2.0, -0.5, 2.0, -0.284))
     assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, why=why) is None
     assert len(why) == 1 and why[0].startswith("clearance 0.03 m where it stands; the freest move, "), why
-    assert "reaches 0.03 m" in why[0] and "moves blocked (16 by an obstacle)" in why[0], why
+    # every turn (16) and every turn then drive (16 turns x 12 drives) meets a wall
+    assert "reaches 0.03 m" in why[0] and "moves blocked (208 by an obstacle)" in why[0], why
 
 
 def slanted_wall(deg: float, off: float) -> np.ndarray:
@@ -297,24 +322,67 @@ def test_an_escape_turn_sweeps_the_outline_about_the_bases_turning_centre():
 
 def test_a_wall_ahead_with_no_clearance_to_gain_backs_the_robot_away_for_room():
     """A corridor's corner: a wall 0.3 m ahead of the nose, another 0.1 m beside the left flank all along. No
-    turn is free, a drive keeps the 0.1 m, so nothing gains clearance; DWA driving forward only (while
-    mapping) cannot back away to make room to turn (office02, laser, 2026-11-30: every trajectory rejected,
-    the goal aborted). The longest free reverse drive that loses no clearance is taken; not without the wall
-    ahead, and not with ``room_ahead`` 0."""
+    single turn or drive gains clearance (a drive keeps the 0.1 m, a turn brings a corner nearer); DWA driving
+    forward only (while mapping) cannot back away to make room to turn (office02, laser, 2026-11-30: every
+    trajectory rejected, the goal aborted). Without turn_then_drive the longest free reverse drive that loses
+    no clearance is taken; not without the wall ahead, and not with ``room_ahead`` 0."""
     beside = (-2.0, 0.354, 2.0, 0.6)
     grid = grid_with(beside, (0.63, -2.0, 0.9, 2.0))
+    straight = EscapeParams(turn_then_drive=False)
     why: list[str] = []
-    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, why=why)
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, straight, why=why)
     assert move is not None and move.turn == 0.0 and move.distance == pytest.approx(-0.3)
     assert move.clearance_after == pytest.approx(move.clearance_before)
     assert why and why[0].startswith("backing away: no move gains clearance and an obstacle lies 0.2"), why
     assert min_clearance(grid, Pose2D(-0.3, 0.0, 0.0)) >= move.clearance_before - RES
     # something 0.15 m behind the rear: the longest free drive back is shorter
     short = plan_escape(grid_with(beside, (0.63, -2.0, 0.9, 2.0), (-0.6, -2.0, -0.404, 2.0)), RES, ORIGIN,
-                        Pose2D(), P3AT)
+                        Pose2D(), P3AT, straight)
     assert short is not None and -0.15 <= short.distance < 0.0
-    assert plan_escape(grid_with(beside), RES, ORIGIN, Pose2D(), P3AT) is None  # nothing ahead: no move
-    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(room_ahead=0.0)) is None
+    assert plan_escape(grid_with(beside), RES, ORIGIN, Pose2D(), P3AT, straight) is None  # nothing ahead: no move
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(room_ahead=0.0, turn_then_drive=False)) is None
+
+
+def test_beside_a_wall_a_turn_then_a_drive_gains_the_clearance_no_single_move_can():
+    """The same corner, as office02's laser robot stood for 500 s (2026-11-30, a wall ahead and one 5-8 cm off
+    the flank; each straight backing kept the flank's clearance and DWA drove back in): turning the nose
+    toward the flank's wall, then backing, moves the body away from that wall at a slant."""
+    grid = grid_with((-2.0, 0.354, 2.0, 0.6), (0.63, -2.0, 0.9, 2.0))
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT)
+    assert move is not None and move.turn > 0.0 and move.distance < 0.0, move  # nose to the wall, then back
+    assert move.describe().startswith(f"turn +{math.degrees(move.turn):.0f} deg, then back"), move.describe()
+    assert move.clearance_after >= EscapeParams().clearance - 1e-9 > move.clearance_before
+    # the bare outline stays off the walls all along the way, and the end has the clearance (brute force)
+    from master_side.move_base.escape import _poses_along
+
+    way = _poses_along(Pose2D(), move.distance, move.turn, RES, 0.4)
+    assert min(min_clearance(grid, Pose2D(*p)) for p in way[::4]) > 0.0
+    assert min_clearance(grid, Pose2D(*way[-1])) >= EscapeParams().clearance - 2 * RES
+    # the turn comes first, then the drive on the heading it ends at
+    np.testing.assert_allclose(way[-1], [move.distance * math.cos(move.turn), move.distance * math.sin(move.turn),
+                                         move.turn], atol=1e-9)
+
+
+def test_the_office02_corner_where_the_laser_robot_stood_is_left_by_a_turn_then_a_drive(shared_dir):
+    """MRPB's office02 as the local costmap would mark it (its walls, 2.5 cm cells) about the true pose where the
+    laser robot stood from 400 s to 900 s of an exploration (2026-11-30): a wall 0.21 m ahead, another 0.08 m
+    off the flank. The straight moves reproduce the run's log line ("back 0.30 m: clearance 0.08 -> 0.08 m");
+    a turn then a drive gains clearance. The P3-AT pivots 0.12 m behind base_link (rotation_center_x)."""
+    from master_side.mapping.map_io import load_map
+
+    world = load_map(shared_dir / "datasets/mrpb/maps/office02/map.yaml")
+    pose = Pose2D(-5.94, 5.62, 3.11)
+    origin = (pose.x - 2.0, pose.y - 2.0)
+    centres = origin[0] + (np.arange(160) + 0.5) * RES, origin[1] + (np.arange(160) + 0.5) * RES
+    x, y = np.meshgrid(*centres)
+    cols = ((x - world.origin.x) / world.resolution).astype(int)
+    rows = ((y - world.origin.y) / world.resolution).astype(int)
+    grid = np.where(world.data[rows, cols] >= 65, LETHAL, FREE).astype(np.uint8)
+    straight = plan_escape(grid, RES, origin, pose, P3AT, EscapeParams(turn_then_drive=False), center_x=-0.12)
+    assert straight is not None and straight.describe() == "back 0.30 m: clearance 0.08 -> 0.08 m"
+    move = plan_escape(grid, RES, origin, pose, P3AT, center_x=-0.12)
+    assert move is not None and move.turn and move.distance, move
+    assert move.clearance_after >= move.clearance_before + 0.03, move.describe()
 
 
 def test_room_ahead_is_measured_from_the_outlines_own_front_row_by_row():
