@@ -1,8 +1,8 @@
 """An escape recovery (zenav's; nav2's BackUp and DriveOnHeading are its nearest relatives): when the local
 planner finds no move because the padded footprint touches walls on every trajectory, move the robot by
-one short straight drive (forward or back), one in-place turn, or a short turn followed by a drive, to the
-nearby pose where its outline is farthest from obstacles, checking the robot's bare outline (no padding)
-along the whole way.
+one short straight drive (forward or back), one in-place turn, or (``turn_then_drive``, off by default) a
+short turn followed by a drive, to the nearby pose where its outline is farthest from obstacles, checking
+the robot's bare outline (no padding) along the whole way.
 
 ROS 1's move_base has no recovery that moves the robot out of a tight spot: rotate_recovery ends at once
 when a turn would touch an obstacle, and the costmap resets do not move it. In a narrow doorway, beside
@@ -47,9 +47,11 @@ class EscapeParams:
                                   "robot's front, across its width, makes the longest reverse drive that loses "
                                   "none the move (nav2's BackUp's role; a forward-only planner cannot back "
                                   "away); 0: never")
-    turn_then_drive: bool = param(True, doc="also try an in-place turn followed by a straight drive: beside "
-                                           "a wall along the flank a drive keeps the clearance and a turn "
-                                           "brings a corner nearer, and only a drive at a slant gains it")
+    turn_then_drive: bool = param(False, doc="also try an in-place turn followed by a straight drive: beside "
+                                            "a wall along the flank a drive keeps the clearance and a turn "
+                                            "brings a corner nearer, and only a drive at a slant gains it. Off "
+                                            "by default: the turn sweeps the flanks, which a narrow forward "
+                                            "sensor (the Kinect) does not see")
     stall_time: float = param(1.0, lo=0.1, hi=60.0, unit="s",
                               doc="the move ends when it has gained less than 2 cm or 0.05 rad in this long: "
                                   "something no sensor shows holds the robot")

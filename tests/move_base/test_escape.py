@@ -177,7 +177,7 @@ def test_the_recovery_drives_the_planned_move_and_stops():
 def test_the_recovery_turns_then_drives_and_ends_where_the_plan_said():
     base = FakeBase(grid_with((-2.0, 0.354, 2.0, 0.6), (0.63, -2.0, 0.9, 2.0)))  # the corridor's corner
     logged: list[str] = []
-    rec = EscapeRecovery(base.view, P3AT, log=logged.append)
+    rec = EscapeRecovery(base.view, P3AT, EscapeParams(turn_then_drive=True), log=logged.append)
     rec.start(0.0)
     m = rec.move
     assert m is not None and m.turn and m.distance and ", then back" in logged[0], logged
@@ -266,8 +266,11 @@ def test_a_corridor_as_narrow_as_the_robot_says_its_freest_move_gains_nothing():
     grid = grid_with((-2.0, 0.284, 2.0, 0.5), (-2.0, -0.5, 2.0, -0.284))
     assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, why=why) is None
     assert len(why) == 1 and why[0].startswith("clearance 0.03 m where it stands; the freest move, "), why
-    # every turn (16) and every turn then drive (16 turns x 12 drives) meets a wall
-    assert "reaches 0.03 m" in why[0] and "moves blocked (208 by an obstacle)" in why[0], why
+    assert "reaches 0.03 m" in why[0] and "moves blocked (16 by an obstacle)" in why[0], why
+    # with turn_then_drive, every turn then drive (16 turns x 12 drives) meets a wall too
+    why.clear()
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(turn_then_drive=True), why=why) is None
+    assert "moves blocked (208 by an obstacle)" in why[0], why
 
 
 def slanted_wall(deg: float, off: float) -> np.ndarray:
@@ -324,8 +327,8 @@ def test_a_wall_ahead_with_no_clearance_to_gain_backs_the_robot_away_for_room():
     """A corridor's corner: a wall 0.3 m ahead of the nose, another 0.1 m beside the left flank all along. No
     single turn or drive gains clearance (a drive keeps the 0.1 m, a turn brings a corner nearer); DWA driving
     forward only (while mapping) cannot back away to make room to turn (office02, laser, 2026-11-30: every
-    trajectory rejected, the goal aborted). Without turn_then_drive the longest free reverse drive that loses
-    no clearance is taken; not without the wall ahead, and not with ``room_ahead`` 0."""
+    trajectory rejected, the goal aborted). Without turn_then_drive (the default) the longest free reverse
+    drive that loses no clearance is taken; not without the wall ahead, and not with ``room_ahead`` 0."""
     beside = (-2.0, 0.354, 2.0, 0.6)
     grid = grid_with(beside, (0.63, -2.0, 0.9, 2.0))
     straight = EscapeParams(turn_then_drive=False)
@@ -348,7 +351,7 @@ def test_beside_a_wall_a_turn_then_a_drive_gains_the_clearance_no_single_move_ca
     the flank; each straight backing kept the flank's clearance and DWA drove back in): turning the nose
     toward the flank's wall, then backing, moves the body away from that wall at a slant."""
     grid = grid_with((-2.0, 0.354, 2.0, 0.6), (0.63, -2.0, 0.9, 2.0))
-    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT)
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(turn_then_drive=True))
     assert move is not None and move.turn > 0.0 and move.distance < 0.0, move  # nose to the wall, then back
     assert move.describe().startswith(f"turn +{math.degrees(move.turn):.0f} deg, then back"), move.describe()
     assert move.clearance_after >= EscapeParams().clearance - 1e-9 > move.clearance_before
@@ -380,7 +383,7 @@ def test_the_office02_corner_where_the_laser_robot_stood_is_left_by_a_turn_then_
     grid = np.where(world.data[rows, cols] >= 65, LETHAL, FREE).astype(np.uint8)
     straight = plan_escape(grid, RES, origin, pose, P3AT, EscapeParams(turn_then_drive=False), center_x=-0.12)
     assert straight is not None and straight.describe() == "back 0.30 m: clearance 0.08 -> 0.08 m"
-    move = plan_escape(grid, RES, origin, pose, P3AT, center_x=-0.12)
+    move = plan_escape(grid, RES, origin, pose, P3AT, EscapeParams(turn_then_drive=True), center_x=-0.12)
     assert move is not None and move.turn and move.distance, move
     assert move.clearance_after >= move.clearance_before + 0.03, move.describe()
 
