@@ -1,14 +1,14 @@
 """Load (or compile) the SLAM filter's numba kernels before the first scan is matched.
 
-The first scan match of a process loads a dozen kernels from numba's on-disk cache (about 1 s on an idle
-machine, several seconds under load) or compiles them (10-20 s with a cold cache). Inside the filter's
-first update that stall is a gap in the scans: the queue keeps only the newest (``scan_queue_size``),
-so the update after it integrates all the motion of the stall at once (20 s of the room demo's loop,
-3.4 m and a half turn, measured), the motion model spreads the particles over metres, and a symmetric
-room is matched wrongly (the room demo's map fell to 40-87 % of its walls within two cells in 3 of 6
-cold-cache runs). The slam_gmapping node calls ``warm_filter`` before it subscribes to the scans, as
-move_base warms its planners (``master_side.planning.warmup``); ``deploy.warm_kernels`` calls it at
-install time to fill the cache.
+The first scan match of a process loads a dozen kernels from numba's on-disk cache (0.7-1.0 s on an idle
+machine, more under load) or compiles them (about 12 s with a cold cache). Inside the filter's first
+update that stall is a gap in the scans: the queue keeps only the newest (``scan_queue_size``), so the
+update after it integrates all the motion of the stall at once (20 s of the room demo's loop, 3.4 m and
+a half turn, measured), the motion model spreads the particles over metres, and a symmetric room is
+matched wrongly (the room demo's test failed in 4 of 9 cold-cache runs: 40-87 % of the walls within two
+cells, or too few wall cells). The slam_gmapping node calls ``warm_filter`` before it subscribes to the
+scans, as move_base warms its planners (``master_side.planning.warmup``); ``deploy.warm_kernels`` calls
+it at install time to fill the cache.
 """
 
 from __future__ import annotations
