@@ -236,9 +236,11 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
                 if watch.t0 is not None and watch.now() - watch.t0 > time_limit_s:
                     out.end = "time limit"
                     break
-                if time.monotonic() > next_note and watch.coverage:
+                if time.monotonic() > next_note and watch.coverage and watch.t0 is not None:
                     t, s = watch.coverage[-1]
-                    echo(f"  {name}: {t:.0f} s simulated, {100 * s:.1f} % known")
+                    now = watch.now() - watch.t0  # SLAM sends no map while the robot stands (temporalUpdate -1)
+                    age = f" (the last map {now - t:.0f} s ago)" if now - t > 30.0 else ""
+                    echo(f"  {name}: {now:.0f} s simulated, {100 * s:.1f} % known{age}")
                     next_note = time.monotonic() + 30.0
                 time.sleep(0.5)
             else:
