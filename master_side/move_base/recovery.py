@@ -18,7 +18,8 @@ import numpy as np
 from common.config import ConfigError, load_params, param
 from common.geometry import Pose2D, normalize_angle
 from master_side.move_base.contracts import Recovery
-from master_side.move_base.escape import ESCAPE_TYPES, EscapeParams, EscapeRecovery, View
+from master_side.move_base.escape import ESCAPE_TYPES, EscapeParams, View
+from master_side.move_base.escape_recovery import EscapeRecovery
 
 CLEAR_TYPES = ("clear_costmap_recovery/ClearCostmapRecovery", "ClearCostmapRecovery")
 ROTATE_TYPES = ("rotate_recovery/RotateRecovery", "RotateRecovery")

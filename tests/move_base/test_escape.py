@@ -1,5 +1,5 @@
-"""zenav's escape recovery on synthetic local costmaps: which move it picks, that its way is free for the
-robot's own outline, and that the recovery drives it and stops."""
+"""zenav's escape recovery on synthetic local costmaps: which move it plans, that its way is free for the
+robot's own outline, and how move_base's recovery list builds it (driving the move: test_escape_recovery.py)."""
 
 from __future__ import annotations
 
@@ -11,34 +11,11 @@ import pytest
 from common.config import ConfigError
 from common.geometry import Pose2D
 from master_side.costmap.cost_values import FREE, LETHAL, NO_INFORMATION
-from master_side.move_base.escape import EscapeParams, EscapeRecovery, plan_escape
+from master_side.move_base.escape import EscapeParams, plan_escape
+from master_side.move_base.escape_recovery import EscapeRecovery
 from master_side.move_base.params import MoveBaseParams
 from master_side.move_base.recovery import recoveries_from_params
-from master_side.planning.local.scoring_context import footprint_outline
-
-RES = 0.025
-ORIGIN = (-2.0, -2.0)
-# the P3-AT's outline (p3at/costmap_common_params.yaml)
-P3AT = np.array([[0.3302, -0.0508], [0.254, -0.0508], [0.254, -0.254], [-0.254, -0.254], [-0.254, 0.254],
-                 [0.254, 0.254], [0.254, 0.0508], [0.3302, 0.0508]])
-
-
-def grid_with(*boxes: tuple[float, float, float, float]) -> np.ndarray:
-    """A 4 m x 4 m grid centred on the robot, LETHAL in each (x0, y0, x1, y1) box (metres)."""
-    g = np.full((160, 160), FREE, np.uint8)
-    for x0, y0, x1, y1 in boxes:
-        c0, r0 = int((x0 - ORIGIN[0]) / RES), int((y0 - ORIGIN[1]) / RES)
-        c1, r1 = int(math.ceil((x1 - ORIGIN[0]) / RES)), int(math.ceil((y1 - ORIGIN[1]) / RES))
-        g[max(r0, 0):r1, max(c0, 0):c1] = LETHAL
-    return g
-
-
-def min_clearance(grid: np.ndarray, pose: Pose2D) -> float:
-    """Least distance from the outline at ``pose`` to a LETHAL cell centre (brute force)."""
-    rows, cols = np.nonzero(grid == LETHAL)
-    cells = np.column_stack((ORIGIN[0] + (cols + 0.5) * RES, ORIGIN[1] + (rows + 0.5) * RES))
-    pts = pose.apply(footprint_outline(P3AT, 0.01))
-    return float(np.min(np.hypot(*(pts[:, None, :] - cells[None, :, :]).transpose(2, 0, 1))))
+from tests.move_base.escape_grids import ORIGIN, P3AT, RES, FakeBase, grid_with, min_clearance
 
 
 def test_a_wall_just_ahead_backs_the_robot_away_from_it():
@@ -111,20 +88,6 @@ def test_a_wall_beside_the_rear_corner_is_left_by_the_turn_that_swings_it_away()
         assert move.distance > 0.0
 
 
-def test_a_robot_touching_a_wall_moves_off_it_not_along_or_into_it():
-    """A wall's cells under the rear half of the left flank (a touch): a move that leaves them is planned and
-    driven. Flat against a wall all along the flank, every turn swings a corner into it and every drive
-    slides along it (new wall cells under the outline): no move."""
-    grid = grid_with((-2.0, 0.25, -0.05, 0.5))  # from 4 mm inside the left flank outwards, behind x = -0.05
-    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT)
-    assert move is not None and move.clearance_before == 0.0
-    assert move.turn > 0.0 or move.distance > 0.0  # counter-clockwise swings the rear corner off; forward leaves it
-    base = FakeBase(grid)
-    base.run(EscapeRecovery(base.view, P3AT))
-    assert min_clearance(grid, base.pose) > min_clearance(grid, Pose2D()) + RES
-    assert plan_escape(grid_with((-2.0, 0.25, 2.0, 0.5)), RES, ORIGIN, Pose2D(), P3AT) is None
-
-
 def test_after_a_stall_the_escape_moves_against_the_stalled_command_whatever_the_costmap_shows():
     """Stalled backing and turning left (v < 0, w > 0) in a costmap that shows nothing: a drive forward or a
     turn right, at least 0.1 m / 0.3 rad; a wall just ahead leaves the turn; nothing free against it: None."""
@@ -138,97 +101,6 @@ def test_after_a_stall_the_escape_moves_against_the_stalled_command_whatever_the
     move = plan_escape(ahead, RES, ORIGIN, Pose2D(), P3AT, against=(-0.1, 0.3))
     assert move is not None and move.distance == 0.0 and move.turn < 0.0
     assert plan_escape(ahead, RES, ORIGIN, Pose2D(), P3AT, against=(-0.1, 0.0)) is None  # only forward would do
-
-
-class FakeBase:
-    """The robot integrating the escape's commands, and the view the recovery reads."""
-
-    def __init__(self, grid: np.ndarray) -> None:
-        self.grid, self.pose = grid, Pose2D()
-
-    def view(self):
-        return self.grid, RES, ORIGIN, self.pose
-
-    def run(self, rec: EscapeRecovery, dt: float = 0.1, limit: int = 400, held_after: float = float("inf")) -> int:
-        """Ticks until the escape ends; ``held_after``: from this far along its move (m or rad) the robot no
-        longer moves, as against a wall no sensor shows."""
-        rec.start(0.0)
-        moved = 0.0
-        for i in range(limit):
-            (v, _, w), done = rec.step(i * dt, self.pose, (0.0, 0.0, 0.0))
-            if done:
-                return i
-            if moved < held_after:
-                self.pose = self.pose.compose(Pose2D(v * dt, 0.0, w * dt))
-                moved += abs(v or w) * dt
-        raise AssertionError("the escape never ended")
-
-
-def test_the_recovery_drives_the_planned_move_and_stops():
-    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
-    logged: list[str] = []
-    rec = EscapeRecovery(base.view, P3AT, log=logged.append)
-    base.run(rec)
-    assert rec.move is not None and rec.move.distance < 0
-    assert base.pose.x == pytest.approx(rec.move.distance, abs=0.011)  # within one tick at 0.1 m/s
-    assert "back" in logged[0] and "clearance" in logged[0]
-
-
-def test_the_recovery_turns_then_drives_and_ends_where_the_plan_said():
-    base = FakeBase(grid_with((-2.0, 0.354, 2.0, 0.6), (0.63, -2.0, 0.9, 2.0)))  # the corridor's corner
-    logged: list[str] = []
-    rec = EscapeRecovery(base.view, P3AT, EscapeParams(turn_then_drive=True), log=logged.append)
-    rec.start(0.0)
-    m = rec.move
-    assert m is not None and m.turn and m.distance and ", then back" in logged[0], logged
-    cmds = []
-    for i in range(1, 400):
-        (v, _, w), done = rec.step(i * 0.1, base.pose, (0.0, 0.0, 0.0))
-        if done:
-            break
-        cmds.append((v, w))
-        base.pose = base.pose.compose(Pose2D(v * 0.1, 0.0, w * 0.1))
-    kinds = [("turn" if w else "drive") for v, w in cmds]
-    assert kinds == sorted(kinds, reverse=True) and kinds[0] == "turn" and kinds[-1] == "drive"  # turn, then drive
-    assert all(v == 0.0 for v, w in cmds if w) and all(v < 0.0 and w == 0.0 for v, w in cmds if v)
-    # where the plan said, within a tick of each leg (0.04 rad, 0.01 m)
-    assert base.pose.theta == pytest.approx(m.turn, abs=0.041)
-    end = (m.distance * math.cos(m.turn), m.distance * math.sin(m.turn))
-    assert math.hypot(base.pose.x - end[0], base.pose.y - end[1]) < 0.015
-    assert min_clearance(base.grid, base.pose) >= m.clearance_after - 2 * RES
-
-
-def test_a_move_held_by_something_unseen_ends_and_is_reported_as_a_stall():
-    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))  # a wall beyond the nose: the escape backs away
-    logged: list[str] = []
-    stalls: list[tuple[float, float, float]] = []
-    rec = EscapeRecovery(base.view, P3AT, log=logged.append, on_stall=stalls.append)
-    ticks = base.run(rec, held_after=0.03)  # a wall no sensor shows stops it 3 cm back
-    assert rec.move is not None and rec.move.distance <= -0.1
-    assert stalls == [(-rec.params.speed, 0.0, 0.0)]  # the command that got it nowhere, for the stall marks
-    assert "stalled after 0.0" in logged[-1] and "something no sensor shows holds the robot" in logged[-1], logged
-    assert ticks * 0.1 <= rec.params.stall_time + 0.6  # it ends within its stall time of the last progress
-    # a move that is not held makes no stall
-    free = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
-    stalls.clear()
-    free.run(EscapeRecovery(free.view, P3AT, on_stall=stalls.append))
-    assert stalls == []
-
-
-def test_the_recovery_stops_when_something_appears_in_its_way():
-    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
-    rec = EscapeRecovery(base.view, P3AT)
-    rec.start(0.0)
-    assert rec.move is not None and rec.move.distance < 0
-    base.grid = grid_with((0.36, -2.0, 0.5, 2.0), (-0.6, -2.0, -0.27, 2.0))  # a sonar hears a wall behind
-    cmd, done = rec.step(0.1, base.pose, (0.0, 0.0, 0.0))
-    assert done and cmd == (0.0, 0.0, 0.0)
-
-
-def test_no_costmap_means_no_move():
-    rec = EscapeRecovery(lambda: None, P3AT)
-    rec.start(0.0)
-    assert rec.step(0.0, Pose2D(), (0.0, 0.0, 0.0)) == ((0.0, 0.0, 0.0), True)
 
 
 def test_the_recovery_list_builds_escapes_with_their_parameters_and_rejects_bad_ones():
