@@ -112,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "
               f"({time.monotonic() - t0:.0f} s wall)" + "".join(
                   f"; contact at ({x:.2f}, {y:.2f}) at {t:.0f} s ({_known(d)})"
-                  for (t, x, y), d in zip(r.contacts, r.contact_marks)),
+                  for (t, x, y), d in zip(r.contacts, r.contact_marks)) + f"; SLAM: {r.slam}",
               file=sys.stderr, flush=True)
         if r.end == INTERRUPTED:  # Ctrl-C: the table of what was measured, then stop
             break

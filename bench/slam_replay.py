@@ -17,6 +17,9 @@ parameters over the master file's (p3at_slam_zenav.yaml's: the tutorial's gmappi
       --variant "maxUrange=30 particles=100"
 
 `--seeds N` replays each variant with gmapping's seeds 0..N-1 and adds each variant's mean, min and max.
+`--live` (a run recorded since the exploration bench saves `slam_trajectory.txt`) adds the live SLAM node's
+own row, its saved map and trajectory judged the same way, and replays only the scans the live node mapped:
+a live run that differs from its replay is then either in those scans (a filter that fell behind) or not.
 
 Ends with slam_replay_variants=… slam_replay_seeds=… slam_replay_walls_pct=… (the first variant's, its mean
 over the seeds) slam_replay_traj_p95_m=… slam_replay_best=… (the variant with the most walls right)
@@ -55,6 +58,24 @@ def _interp(ts: np.ndarray, xy: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(t, ts, xy[:, k]) for k in range(xy.shape[1])])
 
 
+def _live_row(run_dir: Path, gt_t: np.ndarray, gt_xy: np.ndarray, truth, start):
+    """The live SLAM's stamps and its row: its saved map and its trajectory judged as a replay's."""
+    from types import SimpleNamespace
+
+    from master_side.mapping.map_io import load_map
+    from master_side.slam.evaluate import read_trajectory
+
+    stamps, poses = read_trajectory(run_dir / "slam_trajectory.txt")
+    grid = load_map(run_dir / "explored.yaml")
+    offset = truth.fit(grid, headings_deg=FIT_HEADINGS_DEG)
+    fitted = truth.moved(offset)
+    walls, free = fitted.agreement(grid)
+    est = start.compose(offset).apply(poses[:, :2])
+    err = np.hypot(*(est - _interp(gt_t, gt_xy, stamps)).T)
+    res = SimpleNamespace(scans=len(stamps), processed=0, update_ms=float("nan"))
+    return stamps, ("live (online)", res, walls, free, fitted.explored(grid), offset, err, 0.0, None)
+
+
 def main(argv: list[str] | None = None) -> int:
     from bench.explore import world_and_start
 
@@ -71,6 +92,9 @@ def main(argv: list[str] | None = None) -> int:
                          "by a few percent from the next: compare variants on their means)")
     ap.add_argument("--save", default="", metavar="DIR",
                     help="write each variant's map and trajectory there (zenav slam run's files, a folder each)")
+    ap.add_argument("--live", action="store_true",
+                    help="judge the live SLAM's map and trajectory (explored.yaml, slam_trajectory.txt of the run "
+                         "directory) beside the replays, and replay only the scans the live node mapped")
     a = ap.parse_args(argv)
     path = Path(a.run)
     path = path / "run.mcap" if path.is_dir() else path
@@ -86,13 +110,20 @@ def main(argv: list[str] | None = None) -> int:
     if a.seeds < 1:
         ap.error(f"--seeds: {a.seeds}: at least 1")
     rows = []
+    live: set[float] | None = None
+    if a.live:
+        stamps, row = _live_row(path.parent, gt_t, gt_xy, truth, start)
+        live = set(np.round(stamps, 4).tolist())
+        rows.append(row)
     runs = [(v, f"{v} seed={k}".strip() if a.seeds > 1 else v) for v in variants for k in range(a.seeds)]
     for variant, v in runs:
         params = gmapping_params(Path(a.master), v)
         t0 = time.monotonic()
         print(f"variant {v or 'as-configured'!r} ...", file=sys.stderr, flush=True)
-        res = run(path, params, a.max_scans, progress=None,
-                  records=scan_records(iter(messages), str(path)))
+        records = scan_records(iter(messages), str(path))
+        if live is not None:
+            records = (r for r in records if round(r.stamp, 4) in live)
+        res = run(path, params, a.max_scans, progress=None, records=records)
         grid = res.slam.occupancy_grid(float(res.stamps[-1]))
         if a.save:
             write_outputs(res, Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured"))

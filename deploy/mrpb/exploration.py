@@ -62,6 +62,7 @@ class ExploreRun:
     sim_s: float = 0.0
     wall_s: float = 0.0
     log_dir: str = ""
+    slam: str = ""  # what the SLAM node said of its scans at the end (received, dropped by its queue, mapped)
 
     def time_to(self, share: float) -> float:
         """Simulated seconds until the coverage first reached ``share`` (inf: never)."""
@@ -182,6 +183,25 @@ class _Watch:
 INTERRUPTED = "interrupted"  # ExploreRun.end of a run stopped by Ctrl-C / SIGTERM (measured as far as it got)
 
 
+def _slam_record(node: Node, work: Path) -> str:
+    """The SLAM node's scan counters, and its trajectory (every scan it mapped, the best particle's pose)
+    written to ``<run dir>/slam_trajectory.txt``: ``bench/slam_replay.py --live`` replays exactly those
+    scans offline and judges the live trajectory beside its own (a live run can differ from a replay)."""
+    from common.bus import ServiceError
+    from common.messages import Empty, NodeStats
+    from master_side.slam.trajectory import from_message, write_trajectory
+
+    try:
+        stats = node.call("node_stats/slam_gmapping", Empty(), NodeStats, timeout=10.0)
+        stamps, poses = from_message(node.call("slam_gmapping/trajectory", Empty(), timeout=30.0))
+    except ServiceError as e:  # a diagnosis: a run whose SLAM node is gone is still measured
+        return f"SLAM node silent ({e})"
+    write_trajectory(work / "slam_trajectory.txt", stamps, poses)
+    scan = next((t for t in stats.topics if t.topic == "scan"), None)
+    got = f"{scan.received} scans received, {scan.dropped} dropped by its queue, " if scan else ""
+    return f"{got}{len(stamps)} mapped"
+
+
 def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, master_config: Path,
                     workdir: Path, speed: float = 2.0, time_limit_s: float = 1800.0, explore_args=(),
                     echo=print, monitor_args: tuple[str, ...] = (), robot: str = "",
@@ -250,6 +270,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         if explore.poll() is None:
             explore.send_signal(signal.SIGINT)  # as Ctrl-C: cancels its goal, saves the map
             explore.wait(60)
+        out.slam = _slam_record(node, work)
         saved = work / "explored.yaml"
         # explore saves the map as it ends; one that failed (e.g. move_base silent) saved none: the last map
         # SLAM published is judged instead (before, such a run read 0 % known)

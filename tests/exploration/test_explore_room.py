@@ -14,6 +14,7 @@ from deploy.logs.mcap_io import read_records
 from deploy.mrpb.exploration import run_exploration
 from deploy.stack.map_check import WorldTruth
 from master_side.slam import node as slam_node
+from master_side.slam.evaluate import read_trajectory
 from master_side.slam.logs import scan_records
 from master_side.slam.offline import run as offline_run
 
@@ -38,6 +39,11 @@ def test_the_room_is_mapped_by_exploration_which_ends_by_itself_without_a_contac
     recs = list(scan_records(((r.topic, r.msg) for r in read_records(mcap)), str(mcap)))
     assert len(recs) > 50, said
     assert recs[0].laser.as_array() == pytest.approx([0.1, 0.0, 0.0], abs=1e-6)  # p3at_sim_laser.yaml's mount
+    # the live SLAM's trajectory, saved for bench/slam_replay.py --live: the scans it mapped are recorded ones
+    stamps, _ = read_trajectory(Path(run.log_dir) / "slam_trajectory.txt")
+    recorded = {round(r.stamp, 4) for r in recs}
+    assert len(stamps) > 50 and f"{len(stamps)} mapped" in run.slam, (run.slam, said)
+    assert sum(round(float(t), 4) in recorded for t in stamps) >= 0.95 * len(stamps), said
     res = offline_run(mcap, slam_node.master_params(str(MASTER)), progress=None, records=recs)
     grid = res.slam.occupancy_grid(float(res.stamps[-1]))
     truth = WorldTruth.of("room", Pose2D(-2.2, 0.0, 0.0), grid.resolution)
