@@ -112,6 +112,9 @@ def main(argv: list[str] | None = None) -> int:
     rows = []
     live: set[float] | None = None
     if a.live:
+        if not (path.parent / "slam_trajectory.txt").exists() or not (path.parent / "explored.yaml").exists():
+            ap.error(f"--live: {path.parent} lacks slam_trajectory.txt or explored.yaml (the exploration bench "
+                     "writes them since 2026-11-30)")
         stamps, row = _live_row(path.parent, gt_t, gt_xy, truth, start)
         live = set(np.round(stamps, 4).tolist())
         rows.append(row)
