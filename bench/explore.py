@@ -39,6 +39,7 @@ from deploy.mrpb.cases import load_cases, world_map  # noqa: E402
 from deploy.mrpb.exploration import INTERRUPTED, ExploreRun, run_exploration  # noqa: E402
 from deploy.stack.physics_sets import master_sets, robot_sets  # noqa: E402
 from deploy.stack.process_group import set_options, terminate_as_interrupt  # noqa: E402
+from deploy.stack.sensor_sets import slam_sensor_sets  # noqa: E402
 
 MRPB = ROOT.parent / "shared" / "datasets" / "mrpb" / "map10cm"
 ROBOTS = {"laser": ROOT / "robot_side/config/p3at_sim_laser.yaml", "kinect": ROOT / "robot_side/config/p3at_sim.yaml"}
@@ -92,6 +93,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default="", help="where each run's logs and map go (default: a new temp dir)")
     a = ap.parse_args(argv)
     # on physics DWA and the robot's odometry are told where the P3-AT turns about (deploy/stack/physics_sets.py)
+    # and with the laser, the escape may turn then drive (deploy/stack/sensor_sets.py)
     master_set = (*master_sets(a.engine, amcl=False), *a.master_set)
     robot_args = (*(("--engine", a.engine) if a.engine else ()), *set_options(robot_sets(a.engine)))
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
@@ -106,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.monotonic()
         with terminate_as_interrupt(once=True):  # Ctrl-C, SIGTERM: the run is measured and its processes stopped
             r = run_exploration(name, world, start, ROBOTS[sensor], MASTER, out, a.speed, a.time_limit,
-                                echo=lambda s: print(s, file=sys.stderr, flush=True), master_set=master_set,
+                                echo=lambda s: print(s, file=sys.stderr, flush=True),
+                                master_set=(*slam_sensor_sets(sensor), *master_set),
                                 robot_args=robot_args, record=record)
         runs.append(r)
         print(f"{name}: {r.end}, {100 * r.final_share:.1f} % known in {r.sim_s:.0f} s simulated "

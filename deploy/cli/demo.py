@@ -160,6 +160,7 @@ def _explore(args) -> int:
     from deploy.mrpb.exploration import run_exploration
     from deploy.stack.physics_sets import master_sets, robot_sets
     from deploy.stack.process_group import set_options, terminate_as_interrupt
+    from deploy.stack.sensor_sets import slam_sensor_sets
 
     root = Path(__file__).resolve().parents[2]
     mrpb = root.parent / "shared" / "datasets" / "mrpb" / "map10cm"
@@ -191,7 +192,7 @@ def _explore(args) -> int:
                                 root / "master_side" / "config" / "p3at_slam_zenav.yaml", work, args.speed,
                                 echo=lambda s: print(f"[demo]{s}", flush=True), monitor_args=monitor_args(args),
                                 robot=getattr(args, "robot", None) or "demo", robot_args=robot_args,
-                                master_set=master_sets(args.engine, amcl=False),
+                                master_set=(*master_sets(args.engine, amcl=False), *slam_sensor_sets(args.sensor)),
                                 before_stop=summary_then_serve if args.serve_web else None)
         except KeyboardInterrupt:
             print("[demo] interrupted", file=sys.stderr)

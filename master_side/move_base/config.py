@@ -119,6 +119,15 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
         problems.add(source, k, f"unknown key (known: {', '.join(NODE_KEYS)})")
     files: dict[str, Any] = {k: _collect(problems, include, cfg.get(k), source, k) for k in NODE_KEYS}
     mb, mb_src = _or_empty(files["move_base"], source)
+    if "include" in mb:  # zenav: another move_base file as the base, this one's keys over it (a recovery's
+        mb = dict(mb)     # namespace merged key by key)
+        with problems.collect():
+            base, base_src = include(mb.pop("include"), mb_src, "include")
+            merged = {**base, **mb}
+            for k, v in mb.items():
+                if isinstance(v, dict) and isinstance(base.get(k), dict):
+                    merged[k] = {**base[k], **v}
+            mb, mb_src = merged, f"{base_src} (+ overrides in {mb_src})"
     rec_names = set(DEFAULT_RECOVERY_NAMES)
     if isinstance(mb.get("recovery_behaviors"), list):
         rec_names |= {str(b.get("name")) for b in mb["recovery_behaviors"] if isinstance(b, dict)}
