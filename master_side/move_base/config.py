@@ -122,12 +122,12 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
     if "include" in mb:  # zenav: another move_base file as the base, this one's keys over it (a recovery's
         mb = dict(mb)     # namespace merged key by key)
         with problems.collect():
-            base, base_src = include(mb.pop("include"), mb_src, "include")
-            merged = {**base, **mb}
+            mb_base, mb_base_src = include(mb.pop("include"), mb_src, "include")
+            merged = {**mb_base, **mb}
             for k, v in mb.items():
-                if isinstance(v, dict) and isinstance(base.get(k), dict):
-                    merged[k] = {**base[k], **v}
-            mb, mb_src = merged, f"{base_src} (+ overrides in {mb_src})"
+                if isinstance(v, dict) and isinstance(mb_base.get(k), dict):
+                    merged[k] = {**mb_base[k], **v}
+            mb, mb_src = merged, f"{mb_base_src} (+ overrides in {mb_src})"
     rec_names = set(DEFAULT_RECOVERY_NAMES)
     if isinstance(mb.get("recovery_behaviors"), list):
         rec_names |= {str(b.get("name")) for b in mb["recovery_behaviors"] if isinstance(b, dict)}
