@@ -139,14 +139,18 @@ class _Watch:
         def poses(msgs) -> np.ndarray:
             return np.array([(o.header.stamp, *o.pose2d.as_array()) for o in msgs]).reshape(-1, 4)
 
+        out = self.contact_dir / f"contact_{m.count}.npz"
+        part = out.with_name(f".{out.name}.part")  # renamed when whole: a reader never opens half a file
         try:
             self.contact_dir.mkdir(parents=True, exist_ok=True)
-            np.savez_compressed(self.contact_dir / f"contact_{m.count}.npz", point=np.array([m.x, m.y]),
-                                stamp=m.header.stamp, maps=np.stack([c.data for c in maps]),
-                                map_stamps=np.array([c.header.stamp for c in maps]),
-                                origins=np.array([(c.origin.x, c.origin.y) for c in maps]),
-                                resolution=maps[0].resolution, odom=poses(list(self.odoms)),
-                                truth=poses(list(self.truths)))
+            with open(part, "wb") as f:
+                np.savez_compressed(f, point=np.array([m.x, m.y]), stamp=m.header.stamp,
+                                    maps=np.stack([c.data for c in maps]),
+                                    map_stamps=np.array([c.header.stamp for c in maps]),
+                                    origins=np.array([(c.origin.x, c.origin.y) for c in maps]),
+                                    resolution=maps[0].resolution, odom=poses(list(self.odoms)),
+                                    truth=poses(list(self.truths)))
+            part.replace(out)
         except OSError as e:  # a full disk must not end the run being measured
             self.node.log.warning("contact %d: snapshot not saved: %s", m.count, e)
 
