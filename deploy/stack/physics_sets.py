@@ -7,6 +7,8 @@ centre of mass 0.1 m behind the axles, so the rear tyres carry most of the weigh
 - the robot's odometry (the simulated driver's ``odom_rotation_center_x``, as the p2os driver's): each
   increment taken as a turn about that point, so AMCL, gmapping and the local costmap see the robot move
   as it does;
+- the robot-side collision monitor (``rotation_center_x``), whose approach polygon is moved along the
+  commanded arc about that point;
 - DWA (``p3at_zenav/dwa_planner_ros_mujoco.yaml``: ``rotation_center_x``; mapping with SLAM,
   ``dwa_planner_ros_slam_mujoco.yaml``), which predicts its trajectories so;
 - AMCL, which then reads the odometry with ROS's ``omni`` model (``diff`` takes a sideways increment for a
@@ -25,7 +27,8 @@ PHYSICS_PIVOT_X = -0.12  # m, the P3-AT on MuJoCo (bench/turning.py: turn_center
 PHYSICS_DWA = CONFIG / "p3at_zenav" / "dwa_planner_ros_mujoco.yaml"
 PHYSICS_DWA_SLAM = CONFIG / "p3at_zenav" / "dwa_planner_ros_slam_mujoco.yaml"  # forward only, as while mapping
 
-_ROBOT = {"mujoco": (f"sim.base.odom_rotation_center_x={PHYSICS_PIVOT_X}",)}
+_ROBOT = {"mujoco": (f"sim.base.odom_rotation_center_x={PHYSICS_PIVOT_X}",
+                    f"collision_monitor.rotation_center_x={PHYSICS_PIVOT_X}")}
 _PLANNER = {"mujoco": (f"move_base.local_planner={PHYSICS_DWA}",)}
 _PLANNER_SLAM = {"mujoco": (f"move_base.local_planner={PHYSICS_DWA_SLAM}",)}
 _AMCL = {"mujoco": ("localization.odom_model_type=omni",)}

@@ -11,7 +11,10 @@ that produced it and why. Polygons act as nav2's collision_monitor polygons do:
   of ``simulation_time_step``; a collision predicted at time t scales the command by
   t / time_before_collision, so the robot never closes on an obstacle faster than that horizon allows.
 
-The most restrictive polygon wins. Deliberate difference to nav2: in ``approach``, points already
+The most restrictive polygon wins. ``center_x`` (zenav's ``rotation_center_x``): where on base_link's x axis
+the base turns about; the approach prediction moves that point along the commanded arc (a skid-steered
+base's ICR kinematics, as DWA's ``rotation_center_x``), so base_link slides sideways at ``-center_x * w``
+while it turns. 0: a turn about base_link (nav2). Deliberate difference to nav2: in ``approach``, points already
 inside the polygon at the robot's current pose (a graze, a wrongly mounted sensor) block only motion
 toward them (v x point_x > 0) — so a robot that touched something can still back or turn away,
 instead of being frozen in place.
@@ -47,14 +50,16 @@ def circle_polygon(radius: float, n: int = 32) -> np.ndarray:
 
 
 class _Polygon:
-    def __init__(self, name: str, p: PolygonParams, footprint: np.ndarray | None) -> None:
-        self.name, self.p = name, p
+    def __init__(self, name: str, p: PolygonParams, footprint: np.ndarray | None, center_x: float = 0.0) -> None:
+        self.name, self.p, self.center = name, p, np.array([center_x, 0.0])
         if p.type == "circle":
             self.shape = circle_polygon(float(p.radius))
         else:
             self.shape = np.asarray(p.points if p.points is not None else footprint, float)
+        self.about_center = self.shape - self.center  # the prediction moves the turning centre along the arc
         self.n_steps = max(1, math.ceil(p.time_before_collision / p.simulation_time_step - 1e-9))
-        self.radius = float(np.hypot(self.shape[:, 0], self.shape[:, 1]).max())  # the shape lies within it
+        # the shape lies within this radius of the turning centre
+        self.radius = float(np.hypot(self.about_center[:, 0], self.about_center[:, 1]).max())
 
     def inside_now(self, pts: np.ndarray) -> np.ndarray:
         return points_in_polygon(pts[:, 0], pts[:, 1], self.shape)
@@ -69,6 +74,8 @@ class _Polygon:
             return 0.0, blocking_now
         if (v == 0.0 and w == 0.0) or len(fresh) == 0:
             return math.inf, 0
+        # about the turning centre: it moves at (v, 0) and turns at w (base_link's sideways -center_x * w cancels)
+        fresh = fresh - self.center
         # Within the horizon the base moves at most |v| T along its arc, so a point farther than that plus the
         # shape's radius is never inside: left out before the (steps x points x edges) test, same result.
         reach = self.radius + abs(v) * self.n_steps * p.simulation_time_step
@@ -86,7 +93,7 @@ class _Polygon:
         dy = fresh[None, :, 1] - y[:, None]
         c, s = np.cos(th)[:, None], np.sin(th)[:, None]
         lx, ly = c * dx + s * dy, -s * dx + c * dy
-        counts = points_in_polygon(lx, ly, self.shape).sum(axis=1)  # (S,)
+        counts = points_in_polygon(lx, ly, self.about_center).sum(axis=1)  # (S,)
         hit = np.nonzero(counts >= p.min_points)[0]
         if len(hit) == 0:
             return math.inf, 0
@@ -96,9 +103,9 @@ class _Polygon:
 class CollisionMonitor:
     """Checks commands against polygons; ``polygons`` is [(name, PolygonParams)] in config order."""
 
-    def __init__(self, polygons: list[tuple[str, PolygonParams]], footprint=None) -> None:
+    def __init__(self, polygons: list[tuple[str, PolygonParams]], footprint=None, center_x: float = 0.0) -> None:
         fp = np.asarray(footprint, float) if footprint is not None else None
-        self.polygons = [_Polygon(n, p, fp) for n, p in polygons if p.enabled]
+        self.polygons = [_Polygon(n, p, fp, center_x) for n, p in polygons if p.enabled]
 
     def check(self, points: np.ndarray, v: float, w: float) -> Verdict:
         """The safe command for (v, w) given obstacle points (N, 2) in the base frame."""

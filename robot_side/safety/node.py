@@ -51,7 +51,7 @@ class MonitorNode:
         self.node = node
         self.p, self.sources, polys = load_monitor(cfg, source)
         fp = padded(self.p.footprint, self.p.footprint_padding) if self.p.footprint else None
-        self.monitor = CollisionMonitor(polys, fp)
+        self.monitor = CollisionMonitor(polys, fp, self.p.rotation_center_x)
         self.lock = threading.Lock()
         self._stop = threading.Event()
         self.tf = TFListener(node)

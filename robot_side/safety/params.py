@@ -56,6 +56,11 @@ class MonitorParams:
     observation_sources: tuple[str, ...] = param(("scan",), doc="names of source mappings")
     polygons: tuple[str, ...] = param(("approach",), doc="names of polygon mappings, checked in turn")
     enabled: bool = param(True, doc="false: commands pass through unchanged (state says so)")
+    rotation_center_x: float = param(
+        0.0, lo=-2.0, hi=2.0, unit="m",
+        doc="zenav: where on base_link's x axis the base turns about; approach polygons are predicted with "
+            "base_link sliding sideways at -rotation_center_x * w, as DWA's rotation_center_x. 0: about "
+            "base_link (nav2). A skid-steered base pivots toward its more loaded axle: `python bench/turning.py`")
 
 
 @dataclass(frozen=True)

@@ -130,6 +130,7 @@ def test_the_physics_sets_apply_to_the_shipped_files_and_nothing_changes_on_the_
                              engine="mujoco", sets=robot_sets("mujoco"))
     check_nodes(robot)
     assert _params(robot, "sim", tmp_path)["base"]["odom_rotation_center_x"] == PHYSICS_PIVOT_X
+    assert _params(robot, "collision_monitor", tmp_path)["rotation_center_x"] == PHYSICS_PIVOT_X
     for config, amcl, dwa in (("p3at_zenav.yaml", True, "dwa_planner_ros_mujoco.yaml"),
                               ("p3at_slam_zenav.yaml", False, "dwa_planner_ros_slam_mujoco.yaml")):
         launch = agent.load(str(CONFIG / config), sets=master_sets("mujoco", amcl))

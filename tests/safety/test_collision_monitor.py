@@ -55,6 +55,30 @@ def test_approach_lets_the_robot_back_away_or_turn_from_a_touching_obstacle():
     assert m.check(touching, 0.0, 0.5).action == "none"  # a pure rotation does not move toward them
 
 
+def test_a_base_turning_behind_base_link_is_predicted_as_that_turn():
+    """rotation_center_x: the polygon moves along the commanded arc about the turning centre. The verdict is
+    the plain (about base_link) one for the same robot and points laid about the centre instead; and a post
+    that a turn in place about base_link would not reach, a turn about a centre 0.12 m behind (the P3-AT on
+    physics) sweeps into: the front corners swing wider."""
+    rng = np.random.default_rng(4)
+    cx = -0.12
+    shift = np.array([cx, 0.0])
+    for _ in range(40):
+        pts = rng.uniform(-1.2, 1.2, (30, 2))
+        v, w = rng.uniform(-0.5, 0.5), rng.uniform(-1.5, 1.5)
+        about = CollisionMonitor([("approach", PolygonParams(time_before_collision=1.0))], SQUARE, center_x=cx)
+        plain = CollisionMonitor([("approach", PolygonParams(time_before_collision=1.0))],
+                                 np.array(SQUARE) - shift)
+        a, b = about.check(pts, v, w), plain.check(pts - shift, v, w)
+        assert (a.action, a.ratio, a.points) == (b.action, b.ratio, b.points)
+    # a post 0.47 m to the left of base_link, beyond its corners' 0.39 m; 0.45 m from the centre behind, within
+    # the front corners' 0.49 m about it: a left turn in place about the centre sweeps the front left corner in
+    post = np.array([[-0.12, 0.45]] * 5)
+    assert approach(2.0).check(post, 0.0, 1.0).action == "none"
+    swept = CollisionMonitor([("approach", PolygonParams(time_before_collision=2.0))], SQUARE, center_x=cx)
+    assert swept.check(post, 0.0, 1.0).action == "approach"
+
+
 def test_approach_slows_a_rotation_that_would_sweep_the_footprint_into_a_post():
     post = np.array([[0.2, 0.3]] * 5)  # beside the front-left corner, inside the circle it sweeps
     v = approach(1.0).check(post, 0.0, 1.0)
