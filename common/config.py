@@ -245,6 +245,15 @@ def include(value: Any, source: str, key: str) -> tuple[dict, str]:
     raise ConfigError(source, key, f"expected a mapping or a file path, got {value!r}")
 
 
+def overlay(base: dict, over: dict) -> dict:
+    """``over``'s keys over ``base``'s; where both hold a mapping under a key, merged key by key (one level:
+    a fleet host's section over the defaults, a recovery's namespace over an included move_base file's)."""
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = {**out[k], **v} if isinstance(v, dict) and isinstance(out.get(k), dict) else v
+    return out
+
+
 def merge_included(cfg: dict, key: str, source: str) -> tuple[dict, str]:
     """``cfg`` with ``key: FILE`` (or an inline mapping) as its base and the other keys overriding it,
     plus the source to name in errors. Without ``key``, ``cfg`` and ``source`` unchanged."""

@@ -17,6 +17,7 @@ from typing import Any
 
 import yaml
 
+from common.config import overlay
 from common.config_errors import ConfigError, Problems, suggest
 
 ROLES = ("robot", "master", "router")
@@ -118,13 +119,6 @@ class Inventory:
         return [h for h in self.hosts if h.role == "master" and h.robot == robot]
 
 
-def _merge(base: dict, over: dict) -> dict:
-    out = dict(base)
-    for k, v in over.items():
-        out[k] = {**out[k], **v} if isinstance(v, dict) and isinstance(out.get(k), dict) else v
-    return out
-
-
 class _Reader:
     def __init__(self, src: str, base: Path, problems: Problems):
         self.src, self.base, self.p = src, base, problems
@@ -203,7 +197,7 @@ class _Reader:
         if not isinstance(raw, dict):
             self.p.add(self.src, where, f"expected a mapping (address:, role: ...), got {raw!r}")
             return None
-        raw = _merge(defaults, raw)
+        raw = overlay(defaults, raw)
         self.unknown(raw, HOST_KEYS, where)
         t = self.typed
         address, role = t(raw, "address", str, where, ""), t(raw, "role", str, where, "")

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from common.config import Problems, include, load_params, strip_frame
+from common.config import Problems, include, load_params, overlay, strip_frame
 from common.geometry import footprint_radii
 from master_side import ros_params as ros
 from master_side.costmap.footprint import pad_footprint
@@ -123,11 +123,7 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
         mb = dict(mb)     # namespace merged key by key)
         with problems.collect():
             mb_base, mb_base_src = include(mb.pop("include"), mb_src, "include")
-            merged = {**mb_base, **mb}
-            for k, v in mb.items():
-                if isinstance(v, dict) and isinstance(mb_base.get(k), dict):
-                    merged[k] = {**mb_base[k], **v}
-            mb, mb_src = merged, f"{mb_base_src} (+ overrides in {mb_src})"
+            mb, mb_src = overlay(mb_base, mb), f"{mb_base_src} (+ overrides in {mb_src})"
     rec_names = set(DEFAULT_RECOVERY_NAMES)
     if isinstance(mb.get("recovery_behaviors"), list):
         rec_names |= {str(b.get("name")) for b in mb["recovery_behaviors"] if isinstance(b, dict)}
