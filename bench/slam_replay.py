@@ -58,6 +58,17 @@ def _interp(ts: np.ndarray, xy: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(t, ts, xy[:, k]) for k in range(xy.shape[1])])
 
 
+def _judge(grid, stamps: np.ndarray, poses: np.ndarray, truth, start, gt_t: np.ndarray, gt_xy: np.ndarray):
+    """(walls, free, known, the map frame's fitted offset, trajectory error per scan) of a map and its
+    trajectory, the map laid where it fits on the world."""
+    offset = truth.fit(grid, headings_deg=FIT_HEADINGS_DEG)
+    fitted = truth.moved(offset)
+    walls, free = fitted.agreement(grid)
+    est = start.compose(offset).apply(poses[:, :2])  # the map's frame in the world
+    err = np.hypot(*(est - _interp(gt_t, gt_xy, stamps)).T) if len(gt_t) else np.full(len(est), np.nan)
+    return walls, free, fitted.explored(grid), offset, err
+
+
 def _live_row(run_dir: Path, gt_t: np.ndarray, gt_xy: np.ndarray, truth, start):
     """The live SLAM's stamps and its row: its saved map and its trajectory judged as a replay's."""
     from types import SimpleNamespace
@@ -66,14 +77,9 @@ def _live_row(run_dir: Path, gt_t: np.ndarray, gt_xy: np.ndarray, truth, start):
     from master_side.slam.evaluate import read_trajectory
 
     stamps, poses = read_trajectory(run_dir / "slam_trajectory.txt")
-    grid = load_map(run_dir / "explored.yaml")
-    offset = truth.fit(grid, headings_deg=FIT_HEADINGS_DEG)
-    fitted = truth.moved(offset)
-    walls, free = fitted.agreement(grid)
-    est = start.compose(offset).apply(poses[:, :2])
-    err = np.hypot(*(est - _interp(gt_t, gt_xy, stamps)).T)
+    judged = _judge(load_map(run_dir / "explored.yaml"), stamps, poses, truth, start, gt_t, gt_xy)
     res = SimpleNamespace(scans=len(stamps), processed=0, update_ms=float("nan"))
-    return stamps, ("live (online)", res, walls, free, fitted.explored(grid), offset, err, 0.0, None)
+    return stamps, ("live (online)", res, *judged, 0.0, None)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -130,14 +136,8 @@ def main(argv: list[str] | None = None) -> int:
         grid = res.slam.occupancy_grid(float(res.stamps[-1]))
         if a.save:
             write_outputs(res, Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured"))
-        offset = truth.fit(grid, headings_deg=FIT_HEADINGS_DEG)
-        fitted = truth.moved(offset)
-        walls, free = fitted.agreement(grid)
-        known = fitted.explored(grid)
-        frame = start.compose(offset)  # the map's frame in the world
-        est = frame.apply(res.poses[:, :2])
-        err = np.hypot(*(est - _interp(gt_t, gt_xy, res.stamps)).T) if len(gt_t) else np.full(len(est), np.nan)
-        rows.append((v or "as-configured", res, walls, free, known, offset, err, time.monotonic() - t0, variant))
+        judged = _judge(grid, res.stamps, res.poses, truth, start, gt_t, gt_xy)
+        rows.append((v or "as-configured", res, *judged, time.monotonic() - t0, variant))
     print(f"{'variant':34} {'scans':>6} {'upd':>5} {'ms/upd':>7} {'walls%':>6} {'free%':>6} {'known%':>6} "
           f"{'map frame':>13} {'traj mean':>9} {'p95 m':>6} {'max m':>6} {'wall s':>7}")
     for name, res, walls, free, known, off, err, wall, _ in rows:
