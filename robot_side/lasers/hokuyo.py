@@ -196,7 +196,9 @@ class HokuyoDriver:
                     if self._handle(block):
                         last = time.monotonic()
                 if time.monotonic() - last > self.p.scan_timeout:
-                    raise HokuyoError(f"no scan from the Hokuyo on {self.name} for {self.p.scan_timeout:g} s")
+                    if not self._drain():
+                        raise HokuyoError(f"no scan from the Hokuyo on {self.name} for {self.p.scan_timeout:g} s")
+                    last = time.monotonic()
                 if self._bad_in_row >= self.p.error_limit:
                     raise HokuyoError(f"{self._bad_in_row} bad scans in a row from the Hokuyo on {self.name} "
                                       f"(last error status {self.stats.last_error_code or 'none'})")
@@ -205,6 +207,18 @@ class HokuyoDriver:
             if not self._stop.is_set():
                 self.error = e
                 log.error("hokuyo on %s stopped: %s", self.name, e)
+
+    def _drain(self) -> bool:
+        """Read what waits in the port and handle its whole replies; True if one was a scan. A process the
+        machine did not run for a while wakes with the scans sent meanwhile in the port, and its first read
+        returns what was asked for when the port was empty (one byte): they are read before the device is
+        judged silent."""
+        got = False
+        while getattr(self.port, "in_waiting", 0):
+            self._read()
+            for block in self._blocks(0.0):
+                got = self._handle(block) or got
+        return got
 
     def _handle(self, block: bytes) -> bool:
         """One reply of the stream; True for a published scan."""

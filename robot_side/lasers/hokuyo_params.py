@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import array
+import fcntl
 import math
 import socket
+import termios
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,6 +65,13 @@ class TcpPort:
         if not data:
             raise ConnectionError(f"the Hokuyo at {self.name} closed the connection")
         return data
+
+    @property
+    def in_waiting(self) -> int:
+        """Bytes received and not yet read (pyserial's name)."""
+        buf = array.array("i", [0])
+        fcntl.ioctl(self.sock.fileno(), termios.FIONREAD, buf)
+        return buf[0]
 
     def write(self, data: bytes) -> int:
         self.sock.sendall(data)

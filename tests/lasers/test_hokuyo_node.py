@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import math
 import shutil
+import signal
 import sys
+import time
 
 import pytest
 import yaml
@@ -92,3 +94,34 @@ def test_zenav_robot_with_the_example_config_streams_scan_and_respawns_after_an_
                alive=alive)
     n = len(scans)
     wait_until(lambda: len(scans) >= n + 3, 30, "its scans on the bus", alive=alive)
+
+
+@pytest.mark.parametrize("link", ["pty", "tcp"])
+def test_a_node_paused_longer_than_scan_timeout_keeps_its_laser_when_the_scans_waited_in_the_port(
+        bus, procs, fakes, tmp_path, link):  # noqa: F811
+    """A loaded robot PC may not run the node for a while, the device streaming on meanwhile: the scans wait
+    in the port. The node reads what waits before it judges the laser silent (it had read one byte, judged,
+    and exited "so the agent can reconnect", with a dozen whole scans in the port)."""
+    node, env = bus
+    params: dict = {"topic": "front/scan", "frame_id": "front_laser", "scan_timeout": 0.5}
+    if link == "tcp":
+        fake, (host, port) = fakes(tcp=True, model="UST-10LX")
+        params.update(ip_address=host, ip_port=port)
+    else:
+        fake, _ = fakes(link=str(tmp_path / "ttyHOKUYO"))
+        params.update(serial_port=str(tmp_path / "ttyHOKUYO"))
+    scans = Recorder(node, "front/scan", LaserScan)
+    proc = _node(procs, env, tmp_path, params)
+    alive = lambda: "" if proc.alive() else f"node exited: {proc.log()}"  # noqa: E731
+    wait_until(lambda: len(scans) >= 3, 30, "scans on front/scan", alive=alive)
+    proc.proc.send_signal(signal.SIGSTOP)  # the node gets no CPU; the device goes on streaming
+    try:
+        sent, stopped = fake.scans_sent, time.monotonic()  # a 1 s pause: twice scan_timeout
+        wait_until(lambda: fake.scans_sent >= sent + 3 and time.monotonic() - stopped >= 1.0, 30,
+                   "scans waiting in the port and 1 s passed")
+    finally:
+        proc.proc.send_signal(signal.SIGCONT)
+    n = len(scans)
+    wait_until(lambda: len(scans) >= n + 15, 30, "scans after the pause", alive=alive)
+    assert "no scan from the Hokuyo" not in proc.log()
+    assert proc.stop() == 0, proc.log()
