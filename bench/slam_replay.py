@@ -103,6 +103,12 @@ def main(argv: list[str] | None = None) -> int:
                          "directory) beside the replays, and replay only the scans the live node mapped")
     a = ap.parse_args(argv)
     path = Path(a.run)
+    if path.is_dir() and not (path / "run.mcap").exists():  # bench/explore.py's --record DIR: a run per folder
+        runs = sorted(path.glob("*/run.mcap"))
+        if len(runs) != 1:
+            ap.error(f"{path}: no run.mcap" + (f"; it holds {len(runs)} runs, name one: "
+                                                + ", ".join(str(r.parent) for r in runs) if runs else ""))
+        path = runs[0].parent
     path = path / "run.mcap" if path.is_dir() else path
     variants = a.variant if a.variant is not None else [""]
     world, start = world_and_start(a.world)
