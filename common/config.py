@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import typing
 from pathlib import Path
 from typing import Any, Iterable, Mapping
@@ -28,7 +29,8 @@ import yaml
 from common.config_errors import ConfigError, Note, Problem, Problems, suggest, unknown_key_message
 
 __all__ = ["ConfigError", "Note", "Problem", "Problems", "suggest", "unknown_key_message", "param",
-           "load_params", "read_yaml", "strip_frame", "describe", "include", "merge_included"]
+           "load_params", "read_yaml", "strip_frame", "describe", "include", "include_chain",
+           "merge_included", "overlay"]
 
 
 def param(default: Any = dataclasses.MISSING, *, lo: float | None = None, hi: float | None = None,
@@ -252,6 +254,32 @@ def overlay(base: dict, over: dict) -> dict:
     for k, v in over.items():
         out[k] = {**out[k], **v} if isinstance(v, dict) and isinstance(out.get(k), dict) else v
     return out
+
+
+def include_chain(cfg: dict, source: str, section: str = "", merge=overlay, limit: int = 8) -> tuple[dict, str]:
+    """zenav's ``include: FILE`` in a file (or in its ``section``, e.g. a planner file's ``DWAPlannerROS``):
+    that file's mapping (its ``section`` if it has one) as the base, ``cfg``'s other keys ``merge``d over it;
+    the base may include another in turn, its path relative to the file that names it. Returns the mapping
+    and the source to name in errors. A file included twice in one chain (a loop) or a chain of more than
+    ``limit`` files is refused."""
+    chain = [os.path.normpath(source)]
+    key = f"{section}.include" if section else "include"
+    while "include" in cfg:
+        cfg = dict(cfg)
+        base, src = include(cfg.pop("include"), chain[-1], key)
+        src = os.path.normpath(src)
+        if src in chain:
+            raise ConfigError(chain[-1], key, f"{src} is already in this chain of includes: "
+                              + " -> ".join([*chain, src]))
+        if len(chain) > limit:
+            raise ConfigError(chain[-1], key, f"more than {limit} files in one chain of includes")
+        base = dict(base.get(section, base) or {}) if section else base
+        cfg = merge(base, cfg)
+        chain.append(src)
+    if len(chain) == 1:
+        return cfg, source
+    chain[0] = source
+    return cfg, f"{chain[-1]} (+ overrides in {', then '.join(reversed(chain[:-1]))})"
 
 
 def merge_included(cfg: dict, key: str, source: str) -> tuple[dict, str]:

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from common.config import Problems, include, load_params, overlay, strip_frame
+from common.config import Problems, include, include_chain, load_params, strip_frame
 from common.geometry import footprint_radii
 from master_side import ros_params as ros
 from master_side.costmap.footprint import pad_footprint
@@ -119,11 +119,9 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
         problems.add(source, k, f"unknown key (known: {', '.join(NODE_KEYS)})")
     files: dict[str, Any] = {k: _collect(problems, include, cfg.get(k), source, k) for k in NODE_KEYS}
     mb, mb_src = _or_empty(files["move_base"], source)
-    if "include" in mb:  # zenav: another move_base file as the base, this one's keys over it (a recovery's
-        mb = dict(mb)     # namespace merged key by key)
-        with problems.collect():
-            mb_base, mb_base_src = include(mb.pop("include"), mb_src, "include")
-            mb, mb_src = overlay(mb_base, mb), f"{mb_base_src} (+ overrides in {mb_src})"
+    with problems.collect():  # zenav: another move_base file as the base, this one's keys over it (a recovery's
+        mb, mb_src = include_chain(mb, mb_src)  # namespace merged key by key)
+    mb = {k: v for k, v in mb.items() if k != "include"}  # a refused include: reported above, not again
     rec_names = set(DEFAULT_RECOVERY_NAMES)
     if isinstance(mb.get("recovery_behaviors"), list):
         rec_names |= {str(b.get("name")) for b in mb["recovery_behaviors"] if isinstance(b, dict)}
@@ -141,14 +139,9 @@ def load_move_base_config(cfg: dict, source: str) -> MoveBaseConfig:
     section, pcls, _, component = kinds[kind]
     lp, lp_src = _or_empty(files["local_planner"], source)
     data = dict(lp.get(section, lp if section not in lp and lp else {}) or {})
-    if "include" in data:  # zenav: another planner file's section as the base, this one's keys over it
-        base: dict = {}
-        base_src = lp_src
-        with problems.collect():
-            base, base_src = include(data.pop("include"), lp_src, f"{section}.include")
-        data = {**dict(base.get(section, base) or {}), **data}
-        if base_src != lp_src:
-            lp_src = f"{base_src} (+ overrides in {lp_src})"
+    with problems.collect():  # zenav: another planner file's section as the base, this one's keys over it
+        data, lp_src = include_chain(data, lp_src, section, merge=lambda base, over: {**base, **over})
+    data.pop("include", None)
     others = [s for s, *_ in kinds.values() if s != section and s in lp]
     for s in others:
         notes.append(f"{lp_src}: {s}: section of another local planner; no effect (base_local_planner is {kind})")
