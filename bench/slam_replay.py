@@ -9,8 +9,11 @@ process (master_side.slam.offline, as `zenav slam run` does; no bus, as fast as 
 Per variant: the map's walls within two cells of a true wall and its free cells on true free space, judged
 where the map fits best on the world (bench/explore.py's figures; the fitted turn and shift beside them),
 the share of the reachable free area it knows, and the trajectory's distance from the ground truth at each
-scan (in the fitted frame): mean, p95, max. Variants are `KEY=VALUE ...` strings of slam_gmapping
-parameters over the master file's (p3at_slam_zenav.yaml's: the tutorial's gmapping.yaml, 30 particles).
+scan (in the fitted frame): mean, p95, max; then the heading's short-term error (less its 20 s running
+median) in bands of the true turn rate: a narrow view that loses the heading in turns shows as the faster
+bands growing. Variants are `KEY=VALUE ...`
+strings of slam_gmapping parameters over the master file's (p3at_slam_zenav.yaml's: the tutorial's
+gmapping.yaml, 30 particles).
 
   python bench/slam_replay.py RUN_DIR --world shopping_mall
   python bench/slam_replay.py RUN_DIR --world shopping_mall --variant "" --variant "maxUrange=30" \\
@@ -58,18 +61,40 @@ def _interp(ts: np.ndarray, xy: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.column_stack([np.interp(t, ts, xy[:, k]) for k in range(xy.shape[1])])
 
 
-def _judge(grid, stamps: np.ndarray, poses: np.ndarray, truth, start, gt_t: np.ndarray, gt_xy: np.ndarray):
-    """(walls, free, known, the map frame's fitted offset, trajectory error per scan) of a map and its
-    trajectory, the map laid where it fits on the world."""
+TURN_BANDS = ((0.0, 0.05), (0.05, 0.3), (0.3, 0.6), (0.6, math.inf))  # rad/s, the true turn rate
+
+
+def _heading_by_turn(stamps: np.ndarray, theta: np.ndarray, gt_t: np.ndarray, gt_th: np.ndarray) -> list[float]:
+    """Mean short-term heading error (deg) of a trajectory, in bands of the true turn rate (TURN_BANDS): each
+    scan's heading error less its running median over 20 s, so a map turned as a whole does not count, only
+    the filter losing the heading for a while. A narrow view that loses it in turns shows as the faster bands
+    growing."""
+    from scipy.ndimage import median_filter
+
+    if len(gt_t) < 2 or len(stamps) < 3:
+        return [math.nan] * len(TURN_BANDS)
+    th = np.unwrap(gt_th)
+    rate = np.abs(np.interp(stamps, gt_t, np.gradient(th, gt_t)))
+    err = np.unwrap(theta) - np.interp(stamps, gt_t, th)
+    window = int(20.0 / max(float(np.median(np.diff(stamps))), 1e-3)) | 1
+    err = np.degrees(np.abs(err - median_filter(err, size=min(window, len(err) - (1 - len(err) % 2)), mode="nearest")))
+    return [float(err[m].mean()) if (m := (rate >= lo) & (rate < hi)).any() else math.nan for lo, hi in TURN_BANDS]
+
+
+def _judge(grid, stamps: np.ndarray, poses: np.ndarray, truth, start, gt_t: np.ndarray, gt_xy: np.ndarray,
+           gt_th: np.ndarray):
+    """(walls, free, known, the map frame's fitted offset, trajectory error per scan, heading error by turn
+    rate) of a map and its trajectory, the map laid where it fits on the world."""
     offset = truth.fit(grid, headings_deg=FIT_HEADINGS_DEG)
     fitted = truth.moved(offset)
     walls, free = fitted.agreement(grid)
     est = start.compose(offset).apply(poses[:, :2])  # the map's frame in the world
     err = np.hypot(*(est - _interp(gt_t, gt_xy, stamps)).T) if len(gt_t) else np.full(len(est), np.nan)
-    return walls, free, fitted.explored(grid), offset, err
+    turn = _heading_by_turn(stamps, poses[:, 2] + start.theta + offset.theta, gt_t, gt_th)
+    return walls, free, fitted.explored(grid), offset, err, turn
 
 
-def _live_row(run_dir: Path, gt_t: np.ndarray, gt_xy: np.ndarray, truth, start):
+def _live_row(run_dir: Path, gt_t: np.ndarray, gt_xy: np.ndarray, gt_th: np.ndarray, truth, start):
     """The live SLAM's stamps and its row: its saved map and its trajectory judged as a replay's."""
     from types import SimpleNamespace
 
@@ -77,7 +102,7 @@ def _live_row(run_dir: Path, gt_t: np.ndarray, gt_xy: np.ndarray, truth, start):
     from master_side.slam.evaluate import read_trajectory
 
     stamps, poses = read_trajectory(run_dir / "slam_trajectory.txt")
-    judged = _judge(load_map(run_dir / "explored.yaml"), stamps, poses, truth, start, gt_t, gt_xy)
+    judged = _judge(load_map(run_dir / "explored.yaml"), stamps, poses, truth, start, gt_t, gt_xy, gt_th)
     res = SimpleNamespace(scans=len(stamps), processed=0, update_ms=float("nan"))
     return stamps, ("live (online)", res, *judged, 0.0, None)
 
@@ -104,11 +129,11 @@ def main(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     path = Path(a.run)
     if path.is_dir() and not (path / "run.mcap").exists():  # bench/explore.py's --record DIR: a run per folder
-        runs = sorted(path.glob("*/run.mcap"))
-        if len(runs) != 1:
-            ap.error(f"{path}: no run.mcap" + (f"; it holds {len(runs)} runs, name one: "
-                                                + ", ".join(str(r.parent) for r in runs) if runs else ""))
-        path = runs[0].parent
+        found = sorted(path.glob("*/run.mcap"))
+        if len(found) != 1:
+            ap.error(f"{path}: no run.mcap" + (f"; it holds {len(found)} runs, name one: "
+                                                + ", ".join(str(r.parent) for r in found) if found else ""))
+        path = found[0].parent
     path = path / "run.mcap" if path.is_dir() else path
     variants = a.variant if a.variant is not None else [""]
     world, start = world_and_start(a.world)
@@ -118,6 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     gt = [(m.header.stamp, m.pose2d) for t, m in messages if t == "ground_truth"]
     gt_t = np.array([s for s, _ in gt])
     gt_xy = np.array([(p.x, p.y) for _, p in gt])
+    gt_th = np.array([p.theta for _, p in gt])
     truth = WorldTruth.of(world, start, 0.05, edge_walls=is_map_world(world))  # as the exploration bench
     if a.seeds < 1:
         ap.error(f"--seeds: {a.seeds}: at least 1")
@@ -127,7 +153,7 @@ def main(argv: list[str] | None = None) -> int:
         if not (path.parent / "slam_trajectory.txt").exists() or not (path.parent / "explored.yaml").exists():
             ap.error(f"--live: {path.parent} lacks slam_trajectory.txt or explored.yaml (the exploration bench "
                      "writes them since 2026-11-30)")
-        stamps, row = _live_row(path.parent, gt_t, gt_xy, truth, start)
+        stamps, row = _live_row(path.parent, gt_t, gt_xy, gt_th, truth, start)
         live = set(np.round(stamps, 4).tolist())
         rows.append(row)
     runs = [(v, f"{v} seed={k}".strip() if a.seeds > 1 else v) for v in variants for k in range(a.seeds)]
@@ -142,16 +168,20 @@ def main(argv: list[str] | None = None) -> int:
         grid = res.slam.occupancy_grid(float(res.stamps[-1]))
         if a.save:
             write_outputs(res, Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured"))
-        judged = _judge(grid, res.stamps, res.poses, truth, start, gt_t, gt_xy)
+        judged = _judge(grid, res.stamps, res.poses, truth, start, gt_t, gt_xy, gt_th)
         rows.append((v or "as-configured", res, *judged, time.monotonic() - t0, variant))
     print(f"{'variant':34} {'scans':>6} {'upd':>5} {'ms/upd':>7} {'walls%':>6} {'free%':>6} {'known%':>6} "
           f"{'map frame':>13} {'traj mean':>9} {'p95 m':>6} {'max m':>6} {'wall s':>7}")
-    for name, res, walls, free, known, off, err, wall, _ in rows:
+    for name, res, walls, free, known, off, err, _, wall, _ in rows:
         fit = f"{math.degrees(off.theta):+.1f}°{math.hypot(off.x, off.y):.2f}m"
         print(f"{name:34.34} {res.scans:6d} {res.processed:5d} {res.update_ms:7.1f} {100 * walls:6.1f} "
               f"{100 * free:6.1f} {100 * known:6.1f} {fit:>13} {np.mean(err):9.3f} {np.percentile(err, 95):6.3f} "
               f"{np.max(err):6.3f} {wall:7.0f}")
-    by = {v: [r for r in rows if r[8] == v] for v in variants}  # each variant's replays (one per seed)
+    bands = " ".join(f"{f'{lo:g}-{hi:g}':>8}" for lo, hi in TURN_BANDS)
+    print(f"\n{'heading error, short-term, mean |deg|, by turn rate (rad/s):':60} {bands}")
+    for name, *_, turn, _, _ in rows:
+        print(f"{name:60.60} " + " ".join(f"{x:8.2f}" for x in turn))
+    by = {v: [r for r in rows if r[9] == v] for v in variants}  # each variant's replays (one per seed)
     walls_mean = {v: float(np.mean([r[2] for r in rs])) for v, rs in by.items()}
     if a.seeds > 1:
         print(f"\n{'variant':34} {'seeds':>5} {'walls% mean':>11} {'min':>6} {'max':>6} {'traj p95 mean m':>15}")
