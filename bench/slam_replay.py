@@ -10,8 +10,8 @@ Per variant: the map's walls within two cells of a true wall and its free cells 
 where the map fits best on the world (bench/explore.py's figures; the fitted turn and shift beside them),
 the share of the reachable free area it knows, and the trajectory's distance from the ground truth at each
 scan (in the fitted frame): mean, p95, max; then the heading's short-term error (less its 20 s running
-median) in bands of the true turn rate: a narrow view that loses the heading in turns shows as the faster
-bands growing. Variants are `KEY=VALUE ...`
+median) in bands of the true turn rate, the wheel odometry's beside them: a narrow view that loses the
+heading in turns shows as the faster bands growing, no better than the odometry. Variants are `KEY=VALUE ...`
 strings of slam_gmapping parameters over the master file's (p3at_slam_zenav.yaml's: the tutorial's
 gmapping.yaml, 30 particles).
 
@@ -179,7 +179,11 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.max(err):6.3f} {wall:7.0f}")
     bands = " ".join(f"{f'{lo:g}-{hi:g}':>8}" for lo, hi in TURN_BANDS)
     print(f"\n{'heading error, short-term, mean |deg|, by turn rate (rad/s):':60} {bands}")
-    for name, *_, turn, _, _ in rows:
+    odom = np.array([(m.header.stamp, 2.0 * math.atan2(m.pose.rotation.z, m.pose.rotation.w))
+                     for t, m in messages if t == "odom"]).reshape(-1, 2)
+    named = [(name, turn) for name, *_, turn, _, _ in rows]
+    named.append(("the wheel odometry (what SLAM starts from)", _heading_by_turn(odom[:, 0], odom[:, 1], gt_t, gt_th)))
+    for name, turn in named:
         print(f"{name:60.60} " + " ".join(f"{x:8.2f}" for x in turn))
     by = {v: [r for r in rows if r[9] == v] for v in variants}  # each variant's replays (one per seed)
     walls_mean = {v: float(np.mean([r[2] for r in rs])) for v, rs in by.items()}
