@@ -114,9 +114,11 @@ def _stats(node: Node, names: list[str]) -> dict[str, NodeStats]:
 
 
 def _stats_of_all(node: Node, names: list[str], timeout: float, what: str) -> dict[str, NodeStats]:
-    """Every node's answer: a node that misses one call's 5 s is asked again until ``timeout``. On a loaded
-    machine move_base once missed the baseline's call (a fresh-clone run, 2026-11-30), and the check after
-    the fuzz, finding a pid it had not recorded, reported it as restarted ("pid None -> 6102")."""
+    """Every node's answer, a node left unanswered asked again until ``timeout`` as the bus's own callers do
+    (common/delivery.py): a query that reaches no queryable asks its owner to declare it again, and the next
+    call finds it. On a loaded machine move_base once missed the baseline's call (a fresh-clone run,
+    2026-11-30), and the check after the fuzz, finding a pid it had not recorded, reported it as restarted
+    ("pid None -> 6102")."""
     out: dict[str, NodeStats] = {}
     end = time.monotonic() + timeout
     while len(out) < len(names):
