@@ -77,7 +77,7 @@ def _heading_by_turn(stamps: np.ndarray, theta: np.ndarray, gt_t: np.ndarray, gt
     rate = np.abs(np.interp(stamps, gt_t, np.gradient(th, gt_t)))
     err = np.unwrap(theta) - np.interp(stamps, gt_t, th)
     window = int(20.0 / max(float(np.median(np.diff(stamps))), 1e-3)) | 1
-    err = np.degrees(np.abs(err - median_filter(err, size=min(window, len(err) - (1 - len(err) % 2)), mode="nearest")))
+    err = np.degrees(np.abs(err - median_filter(err, size=window, mode="nearest")))
     return [float(err[m].mean()) if (m := (rate >= lo) & (rate < hi)).any() else math.nan for lo, hi in TURN_BANDS]
 
 
@@ -179,8 +179,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.max(err):6.3f} {wall:7.0f}")
     bands = " ".join(f"{f'{lo:g}-{hi:g}':>8}" for lo, hi in TURN_BANDS)
     print(f"\n{'heading error, short-term, mean |deg|, by turn rate (rad/s):':60} {bands}")
-    odom = np.array([(m.header.stamp, 2.0 * math.atan2(m.pose.rotation.z, m.pose.rotation.w))
-                     for t, m in messages if t == "odom"]).reshape(-1, 2)
+    odom = np.array([(m.header.stamp, m.pose2d.theta) for t, m in messages if t == "odom"]).reshape(-1, 2)
     named = [(name, turn) for name, *_, turn, _, _ in rows]
     named.append(("the wheel odometry (what SLAM starts from)", _heading_by_turn(odom[:, 0], odom[:, 1], gt_t, gt_th)))
     for name, turn in named:
