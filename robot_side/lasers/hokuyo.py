@@ -192,9 +192,8 @@ class HokuyoDriver:
         last = time.monotonic()
         try:
             while not self._stop.is_set():
-                for block in self._blocks(0.0):
-                    if self._handle(block):
-                        last = time.monotonic()
+                if self._handle_buffered():
+                    last = time.monotonic()
                 if time.monotonic() - last > self.p.scan_timeout:
                     if not self._drain():
                         raise HokuyoError(f"no scan from the Hokuyo on {self.name} for {self.p.scan_timeout:g} s")
@@ -216,8 +215,14 @@ class HokuyoDriver:
         got = False
         while getattr(self.port, "in_waiting", 0):
             self._read()
-            for block in self._blocks(0.0):
-                got = self._handle(block) or got
+            got = self._handle_buffered() or got
+        return got
+
+    def _handle_buffered(self) -> bool:
+        """Handle the whole replies read so far; True if one was a scan."""
+        got = False
+        for block in self._blocks(0.0):
+            got = self._handle(block) or got
         return got
 
     def _handle(self, block: bytes) -> bool:
