@@ -120,12 +120,14 @@ def _stats_of_all(node: Node, names: list[str], timeout: float, what: str) -> di
     2026-11-30), and the check after the fuzz, finding a pid it had not recorded, reported it as restarted
     ("pid None -> 6102")."""
     out: dict[str, NodeStats] = {}
-    end = time.monotonic() + timeout
-    while len(out) < len(names):
-        out |= _stats(node, [n for n in names if n not in out])
-        if len(out) < len(names) and time.monotonic() > end:
-            raise AssertionError(f"{what}: {sorted(set(names) - set(out))} did not answer node_stats "
-                                 f"within {timeout:.0f} s")
+
+    def answered() -> bool:
+        out.update(_stats(node, [n for n in names if n not in out]))
+        return len(out) == len(names)
+    try:
+        _wait(answered, timeout, f"{what}: every node's node_stats", None)
+    except AssertionError as e:
+        raise AssertionError(f"{e} ({sorted(set(names) - set(out))} did not answer)") from None
     return out
 
 
