@@ -11,7 +11,9 @@ where the map fits best on the world (bench/explore.py's figures; the fitted tur
 the share of the reachable free area it knows, and the trajectory's distance from the ground truth at each
 scan (in the fitted frame): mean, p95, max; then the heading's short-term error (less its 20 s running
 median) in bands of the true turn rate, the wheel odometry's beside them: a narrow view that loses the
-heading in turns shows as the faster bands growing, no better than the odometry. Variants are `KEY=VALUE ...`
+heading in turns shows as the faster bands growing, no better than the odometry; and update by update, along
+the final map's lineage, the p95 error of each filter update's heading step beside the odometry's over the
+same interval, in bands of the true step (the matcher itself, no whole-map turn). Variants are `KEY=VALUE ...`
 strings of slam_gmapping parameters over the master file's (p3at_slam_zenav.yaml's: the tutorial's
 gmapping.yaml, 30 particles).
 
@@ -81,6 +83,29 @@ def _heading_by_turn(stamps: np.ndarray, theta: np.ndarray, gt_t: np.ndarray, gt
     return [float(err[m].mean()) if (m := (rate >= lo) & (rate < hi)).any() else math.nan for lo, hi in TURN_BANDS]
 
 
+STEP_BANDS = ((0.0, 0.05), (0.05, 0.15), (0.15, math.inf))  # rad, the true turn between two filter updates
+
+
+def _update_steps(stamps: np.ndarray, theta: np.ndarray, gt_t: np.ndarray, gt_th: np.ndarray,
+                  odom_t: np.ndarray, odom_th: np.ndarray) -> list[tuple[float, float, int]]:
+    """Per band of the true turn between consecutive filter updates (STEP_BANDS): the p95 |error| (deg) of
+    each update's heading step along the final map's lineage (``stamps``, ``theta``: its updates), the
+    wheel odometry's over the same intervals, and the count. Whole-map turns cancel out; a matcher that
+    steps worse than the odometry it started from shows here, update by update."""
+    if len(stamps) < 2 or len(gt_t) < 2 or len(odom_t) < 2:
+        return [(math.nan, math.nan, 0)] * len(STEP_BANDS)
+    true = np.diff(np.interp(stamps, gt_t, np.unwrap(gt_th)))
+    odom = np.diff(np.interp(stamps, odom_t, np.unwrap(odom_th)))
+    est = np.diff(np.unwrap(theta))
+    out = []
+    for lo, hi in STEP_BANDS:
+        m = (np.abs(true) >= lo) & (np.abs(true) < hi)
+        out.append((float(np.degrees(np.percentile(np.abs(est[m] - true[m]), 95))),
+                    float(np.degrees(np.percentile(np.abs(odom[m] - true[m]), 95))), int(m.sum()))
+                   if m.any() else (math.nan, math.nan, 0))
+    return out
+
+
 def _judge(grid, stamps: np.ndarray, poses: np.ndarray, truth, start, gt_t: np.ndarray, gt_xy: np.ndarray,
            gt_th: np.ndarray):
     """(walls, free, known, the map frame's fitted offset, trajectory error per scan, heading error by turn
@@ -147,7 +172,9 @@ def main(argv: list[str] | None = None) -> int:
     truth = WorldTruth.of(world, start, 0.05, edge_walls=is_map_world(world))  # as the exploration bench
     if a.seeds < 1:
         ap.error(f"--seeds: {a.seeds}: at least 1")
+    odom = np.array([(m.header.stamp, m.pose2d.theta) for t, m in messages if t == "odom"]).reshape(-1, 2)
     rows = []
+    steps: dict[str, list[tuple[float, float, int]]] = {}
     live: set[float] | None = None
     if a.live:
         if not (path.parent / "slam_trajectory.txt").exists() or not (path.parent / "explored.yaml").exists():
@@ -169,6 +196,10 @@ def main(argv: list[str] | None = None) -> int:
         if a.save:
             write_outputs(res, Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured"))
         judged = _judge(grid, res.stamps, res.poses, truth, start, gt_t, gt_xy, gt_th)
+        lineage = res.slam.trajectory()  # the final map's updates
+        steps[v or "as-configured"] = _update_steps(res.stamps[[i for i, _ in lineage]],
+                                                    np.array([q.theta for _, q in lineage]), gt_t, gt_th,
+                                                    odom[:, 0], odom[:, 1])
         rows.append((v or "as-configured", res, *judged, time.monotonic() - t0, variant))
     print(f"{'variant':34} {'scans':>6} {'upd':>5} {'ms/upd':>7} {'walls%':>6} {'free%':>6} {'known%':>6} "
           f"{'map frame':>13} {'traj mean':>9} {'p95 m':>6} {'max m':>6} {'wall s':>7}")
@@ -179,11 +210,14 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.max(err):6.3f} {wall:7.0f}")
     bands = " ".join(f"{f'{lo:g}-{hi:g}':>8}" for lo, hi in TURN_BANDS)
     print(f"\n{'heading error, short-term, mean |deg|, by turn rate (rad/s):':60} {bands}")
-    odom = np.array([(m.header.stamp, m.pose2d.theta) for t, m in messages if t == "odom"]).reshape(-1, 2)
     named = [(name, turn) for name, *_, turn, _, _ in rows]
     named.append(("the wheel odometry (what SLAM starts from)", _heading_by_turn(odom[:, 0], odom[:, 1], gt_t, gt_th)))
     for name, turn in named:
         print(f"{name:60.60} " + " ".join(f"{x:8.2f}" for x in turn))
+    bands = " ".join(f"{f'{lo:g}-{hi:g}':>16}" for lo, hi in STEP_BANDS)
+    print(f"\n{'heading step per update, p95 |deg|: replay / odometry (updates)':60} {bands}")
+    for name, st in steps.items():
+        print(f"{name:60.60} " + " ".join(f"{f'{e:.2f} / {o:.2f} ({n})':>16}" for e, o, n in st))
     by = {v: [r for r in rows if r[9] == v] for v in variants}  # each variant's replays (one per seed)
     walls_mean = {v: float(np.mean([r[2] for r in rs])) for v, rs in by.items()}
     if a.seeds > 1:
