@@ -12,6 +12,8 @@ world (its walls within two cells of a true wall, its free cells on true free sp
 is the figure); how it ended (explore says nothing is left, or the time limit). Every map is judged laid
 on the world where it fits best ("map frame": the fitted turn and shift of SLAM's frame from the start,
 which SLAM knows only as well as its first metres of odometry); "raw" columns judge it at the start.
+Each run's folder under --out keeps the map and walls.png: the map laid on the world where it fits, its walls
+black where right and red where wrong, the true walls light blue.
 
   python bench/explore.py                                   # room, office02, mall; laser and Kinect
   python bench/explore.py --worlds room --sensors laser --runs 3

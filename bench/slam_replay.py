@@ -45,6 +45,7 @@ sys.path.insert(0, str(ROOT))
 
 from deploy.logs.mcap_io import read_records  # noqa: E402
 from deploy.stack.map_check import FIT_HEADINGS_DEG, WorldTruth  # noqa: E402
+from deploy.stack.png import write_png  # noqa: E402
 from master_side.slam import node as slam_node  # noqa: E402
 from master_side.slam.logs import scan_records  # noqa: E402
 from master_side.slam.offline import run, write_outputs  # noqa: E402
@@ -147,7 +148,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="replay each variant with gmapping's seeds 0..N-1 (a particle filter's single draw differs "
                          "by a few percent from the next: compare variants on their means)")
     ap.add_argument("--save", default="", metavar="DIR",
-                    help="write each variant's map and trajectory there (zenav slam run's files, a folder each)")
+                    help="write each variant's map and trajectory there (zenav slam run's files, a folder each), "
+                         "and walls.png: the map laid on the world, its walls right (black) or wrong (red)")
     ap.add_argument("--live", action="store_true",
                     help="judge the live SLAM's map and trajectory (explored.yaml, slam_trajectory.txt of the run "
                          "directory) beside the replays, and replay only the scans the live node mapped")
@@ -193,9 +195,11 @@ def main(argv: list[str] | None = None) -> int:
             records = (r for r in records if round(r.stamp, 4) in live)
         res = run(path, params, a.max_scans, progress=None, records=records)
         grid = res.slam.occupancy_grid(float(res.stamps[-1]))
-        if a.save:
-            write_outputs(res, Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured"))
         judged = _judge(grid, res.stamps, res.poses, truth, start, gt_t, gt_xy, gt_th)
+        if a.save:
+            folder = Path(a.save) / (v.replace(" ", "_").replace("=", "") or "as-configured")
+            write_outputs(res, folder)
+            write_png(folder / "walls.png", truth.moved(judged[3]).picture(grid))
         lineage = res.slam.trajectory()  # the final map's updates
         steps[v or "as-configured"] = _update_steps(res.stamps[[i for i, _ in lineage]],
                                                     np.array([q.theta for _, q in lineage]), gt_t, gt_th,

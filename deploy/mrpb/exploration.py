@@ -31,6 +31,7 @@ from common.messages import Collision, Costmap, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.stack.map_check import FIT_HEADINGS_DEG, NO_OFFSET, WorldTruth
+from deploy.stack.png import write_png
 from deploy.stack.process_group import ProcessGroup, set_options
 from master_side.costmap.cost_values import LETHAL
 from master_side.mapping.map_io import load_map
@@ -285,6 +286,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
             fitted = truth.moved(out.offset)
             out.final_share = fitted.explored(grid)
             out.walls_ok, out.free_ok = fitted.agreement(grid)
+            write_png(work / "walls.png", fitted.picture(grid))  # where the map is wrong, to look at
         out.sim_s = watch.now() - (watch.t0 or 0.0)
         completed = out.end != INTERRUPTED  # Ctrl-C: no before_stop (the page is not kept up)
     except RuntimeError as e:  # an agent died or never came up

@@ -144,12 +144,23 @@ class WorldTruth:
         obstacle's face, on either side, are not judged: the face falls anywhere in a cell. Two shares, not
         one over all cells: free cells outnumber walls so far that a map with every wall half a metre off
         would still agree at 97 %."""
-        rows, cols = np.nonzero(((grid.data >= 0) & (grid.data < 25)) | (grid.data >= 65))
-        if len(rows) == 0:
+        _, occupied, ok_occ, judged_free, ok_free = self._judge(grid)
+        if len(occupied) == 0:
             return 0.0, 0.0
+
+        def share(ok: np.ndarray, judged: np.ndarray) -> float:
+            n = int(np.count_nonzero(judged))
+            return float(np.count_nonzero(ok) / n) if n else 1.0
+
+        return share(ok_occ, occupied), share(ok_free, judged_free)
+
+    def _judge(self, grid: OccupancyGrid) -> tuple[np.ndarray, ...]:
+        """``agreement``'s verdict per judged map cell: (the world cell (row, col) it falls on, or -1 off the
+        world; occupied; an occupied cell near a true obstacle; a free cell judged; a free cell right)."""
+        rows, cols = np.nonzero(((grid.data >= 0) & (grid.data < 25)) | (grid.data >= 65))
         pts = np.column_stack((grid.origin.x + (cols + 0.5) * grid.resolution,
                                grid.origin.y + (rows + 0.5) * grid.resolution))
-        xy = self.map_in_world.apply(pts)
+        xy = self.map_in_world.apply(pts) if len(pts) else pts
         c = np.floor((xy[:, 0] - self.origin[0]) / self.resolution).astype(int)
         r = np.floor((xy[:, 1] - self.origin[1]) / self.resolution).astype(int)
         inside = (r >= 0) & (c >= 0) & (r < self.dist.shape[0]) & (c < self.dist.shape[1])
@@ -159,12 +170,22 @@ class WorldTruth:
         ok_occ = occupied & (d - grid.resolution / 2 <= 2 * grid.resolution) & np.isfinite(d)
         judged_free = ~occupied & (np.abs(d) > self.margin_m)
         ok_free = judged_free & (d > self.margin_m)
+        return np.where(inside[:, None], np.column_stack((r, c)), -1), occupied, ok_occ, judged_free, ok_free
 
-        def share(ok: np.ndarray, judged: np.ndarray) -> float:
-            n = int(np.count_nonzero(judged))
-            return float(np.count_nonzero(ok) / n) if n else 1.0
-
-        return share(ok_occ, occupied), share(ok_free, judged_free)
+    def picture(self, grid: OccupancyGrid) -> np.ndarray:
+        """The map laid on the world as ``agreement`` judges it, an RGB image (rows, cols, 3), north up, one
+        pixel per world cell: the true obstacles light blue, the map's walls black where right and red where
+        more than two cells from any true obstacle, its free cells on obstacles orange. Where the red lies
+        says what broke: a whole wing off, or short walls at an angle in rooms where the robot turned."""
+        img = np.full(self.dist.shape + (3,), 255, np.uint8)
+        img[self.dist <= 0] = (170, 190, 255)
+        at, occupied, ok_occ, judged_free, ok_free = self._judge(grid)
+        on = at[:, 0] >= 0
+        for cells, colour in ((judged_free & ~ok_free, (255, 150, 0)), (ok_occ, (0, 0, 0)),
+                              (occupied & ~ok_occ, (230, 0, 0))):
+            rc = at[cells & on]
+            img[rc[:, 0], rc[:, 1]] = colour
+        return img[::-1]
 
 
 def explored_share(grid: OccupancyGrid, world: str, map_in_world: Pose2D, min_height: float = 0.05,
