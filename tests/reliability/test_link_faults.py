@@ -170,6 +170,11 @@ def test_b_a_partition_stops_the_robot_and_the_goal_completes_after_it(stack):
     # Measured on the robot's clock (simulated time: ground truth's stamp against the clock when the last
     # command came), the time the robot's motion takes. On a busy machine the simulator runs slower than
     # the wall clock, and the collision monitor's cmd_vel_timeout runs on that same clock.
+    # The robot's time when the last command came: the probe's last clock message then, or the ground truth
+    # stamped before it, whichever is later. Both are lower bounds (a message's delivery lags under load);
+    # the probe's clock alone once lagged 0.1 s, read as a stop 0.88 s after a command it took 0.78 s of wall
+    # clock to follow (ci177).
+    sim_last = max(sim_last, float(gt_then[6]))
     took = float(stopped[0][6]) - sim_last
     # linear and angular speed brake at once, each at its own limit; + monitor tick, ground truth period,
     bound = TIMEOUT + max(v_brake / DECEL, w_brake / DECEL_TH) + 0.1  # scheduling
