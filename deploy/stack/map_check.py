@@ -160,7 +160,7 @@ class WorldTruth:
         rows, cols = np.nonzero(((grid.data >= 0) & (grid.data < 25)) | (grid.data >= 65))
         pts = np.column_stack((grid.origin.x + (cols + 0.5) * grid.resolution,
                                grid.origin.y + (rows + 0.5) * grid.resolution))
-        xy = self.map_in_world.apply(pts) if len(pts) else pts
+        xy = self.map_in_world.apply(pts)
         c = np.floor((xy[:, 0] - self.origin[0]) / self.resolution).astype(int)
         r = np.floor((xy[:, 1] - self.origin[1]) / self.resolution).astype(int)
         inside = (r >= 0) & (c >= 0) & (r < self.dist.shape[0]) & (c < self.dist.shape[1])

@@ -74,33 +74,11 @@ def test_the_fit_does_not_straighten_a_bent_map(truth_map):
     assert truth.fit(empty, Pose2D(0.1, 0.0, 0.0)) == Pose2D(0.1, 0.0, 0.0)  # nothing to fit: the guess
 
 
-def _read_png(path) -> np.ndarray:
-    """An 8-bit RGB PNG of unfiltered rows (what deploy.stack.png writes), read back by its chunks."""
-    import struct
-    import zlib
-
-    data = path.read_bytes()
-    assert data[:8] == b"\x89PNG\r\n\x1a\n"
-    pos, idat, size = 8, b"", None
-    while pos < len(data):
-        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
-        body = data[pos + 8:pos + 8 + n]
-        assert struct.unpack(">I", data[pos + 8 + n:pos + 12 + n])[0] == zlib.crc32(kind + body)
-        if kind == b"IHDR":
-            size = struct.unpack(">II", body[:8])
-        elif kind == b"IDAT":
-            idat += body
-        pos += 12 + n
-    w, h = size
-    rows = np.frombuffer(zlib.decompress(idat), np.uint8).reshape(h, 1 + 3 * w)
-    assert not rows[:, 0].any()  # filter type 0 on every row
-    return rows[:, 1:].reshape(h, w, 3)
-
-
 def test_the_picture_shows_wrong_walls_red_and_reads_back_from_its_png(truth_map, tmp_path):
     """A right map: its walls black on the true walls, no red. Every wall 0.5 m off: red pixels, as many as
     the wall cells agreement() counts wrong; the PNG holds the same picture."""
     from deploy.stack.png import write_png
+    from testkit.webrig import rgb  # Pillow's decoder (it checks each chunk's CRC): not ours read back by ours
 
     truth = WorldTruth.of("room", START, 0.05)
     red, black = (230, 0, 0), (0, 0, 0)
@@ -116,6 +94,6 @@ def test_the_picture_shows_wrong_walls_red_and_reads_back_from_its_png(truth_map
     occupied = int((shifted.data >= 65).sum())
     assert count(img, red) == pytest.approx((1 - walls) * occupied, abs=2)  # one world cell per map cell here
     write_png(tmp_path / "walls.png", img)
-    assert np.array_equal(_read_png(tmp_path / "walls.png"), img)
+    assert np.array_equal(rgb((tmp_path / "walls.png").read_bytes()), img)
     with pytest.raises(ValueError, match="rows, cols, 3"):
         write_png(tmp_path / "bad.png", img[..., 0])
