@@ -23,7 +23,11 @@ def test_master_agent_runs_its_nodes_in_order_and_stops_on_sigterm(bus, agents, 
         "move_base": {"module": PLAIN, "after": ["map_server"], "params": {"log": str(log)}},
         "map_server": {"module": PLAIN, "params": {"log": str(log)}}}}
     agent = agents(cfg, robot_name, env, kind="master")
-    wait_until(lambda: first(read_events(log), "start", "move_base"), 60, "move_base started")
+    # each node's own "start" line, logged once its SIGTERM handler is set: RUNNING (which `after` waits for)
+    # means the process is spawned, and a map_server still importing on a loaded machine died of the SIGTERM
+    # without its "term" line (ci179)
+    for n in ("map_server", "move_base"):
+        wait_until(lambda n=n: first(read_events(log), "start", n), 60, f"{n} started")
     for n in ("map_server", "move_base"):
         wait_until(lambda n=n: states.find(node=n, state="RUNNING"), 20, f"{n} RUNNING state")
     pids = set(p.pid for p in agent.children())
