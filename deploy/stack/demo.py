@@ -181,6 +181,23 @@ class Demo:
         save_map(grid, self.work / f"slam_{world}")
         self.map_accuracy[world] = acc = map_accuracy(grid, world, start)
         self.echo(f"[demo] {world}: SLAM map saved to {self.work / f'slam_{world}.pgm'}: {acc}")
+        self.echo(f"[demo] {world}: {self._slam_scans()}")
+
+    def _slam_scans(self) -> str:
+        """The SLAM node's scan counters: a filter starved of CPU drops scans from its queue (ROS's 5), and the
+        update after a gap integrates all the motion of the gap at once, so a poor map says whether it had them."""
+        from common.bus import ServiceError
+        from common.messages import Empty, NodeStats
+
+        name = "hector_mapping" if slam_method(self.o.slam) == "hector" else "slam_gmapping"
+        try:
+            stats = self.node.call(f"node_stats/{name}", Empty(), NodeStats, timeout=10.0)
+        except ServiceError as e:
+            return f"{name} did not answer node_stats ({e})"
+        scan = next((t for t in stats.topics if t.topic == "scan"), None)
+        if scan is None:
+            return f"{name} has no scan subscription"
+        return f"{name}: {scan.received} scans received, {scan.dropped} dropped by its queue"
 
     def _goal(self, world: str, name: str, x: float, y: float, yaw: float, send_goal,
               start: Pose2D) -> GoalResult:
