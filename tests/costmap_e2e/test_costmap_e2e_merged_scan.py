@@ -61,9 +61,12 @@ def test_virtualizer_config_publishes_one_merged_scan_per_camera_frame(cme_bus, 
     # every frame gives one (45/45); a loaded CI run (2026-11-27) gave 36 for 46 frames. So this asserts a
     # merged scan for most frames (a merger waiting for two frames' sets, or publishing every other one,
     # fails), and the pipeline's speed is measured where the load is known: `python bench/depth.py`
-    # (8 virtual scans + merge ~10 ms per 66 ms frame).
+    # (8 virtual scans + merge ~10 ms per 66 ms frame). Against the sets seen on virtual_scans/0 the bound is
+    # 3/4: the two faults this guards against give at most half (one merge per two sets), while a set loses
+    # its merge when any of its eight scans, or the merged scan itself, is dropped on its own route (41 for
+    # 46 in a loaded rehearsal, 2026-11-30, under the 9/10 this bound had).
     assert len(merged) >= 0.6 * len(cam), f"{len(merged)} merged scans for {len(cam)} camera frames"
-    assert len(merged) >= 0.9 * len(virtual), f"{len(merged)} merged scans for {len(virtual)} virtual scan sets"
+    assert len(merged) >= 0.75 * len(virtual), f"{len(merged)} merged scans for {len(virtual)} virtual scan sets"
     assert scan_hz <= 1.05 * cam_hz
 
     # exactly one publisher of scan: the merger
