@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from common.geometry import Pose2D, points_in_polygon  # noqa: E402
-from deploy.mrpb.exploration import nearest_mark  # noqa: E402
+from deploy.mrpb.contacts import nearest_mark  # noqa: E402
 from master_side.costmap.footprint import pad_footprint  # noqa: E402
 
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"

@@ -15,10 +15,11 @@ from pathlib import Path
 import numpy as np
 
 from common.bus import Node
-from common.messages import Collision, GoalStatus, MoveBaseStatus, Odometry, PoseStamped, Scalar, Twist
+from common.messages import GoalStatus, MoveBaseStatus, Odometry, PoseStamped, Scalar, Twist
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.mrpb.cases import TIME_LIMIT_S, Case, Result
+from deploy.mrpb.contacts import ContactWatch
 from deploy.stack.goals import send_goal
 from deploy.stack.process_group import ProcessGroup, set_options
 from master_side import agent as master_agent
@@ -28,19 +29,18 @@ AMCL_MODULE = "master_side.localization.amcl_node"
 
 
 class _Recorder:
-    """Ground truth at each of move_base's commands (a control cycle), contacts, loop times, and the
-    localiser's error: each ``amcl_pose`` against the ground truth of the same moment."""
+    """Ground truth at each of move_base's commands (a control cycle), contacts (each with a snapshot in
+    ``contact_dir``, for ``bench/contacts.py``), loop times, and the localiser's error: each ``amcl_pose``
+    against the ground truth of the same moment."""
 
-    def __init__(self, node: Node):
+    def __init__(self, node: Node, contact_dir: Path):
         self.lock = threading.Lock()
         self.truth = node.subscribe("ground_truth", Odometry)
         self.rows: list[tuple[float, ...]] = []
-        self.collisions = 0
-        self.contact: tuple[float, float] | None = None
+        self.contacts = ContactWatch(node, contact_dir)
         self.loop_ms: list[float] = []
         self.loc_err: list[float] = []  # metres, one per amcl_pose
         node.subscribe("amcl_pose", PoseStamped, callback=self._located, mode="queue")
-        node.subscribe("collision", Collision, callback=self._collision, mode="queue")
         node.subscribe("move_base/loop_time", Scalar, mode="queue",
                        callback=lambda m: self.loop_ms.append(m.value * 1e3))
         node.subscribe("cmd_vel", Twist, callback=self._cmd, mode="queue")
@@ -60,10 +60,10 @@ class _Recorder:
             with self.lock:
                 self.loc_err.append(float(np.hypot(p.x - q.x, p.y - q.y)))
 
-    def _collision(self, m: Collision) -> None:
-        with self.lock:
-            if m.count > self.collisions:
-                self.collisions, self.contact = m.count, (m.x, m.y)
+    def contact(self) -> tuple[float, float] | None:
+        """The first contact's point in the world (None: none yet)."""
+        with self.contacts.lock:
+            return self.contacts.contacts[0][1:] if self.contacts.contacts else None
 
 
 def amcl_start_sets(master_config: Path, case: Case) -> list[str]:
@@ -84,7 +84,7 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     group = ProcessGroup(robot, endpoint, work)
     node = Node("mrpb_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)), use_sim_time="auto")
-    rec = _Recorder(node)
+    rec = _Recorder(node, work / "contacts")
     status, reason = "timeout", f"not reached within {time_limit_s:g} s"
     cancel = threading.Event()
     try:
@@ -102,11 +102,8 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
         sender.start()
         t_wall = time.monotonic()
         while True:
-            with rec.lock:
-                hit = rec.collisions
-            if hit:
-                c = rec.contact
-                status, reason = "collision", f"contact at ({c[0]:.2f}, {c[1]:.2f})" if c else "contact"
+            if (c := rec.contact()) is not None:
+                status, reason = "collision", f"contact at ({c[0]:.2f}, {c[1]:.2f}) (snapshot in {work / 'contacts'})"
                 break
             if answer:
                 code, st = answer[0]

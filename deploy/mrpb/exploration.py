@@ -19,7 +19,6 @@ import signal
 import threading
 import time
 import uuid
-from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -27,19 +26,18 @@ import numpy as np
 
 from common.bus import Node
 from common.geometry import Pose2D
-from common.messages import Collision, Costmap, OccupancyGrid, Odometry
+from common.messages import OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
+from deploy.mrpb.contacts import ContactWatch
 from deploy.stack.map_check import FIT_HEADINGS_DEG, NO_OFFSET, WorldTruth
 from deploy.stack.png import write_png
 from deploy.stack.process_group import ProcessGroup, set_options
-from master_side.costmap.cost_values import LETHAL
 from master_side.mapping.map_io import load_map
 from robot_side.sim.world import is_map_world
 
 STARTUP_S = 120.0  # wall seconds for the agents to come up on a busy machine
 REFIT_S = 20.0  # simulated seconds between fits of the map's frame while the run goes on
-BEFORE_CONTACT_S = 0.3  # a contact is diagnosed on the local costmap of this long before it (simulated s)
 
 
 @dataclass
@@ -74,35 +72,16 @@ class ExploreRun:
         return min(self.walls_ok, self.free_ok)
 
 
-def nearest_mark(data: np.ndarray, origin: tuple[float, float], resolution: float, x: float, y: float) -> float:
-    """The distance from (x, y) to the nearest LETHAL cell's centre of a costmap (``data`` rows = y,
-    ``origin`` its lower-left corner, all in one frame); inf if it has none."""
-    rows, cols = np.nonzero(np.asarray(data) == LETHAL)
-    if len(rows) == 0:
-        return float("inf")
-    cx, cy = origin[0] + (cols + 0.5) * resolution, origin[1] + (rows + 0.5) * resolution
-    return float(np.min(np.hypot(cx - x, cy - y)))
-
-
 class _Watch:
     """Coverage of each map as it comes (judged in this thread, not in Zenoh's), distance, contacts."""
 
     def __init__(self, node: Node, truth: WorldTruth, contact_dir: Path | None = None):
         self.node, self.truth, self.lock = node, truth, threading.Lock()
-        self.contact_dir = contact_dir  # where each contact's snapshot goes (contact_<n>.npz)
         self.maps = node.subscribe("map", OccupancyGrid)
-        self.collisions = 0  # the simulator's count
-        self.contacts: list[tuple[float, float, float]] = []  # (sim s, x, y) of each new contact
-        node.subscribe("collision", Collision, mode="queue", callback=self._contact)
         node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
-        # what the planner knew at a contact: the local costmap and where the robot was in its frame
-        self.locals: deque[Costmap] = deque(maxlen=30)  # the last 3 s of local costmaps (10 Hz)
-        node.subscribe("local_costmap/costmap", Costmap, callback=self.locals.append, mode="queue")
-        self.odoms: deque[Odometry] = deque(maxlen=200)
-        self.truths: deque[Odometry] = deque(maxlen=200)
-        node.subscribe("odom", Odometry, callback=self.odoms.append, mode="queue")
-        self.contact_marks: list[float | None] = []
         self.t0: float | None = None
+        # contacts timed from the run's start, each with a snapshot in contact_dir (contact_<n>.npz)
+        self.contacts = ContactWatch(node, contact_dir, when=lambda _m: self.now() - (self.t0 or 0.0))
         self.path = 0.0
         self.last: tuple[float, float] | None = None
         self.coverage: list[tuple[float, float]] = []
@@ -111,62 +90,10 @@ class _Watch:
 
     def _odom(self, m: Odometry) -> None:
         p = m.pose2d
-        self.truths.append(m)
         with self.lock:
             if self.last is not None:
                 self.path += float(np.hypot(p.x - self.last[0], p.y - self.last[1]))
             self.last = (p.x, p.y)
-
-    def _contact(self, m: Collision) -> None:
-        with self.lock:
-            new = m.count > self.collisions
-            if new:
-                self.collisions = m.count
-                self.contacts.append((self.now() - (self.t0 or 0.0), m.x, m.y))
-                self.contact_marks.append(self._mark_near(m.x, m.y, m.header.stamp - BEFORE_CONTACT_S))
-        if new:  # the file written outside the lock the judging thread also takes
-            self._snapshot(m)
-
-    def _snapshot(self, m: Collision) -> None:
-        """``contact_<n>.npz``: the touched point (world) and the simulator's stamp, the local costmaps of the
-        last 3 s (``maps`` (k, h, w) uint8, their ``map_stamps``, ``origins`` in the odometry frame,
-        ``resolution``), and the odometry and true poses of the last 4 s (``odom``, ``truth``: rows of
-        stamp, x, y, theta): what the planner knew and where the robot really was, to look at afterwards."""
-        held = list(self.locals)  # the deques fill from other threads
-        maps = [c for c in held if c.data.shape == held[-1].data.shape] if held else []
-        if self.contact_dir is None or not maps:
-            return
-
-        def poses(msgs) -> np.ndarray:
-            return np.array([(o.header.stamp, *o.pose2d.as_array()) for o in msgs]).reshape(-1, 4)
-
-        out = self.contact_dir / f"contact_{m.count}.npz"
-        part = out.with_name(f".{out.name}.part")  # renamed when whole: a reader never opens half a file
-        try:
-            self.contact_dir.mkdir(parents=True, exist_ok=True)
-            with open(part, "wb") as f:
-                np.savez_compressed(f, point=np.array([m.x, m.y]), stamp=m.header.stamp,
-                                    maps=np.stack([c.data for c in maps]),
-                                    map_stamps=np.array([c.header.stamp for c in maps]),
-                                    origins=np.array([(c.origin.x, c.origin.y) for c in maps]),
-                                    resolution=maps[0].resolution, odom=poses(list(self.odoms)),
-                                    truth=poses(list(self.truths)))
-            part.replace(out)
-        except OSError as e:  # a full disk must not end the run being measured
-            self.node.log.warning("contact %d: snapshot not saved: %s", m.count, e)
-
-    def _mark_near(self, x: float, y: float, before: float) -> float | None:
-        """The distance from the world point (x, y) to the nearest lethal cell of the last local costmap
-        stamped by ``before`` (in the odometry frame: placed by the odometry and ground-truth poses nearest
-        that map's stamp); not a later one, which may hold what the contact itself showed (a bumper, a sonar)."""
-        cm = next((c for c in reversed(list(self.locals)) if c.header.stamp <= before), None)
-        if cm is None or not self.odoms or not self.truths:
-            return None
-        t = cm.header.stamp
-        odom = min(list(self.odoms), key=lambda o: abs(o.header.stamp - t)).pose2d
-        true = min(list(self.truths), key=lambda o: abs(o.header.stamp - t)).pose2d
-        px, py = odom.compose(true.inverse()).apply(np.array([[x, y]]))[0]
-        return nearest_mark(cm.data, (cm.origin.x, cm.origin.y), cm.resolution, px, py)
 
     def now(self) -> float:
         """The simulator's time (the node is on use_sim_time="auto"), 0 before its first clock."""
@@ -294,8 +221,10 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
         completed = True
     finally:
         with watch.lock:
-            out.path_m, out.collisions = watch.path, watch.collisions
-            out.contacts, out.contact_marks = list(watch.contacts), list(watch.contact_marks)
+            out.path_m = watch.path
+        with watch.contacts.lock:
+            c = watch.contacts
+            out.collisions, out.contacts, out.contact_marks = c.count, list(c.contacts), list(c.marks)
         out.coverage = list(watch.coverage)
         out.wall_s = time.monotonic() - wall0
         try:

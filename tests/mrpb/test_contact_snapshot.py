@@ -1,5 +1,6 @@
-"""The exploration bench keeps, for each contact, what the planner knew just before it: the local costmaps
-of the last seconds and the odometry and true poses, in ``contacts/contact_<n>.npz`` of the run."""
+"""The exploration and MRPB benches keep, for each contact, what the planner knew just before it: the local
+costmaps of the last seconds and the odometry and true poses, in ``contacts/contact_<n>.npz`` of the run
+(``deploy.mrpb.contacts.ContactWatch``)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,7 @@ from common.bus import Node
 from common.geometry import Pose2D
 from common.messages import Collision, Costmap, Header, Odometry
 from common.zenoh_config import BusConfig
-from deploy.mrpb.exploration import _Watch
-from deploy.stack.map_check import WorldTruth
+from deploy.mrpb.contacts import ContactWatch
 from tests.support import free_port, wait_until
 
 
@@ -19,7 +19,7 @@ def test_a_contact_leaves_a_snapshot_of_the_local_costmap_and_the_poses(tmp_path
     node = Node("watch_test", config=BusConfig(robot=robot_name, multicast=False,
                                                listen=(f"tcp/127.0.0.1:{free_port()}",)), use_sim_time=False)
     try:
-        watch = _Watch(node, WorldTruth.of("room", Pose2D(-2.2, 0.0, 0.0), 0.05), tmp_path / "contacts")
+        watch = ContactWatch(node, tmp_path / "contacts")
         costmaps, odom, truth = node.publisher("local_costmap/costmap"), node.publisher("odom"), \
             node.publisher("ground_truth")
         wall = np.zeros((40, 40), np.uint8)
@@ -33,12 +33,14 @@ def test_a_contact_leaves_a_snapshot_of_the_local_costmap_and_the_poses(tmp_path
                    "the costmaps and poses")
         node.publisher("collision", latched=True).publish(Collision(Header(101.0, "map"), 1, 0.27, 0.1))
         path = tmp_path / "contacts" / "contact_1.npz"
-        wait_until(path.exists, 10.0, "the snapshot")
+        wait_until(lambda: watch.contacts, 10.0, "the contact")  # listed once its snapshot is written
+        assert path.exists()
         snap = np.load(path)
         assert snap["maps"].shape == (5, 40, 40) and (snap["maps"][-1] == wall).all()
         assert snap["point"].tolist() == [0.27, 0.1] and snap["resolution"] == 0.025
         assert snap["odom"].shape == (5, 4) and snap["truth"][-1, 1] == 0.04
-        assert watch.contact_marks[0] < 0.025  # the touched point lies within a cell of the wall (x 0.25-0.275)
+        assert watch.count == 1 and watch.contacts == [(101.0, 0.27, 0.1)]
+        assert watch.marks[0] < 0.025  # the touched point lies within a cell of the wall (x 0.25-0.275)
         # and bench/contacts.py reads it: the wall was in every map, up to the contact
         padded, padding = local_footprint(MASTER)
         assert diagnose(snap, padded, padding)[0] == "marked"
