@@ -1,5 +1,8 @@
-"""Why each contact of an exploration run happened, from its snapshot (`python bench/explore.py` leaves
-`<run dir>/contacts/contact_<n>.npz`: the local costmaps of the 3 s before, the odometry and true poses).
+"""Why each contact of an exploration run or an MRPB case happened, from its snapshot (`python
+bench/explore.py` and `python bench/mrpb.py --mode bus` leave `<run dir>/contacts/contact_<n>.npz`: the local
+costmaps of the 3 s before, the odometry and true poses). Give `--master` the file the run used (MRPB's:
+master_side/config/p3at_zenav.yaml): its local costmap's footprint padding decides "erased by footprint
+clearing".
 
 For each contact: the part of the robot that touched (front, rear, a flank, a corner: the touched point in
 the robot's true frame) and the history of the touched point in the local costmap, map by map (the point
@@ -13,6 +16,7 @@ placed in the odometry frame as the planner saw it), with one of these verdicts:
 - `never marked`: no sensor had put it in the costmap in those 3 s (seen by nothing, or too late).
 
   python bench/contacts.py RUN_DIR [RUN_DIR ...] [--master master_side/config/p3at_slam_zenav.yaml]
+  python bench/contacts.py MRPB_WORKDIR/zenav/CASE --master master_side/config/p3at_zenav.yaml
 
 Ends with contacts=… contacts_marked=… contacts_footprint_cleared=… contacts_cleared=… contacts_never_marked=…
 """

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from common.bus import Node
-from common.messages import GoalStatus, MoveBaseStatus, Odometry, PoseStamped, Scalar, Twist
+from common.messages import GoalStatus, MoveBaseStatus, PoseStamped, Scalar, Twist
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.mrpb.cases import TIME_LIMIT_S, Case, Result
@@ -35,9 +35,9 @@ class _Recorder:
 
     def __init__(self, node: Node, contact_dir: Path):
         self.lock = threading.Lock()
-        self.truth = node.subscribe("ground_truth", Odometry)
         self.rows: list[tuple[float, ...]] = []
-        self.contacts = ContactWatch(node, contact_dir)
+        self.contacts = ContactWatch(node, contact_dir)  # it follows the ground truth too
+        self.truth = self.contacts.truth
         self.loop_ms: list[float] = []
         self.loc_err: list[float] = []  # metres, one per amcl_pose
         node.subscribe("amcl_pose", PoseStamped, callback=self._located, mode="queue")
@@ -47,14 +47,14 @@ class _Recorder:
         self.status = node.subscribe("move_base/status", MoveBaseStatus)
 
     def _cmd(self, _m: Twist) -> None:
-        m = self.truth.latest()
+        m = self.truth()
         if m is not None:
             p = m.pose2d
             with self.lock:
                 self.rows.append((m.header.stamp, p.x, p.y, p.theta, m.twist.linear.x, m.twist.angular.z))
 
     def _located(self, m: PoseStamped) -> None:
-        g = self.truth.latest()
+        g = self.truth()
         if g is not None:
             p, q = m.pose.to_pose2d(), g.pose2d
             with self.lock:
@@ -93,7 +93,7 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
                               *(["--engine", engine] if engine else []), *set_options(robot_set)])
         group.spawn("master", ["master", "--config", str(master_config), "--map", str(case.map_file),
                                *set_options((*amcl_start_sets(master_config, case), *master_set))])
-        group.wait("the simulator", lambda: rec.truth.latest() is not None, STARTUP_S)
+        group.wait("the simulator", lambda: rec.truth() is not None, STARTUP_S)
         group.wait("move_base", lambda: rec.status.latest() is not None, STARTUP_S)
         answer: list = []
         sender = threading.Thread(target=lambda: answer.append(send_goal(
@@ -103,7 +103,7 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
         t_wall = time.monotonic()
         while True:
             if (c := rec.contact()) is not None:
-                status, reason = "collision", f"contact at ({c[0]:.2f}, {c[1]:.2f}) (snapshot in {work / 'contacts'})"
+                status, reason = "collision", f"contact at ({c[0]:.2f}, {c[1]:.2f})"
                 break
             if answer:
                 code, st = answer[0]
@@ -114,7 +114,7 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
                 else:
                     reason = f"zenav goal ended with exit code {code}"
                 break
-            m = rec.truth.latest()
+            m = rec.truth()
             with rec.lock:
                 first = rec.rows[0][0] if rec.rows else None
             if m is not None and first is not None and m.header.stamp - first > time_limit_s:
@@ -129,7 +129,9 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
     finally:
         cancel.set()
         group.stop()
-        node.close()
+        node.close()  # after the contact callback, and so its snapshot, has finished
+    if status == "collision" and (snap := rec.contacts.snapshot_path(rec.contacts.count)) is not None:
+        reason += f"; `python bench/contacts.py {snap.parent} --master {master_config}` says why"
     with rec.lock:
         rows = np.array(rec.rows, float).reshape(-1, 6)
         loop = np.array(rec.loop_ms)

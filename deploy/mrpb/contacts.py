@@ -1,11 +1,12 @@
 """The simulator's contacts in a run over the bus, each kept with what the planner knew just before it.
 
 Both benches that drive a whole stack (an MRPB case, ``deploy.mrpb.bus``; an exploration run,
-``deploy.mrpb.exploration``) watch the ``collision`` topic with this. For every new contact it keeps the touched
-point, how far the nearest mark of the local costmap was from it just before (``BEFORE_CONTACT_S``), and writes
-``<dir>/contact_<n>.npz``: the local costmaps of the last 3 s and the odometry and true poses of the last 4 s.
-``python bench/contacts.py RUN_DIR`` reads those files and says which part of the robot touched and why
-(never marked, marked until the contact, erased by footprint clearing, cleared)."""
+``deploy.mrpb.exploration``) watch the ``collision`` topic with this. For every new contact it keeps the
+touched point, how far the nearest mark of the local costmap was from it just before (``BEFORE_CONTACT_S``),
+and writes ``<dir>/contact_<n>.npz``: the local costmaps of the last 3 s and the odometry and true poses of
+the last 4 s. ``python bench/contacts.py RUN_DIR --master FILE`` (the master file the run used) reads those
+files and says which part of the robot touched and why (never marked, marked until the contact, erased by
+footprint clearing, cleared)."""
 
 from __future__ import annotations
 
@@ -35,11 +36,15 @@ def nearest_mark(data: np.ndarray, origin: tuple[float, float], resolution: floa
 
 class ContactWatch:
     """Contacts as the simulator reports them (its ``collision`` count going up), each with a snapshot in
-    ``contact_dir`` (None: none written). ``when(m)`` is the time recorded for a contact (default: its stamp)."""
+    ``contact_dir`` (None: none written). ``when(m)`` is the time recorded for a contact (default: its stamp).
+    It subscribes to ``ground_truth`` (its last 4 s kept); ``on_truth`` gets each message too, so a bench that
+    also follows the ground truth needs no second subscription."""
 
-    def __init__(self, node: Node, contact_dir: Path | None, when: Callable[[Collision], float] | None = None):
+    def __init__(self, node: Node, contact_dir: Path | None, when: Callable[[Collision], float] | None = None,
+                 on_truth: Callable[[Odometry], None] | None = None):
         self.node, self.contact_dir, self.lock = node, contact_dir, threading.Lock()
         self.when = when or (lambda m: m.header.stamp)
+        self.on_truth = on_truth
         self.count = 0  # the simulator's count
         self.contacts: list[tuple[float, float, float]] = []  # (when, x, y in the world) of each new contact
         # per contact: the distance from the touched point to the nearest mark of the local costmap just before
@@ -50,19 +55,33 @@ class ContactWatch:
         self.truths: deque[Odometry] = deque(maxlen=200)
         node.subscribe("local_costmap/costmap", Costmap, callback=self.locals.append, mode="queue")
         node.subscribe("odom", Odometry, callback=self.odoms.append, mode="queue")
-        node.subscribe("ground_truth", Odometry, callback=self.truths.append, mode="queue")
+        node.subscribe("ground_truth", Odometry, callback=self._truth, mode="queue")
         node.subscribe("collision", Collision, mode="queue", callback=self._contact)
 
     def _contact(self, m: Collision) -> None:
         with self.lock:
-            if m.count <= self.count:
-                return
-            self.count = m.count
-            when, mark = self.when(m), self._mark_near(m.x, m.y, m.header.stamp - BEFORE_CONTACT_S)
-        self._snapshot(m)  # the file written outside the lock; the contact listed once its file is whole,
-        with self.lock:  # so a run that ends at its first contact stops with the snapshot written
-            self.contacts.append((when, m.x, m.y))
-            self.marks.append(mark)
+            new = m.count > self.count
+            if new:
+                self.count = m.count
+                self.contacts.append((self.when(m), m.x, m.y))
+                self.marks.append(self._mark_near(m.x, m.y, m.header.stamp - BEFORE_CONTACT_S))
+        if new:  # the file written outside the lock; closing the node waits for this callback to end
+            self._snapshot(m)
+
+    def _truth(self, m: Odometry) -> None:
+        self.truths.append(m)
+        if self.on_truth is not None:
+            self.on_truth(m)
+
+    def truth(self) -> Odometry | None:
+        """The newest ground truth (None before the first)."""
+        held = self.truths
+        return held[-1] if held else None
+
+    def snapshot_path(self, n: int) -> Path | None:
+        """Contact ``n``'s snapshot, if one was written."""
+        path = self.contact_dir / f"contact_{n}.npz" if self.contact_dir is not None else None
+        return path if path is not None and path.exists() else None
 
     def _snapshot(self, m: Collision) -> None:
         """``contact_<n>.npz``: the touched point (world) and the simulator's stamp, the local costmaps of the

@@ -26,13 +26,14 @@ import numpy as np
 
 from common.bus import Node
 from common.geometry import Pose2D
-from common.messages import OccupancyGrid, Odometry
+from common.messages import Empty, OccupancyGrid, Odometry
 from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.mrpb.contacts import ContactWatch
 from deploy.stack.map_check import FIT_HEADINGS_DEG, NO_OFFSET, WorldTruth
 from deploy.stack.png import write_png
 from deploy.stack.process_group import ProcessGroup, set_options
+from deploy.stack.slam_counters import scan_counters
 from master_side.mapping.map_io import load_map
 from robot_side.sim.world import is_map_world
 
@@ -78,10 +79,11 @@ class _Watch:
     def __init__(self, node: Node, truth: WorldTruth, contact_dir: Path | None = None):
         self.node, self.truth, self.lock = node, truth, threading.Lock()
         self.maps = node.subscribe("map", OccupancyGrid)
-        node.subscribe("ground_truth", Odometry, callback=self._odom, mode="queue")
         self.t0: float | None = None
-        # contacts timed from the run's start, each with a snapshot in contact_dir (contact_<n>.npz)
-        self.contacts = ContactWatch(node, contact_dir, when=lambda _m: self.now() - (self.t0 or 0.0))
+        # contacts timed from the run's start, each with a snapshot in contact_dir (contact_<n>.npz); the
+        # ground truth it follows gives the distance driven too
+        self.contacts = ContactWatch(node, contact_dir, when=lambda _m: self.now() - (self.t0 or 0.0),
+                                     on_truth=self._odom)
         self.path = 0.0
         self.last: tuple[float, float] | None = None
         self.coverage: list[tuple[float, float]] = []
@@ -120,18 +122,15 @@ def _slam_record(node: Node, work: Path) -> str:
     written to ``<run dir>/slam_trajectory.txt``: ``bench/slam_replay.py --live`` replays exactly those
     scans offline and judges the live trajectory beside its own (a live run can differ from a replay)."""
     from common.bus import ServiceError
-    from common.messages import Empty, NodeStats
     from master_side.slam.trajectory import from_message, write_trajectory
 
     try:
-        stats = node.call("node_stats/slam_gmapping", Empty(), NodeStats, timeout=10.0)
+        got = scan_counters(node)
         stamps, poses = from_message(node.call("slam_gmapping/trajectory", Empty(), timeout=30.0))
     except ServiceError as e:  # a diagnosis: a run whose SLAM node is gone is still measured
         return f"SLAM node silent ({e})"
     write_trajectory(work / "slam_trajectory.txt", stamps, poses)
-    scan = next((t for t in stats.topics if t.topic == "scan"), None)
-    got = f"{scan.received} scans received, {scan.dropped} dropped by its queue, " if scan else ""
-    return f"{got}{len(stamps)} mapped"
+    return f"{got}, {len(stamps)} mapped"
 
 
 def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, master_config: Path,

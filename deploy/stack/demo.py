@@ -24,6 +24,7 @@ from common.ports import free_port
 from common.zenoh_config import BusConfig
 from deploy.stack.map_check import map_accuracy
 from deploy.stack.process_group import ProcessGroup, set_options
+from deploy.stack.slam_counters import scan_counters
 from deploy.stack.world_maps import export_world_map, world_path
 from master_side.mapping.map_io import save_map
 from robot_side.sim.world import parse_pose
@@ -184,20 +185,14 @@ class Demo:
         self.echo(f"[demo] {world}: {self._slam_scans()}")
 
     def _slam_scans(self) -> str:
-        """The SLAM node's scan counters: a filter starved of CPU drops scans from its queue (ROS's 5), and the
-        update after a gap integrates all the motion of the gap at once, so a poor map says whether it had them."""
+        """The SLAM node's scan counters (deploy.stack.slam_counters)."""
         from common.bus import ServiceError
-        from common.messages import Empty, NodeStats
 
         name = "hector_mapping" if slam_method(self.o.slam) == "hector" else "slam_gmapping"
         try:
-            stats = self.node.call(f"node_stats/{name}", Empty(), NodeStats, timeout=10.0)
+            return f"{name}: {scan_counters(self.node, name)}"
         except ServiceError as e:
             return f"{name} did not answer node_stats ({e})"
-        scan = next((t for t in stats.topics if t.topic == "scan"), None)
-        if scan is None:
-            return f"{name} has no scan subscription"
-        return f"{name}: {scan.received} scans received, {scan.dropped} dropped by its queue"
 
     def _goal(self, world: str, name: str, x: float, y: float, yaw: float, send_goal,
               start: Pose2D) -> GoalResult:

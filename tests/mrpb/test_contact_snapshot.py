@@ -33,8 +33,8 @@ def test_a_contact_leaves_a_snapshot_of_the_local_costmap_and_the_poses(tmp_path
                    "the costmaps and poses")
         node.publisher("collision", latched=True).publish(Collision(Header(101.0, "map"), 1, 0.27, 0.1))
         path = tmp_path / "contacts" / "contact_1.npz"
-        wait_until(lambda: watch.contacts, 10.0, "the contact")  # listed once its snapshot is written
-        assert path.exists()
+        wait_until(path.exists, 10.0, "the snapshot")  # renamed into place once whole
+        assert watch.snapshot_path(1) == path
         snap = np.load(path)
         assert snap["maps"].shape == (5, 40, 40) and (snap["maps"][-1] == wall).all()
         assert snap["point"].tolist() == [0.27, 0.1] and snap["resolution"] == 0.025

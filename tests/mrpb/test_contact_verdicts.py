@@ -1,6 +1,6 @@
 """bench/contacts.py: a contact's snapshot read back into a verdict. Synthetic snapshots in the format
-deploy/mrpb/exploration.py writes (tests/mrpb/test_explore_contact_snapshot.py checks that one over a
-real bus): a mark at the touched point that stays, that goes while the padded footprint covers it, that
+deploy/mrpb/contacts.py writes for the exploration and MRPB benches (tests/mrpb/test_contact_snapshot.py checks
+that one over a real bus): a mark at the touched point that stays, that goes while the padded footprint covers it, that
 goes while the robot is elsewhere, or that never was."""
 
 from __future__ import annotations

@@ -18,12 +18,9 @@ def wall_length(world: str) -> float:
     return sum(math.dist(w["from"], w["to"]) for w in spec["walls"])
 
 
-# the simulator's speed: the master follows the sim clock (use_sim_time), as in tests/nav_e2e
-SPEED = 2.0
-
-
-def run_slam_demo(world: str, slam: bool | str, robot: str, workdir: Path, speed: float = SPEED):
-    """Drive ``world``'s goals with ``slam`` mapping it, the simulator at ``speed`` times real time.
+def run_slam_demo(world: str, slam: bool | str, robot: str, workdir: Path, speed: float):
+    """Drive ``world``'s goals with ``slam`` mapping it, the simulator at ``speed`` times real time (the
+    master follows the sim clock, use_sim_time).
     Returns (every goal reached, goal results, the map check of the latched SLAM map or None)."""
     demo = Demo(DemoOptions(worlds=(world,), slam=slam, monitor_args=(), robot=robot, workdir=str(workdir),
                             speed=speed), echo=print)
