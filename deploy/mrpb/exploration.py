@@ -80,15 +80,15 @@ class _Watch:
         self.node, self.truth, self.lock = node, truth, threading.Lock()
         self.maps = node.subscribe("map", OccupancyGrid)
         self.t0: float | None = None
-        # contacts timed from the run's start, each with a snapshot in contact_dir (contact_<n>.npz); the
-        # ground truth it follows gives the distance driven too
-        self.contacts = ContactWatch(node, contact_dir, when=lambda _m: self.now() - (self.t0 or 0.0),
-                                     on_truth=self._odom)
         self.path = 0.0
         self.last: tuple[float, float] | None = None
         self.coverage: list[tuple[float, float]] = []
         self._judged: OccupancyGrid | None = None
         self.offset, self._fitted_at = NO_OFFSET, -np.inf  # the map frame's fit, from the last one
+        # contacts timed from the run's start, each with a snapshot in contact_dir (contact_<n>.npz); the
+        # ground truth it follows gives the distance driven too. Made last: its subscriptions call _odom at once
+        self.contacts = ContactWatch(node, contact_dir, when=lambda _m: self.now() - (self.t0 or 0.0),
+                                     on_truth=self._odom)
 
     def _odom(self, m: Odometry) -> None:
         p = m.pose2d
