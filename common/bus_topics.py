@@ -21,7 +21,7 @@ from common.live_keys import LiveKey, live_key
 from common.log_util import RateLimitedLog
 from common.msg_check import problem
 from common.query_routes import ask_redeclare
-from common.route_watch import count_source
+from common.route_watch import count_source, sequence_number
 from common.zenoh_threads import track_retry
 
 if TYPE_CHECKING:
@@ -97,6 +97,11 @@ class Publisher:
         self._pub = node.session.declare_publisher(self.key, congestion_control=cc, express=True)
         self._attachment = node.name.encode()
         self._attachment_z = zenoh.ZBytes(self._attachment)  # built once, not per message
+        # each put carries Zenoh's source info (this publisher's id, a sequence number from 1): a reader can tell
+        # a pause (no number skipped) from messages lost (common.route_watch). Readers that do not look at it
+        # (an older zenav) are unaffected: the attachment stays the publisher's name.
+        self._id = self._pub.id
+        self.sn = 0
         self._last: bytes | None = None
         self._queryable: Any = None
         self._latched_token: Any = None
@@ -110,7 +115,11 @@ class Publisher:
 
     def _put(self, data: bytes) -> None:
         with contextlib.suppress(zenoh.ZError):  # undeclared while the sender thread was putting
-            self._pub.put(data, attachment=self._attachment_z)
+            self._put_now(data)
+
+    def _put_now(self, data: bytes) -> None:
+        self.sn += 1  # numbered when put, so a message a background sender replaced is no gap
+        self._pub.put(data, attachment=self._attachment_z, source_info=zenoh.SourceInfo(self._id, self.sn))
 
     def _on_query(self, query: zenoh.Query) -> None:
         last = self._last
@@ -136,7 +145,7 @@ class Publisher:
         if self._sender is not None:
             self._sender.send(data)
         else:
-            self._pub.put(data, attachment=self._attachment_z)
+            self._put_now(data)
         self.count += 1
 
     def threads(self) -> list[threading.Thread]:
@@ -216,9 +225,9 @@ class Subscription:
                           expect=k.node)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        self._ingest(sample.payload.to_bytes(), sample.attachment, str(sample.key_expr))
+        self._ingest(sample.payload.to_bytes(), sample.attachment, str(sample.key_expr), sequence_number(sample))
 
-    def _ingest(self, data: bytes, attachment, key: str = "") -> None:
+    def _ingest(self, data: bytes, attachment, key: str = "", sn: tuple[str, int] | None = None) -> None:
         try:
             msg = decode(data, self.msg_type)
         except DecodeError as e:
@@ -244,7 +253,7 @@ class Subscription:
             self.last_receive_time = now
             if attachment is not None:
                 self._last_attachment = attachment
-                count_source(self.sources, attachment.to_bytes(), now)
+                count_source(self.sources, attachment.to_bytes(), now, sn)
             if self._waiting:
                 self._cv.notify_all()
         if self._worker is not None:

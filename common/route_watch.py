@@ -30,6 +30,13 @@ after it was added is declared again if some publisher announces its topic (a li
 doubling wait; its first message within ``REPAIR_WINDOW_S`` of such a declaration is logged and counted as a
 repair. An announced publisher that simply has not published yet (a goal tool) costs a declaration at 5, 15,
 35 s, then one a minute — each a gap of microseconds in which its message could be missed.
+
+Time alone cannot tell a repair from a coincidence: move_base's first result, or its first cmd_vel once a goal
+came, may arrive just after a declaration made for nothing. So every zenav publisher numbers its puts (Zenoh's
+source info: the publisher's entity id and a sequence number from 1). Data that comes back with no number
+skipped since the last message (or a subscription's first message numbered 1) lost nothing: the publisher
+had paused, and no repair is counted. A repair is counted only when numbers were skipped, or when the
+publisher does not number its messages (then the time window alone decides, as before).
 """
 
 from __future__ import annotations
@@ -59,7 +66,9 @@ class Watched(Protocol):
     """What the watch needs of a subscription (common.bus_topics.Subscription, common.tf.TFListener)."""
 
     topic: str
-    # publisher name -> [messages, last time, smoothed period, first message after the last pause] (monotonic)
+    # publisher name -> [messages, last time, smoothed period, first message after the last pause (monotonic),
+    #   (entity id, sequence number) of the last message (None: not numbered), messages skipped just before the
+    #   first after the last pause (-1: unknown)] (see count_source)
     sources: dict[bytes, list]
 
     @property
@@ -68,22 +77,34 @@ class Watched(Protocol):
     def redeclare(self) -> None: ...
 
 
-def count_source(sources: dict[bytes, list], who: bytes, now: float) -> None:
-    """Count one message of publisher ``who`` in ``sources`` (see ``Watched``). A gap over 10 periods is a
-    pause, not the stream's rate: it is not averaged in, and the message that ends it is remembered."""
+def sequence_number(sample: Any) -> tuple[str, int] | None:
+    """(publisher entity id, sequence number) of a Zenoh sample, None when its publisher does not number them."""
+    si = sample.source_info
+    return (str(si.source_id), int(si.source_sn)) if si is not None else None
+
+
+def count_source(sources: dict[bytes, list], who: bytes, now: float, sn: tuple[str, int] | None = None) -> None:
+    """Count one message of publisher ``who`` in ``sources`` (see ``Watched``), ``sn`` its ``sequence_number``.
+    A gap over 10 periods is a pause, not the stream's rate: it is not averaged in, and the message that ends
+    it is remembered, with the messages skipped just before it (from the sequence numbers, when the same
+    publisher entity numbered both; for the first message, those numbered before it)."""
     src = sources.get(who)
     if src is None:
-        sources[who] = [1, now, 0.0, now]
+        sources[who] = [1, now, 0.0, now, sn, sn[1] - 1 if sn is not None else -1]
         return
     gap = now - src[1]
     if src[0] == 1:
         src[2] = gap
     elif gap > 10.0 * src[2]:
         src[3] = now
+        last = src[4]
+        src[5] = sn[1] - last[1] - 1 if sn is not None and last is not None and sn[0] == last[0] \
+            and sn[1] > last[1] else -1
     else:
         src[2] = 0.9 * src[2] + 0.1 * gap
     src[0] += 1
     src[1] = now
+    src[4] = sn
 
 
 @dataclass
@@ -128,16 +149,17 @@ class RouteWatch:
                         else:
                             self.look_unfed(sub, time.monotonic())
                     if not sub.closed:
-                        for who, (n, last, period, resumed) in list(sub.sources.items()):
+                        for who, (n, last, period, resumed, _, skipped) in list(sub.sources.items()):
                             self.look(sub, who.decode(errors="replace"), n, last, period, resumed,
-                                      time.monotonic())
+                                      time.monotonic(), skipped)
                 except zenoh.ZError:  # the session is closing
                     return
 
     def look(self, sub: Watched, publisher: str, n: int, last: float, period: float, resumed: float,
-             now: float) -> None:
+             now: float, skipped: int = -1) -> None:
         """One stream (``publisher`` on ``sub.topic``): ``n`` messages so far, the last at ``last``, the first
-        after its last pause at ``resumed``."""
+        after its last pause at ``resumed``, ``skipped`` messages numbered between that one and the one before
+        (-1: unknown)."""
         if n < STREAM_MIN_MSGS:
             return
         key = (sub.topic, publisher)
@@ -145,11 +167,13 @@ class RouteWatch:
         if doubt is not None and last > doubt.silent_from:  # data again
             del self.doubts[key]
             first = resumed if resumed > doubt.silent_from else last
-            if doubt.attempts and 0.0 <= first - doubt.declared_at <= REPAIR_WINDOW_S:
+            if resumed <= doubt.silent_from:
+                skipped = -1  # the pause remembered is older than this silence
+            if doubt.attempts and skipped != 0 and 0.0 <= first - doubt.declared_at <= REPAIR_WINDOW_S:
                 self.repairs += 1
                 log.warning("[%s] route repaired: '%s' from %s, silent for %.1f s, flows again %.2f s after the "
-                            "subscription was declared again (attempt %d)", self.node_name, sub.topic, publisher,
-                            first - doubt.silent_from, first - doubt.declared_at, doubt.attempts)
+                            "subscription was declared again (attempt %d)%s", self.node_name, sub.topic, publisher,
+                            first - doubt.silent_from, first - doubt.declared_at, doubt.attempts, _lost(skipped))
             return
         silence = now - last
         limit = max(SILENT_MIN_S, SILENT_PERIODS * period)
@@ -180,13 +204,14 @@ class RouteWatch:
         doubt = self.unfed[id(sub)]
         if sub.sources:  # fed at last
             del self.unfed[id(sub)]
-            first = min(src[3] for src in list(sub.sources.values()))
-            if doubt.attempts and 0.0 <= first - doubt.declared_at <= REPAIR_WINDOW_S:
+            first, skipped = min((src[3], src[5]) for src in list(sub.sources.values()))
+            # skipped == 0: the publisher's first message (move_base's first result), nothing was lost
+            if doubt.attempts and skipped != 0 and 0.0 <= first - doubt.declared_at <= REPAIR_WINDOW_S:
                 self.repairs += 1
                 log.warning("[%s] route repaired: '%s' received nothing for %.1f s though announced, then its "
-                            "first message %.2f s after the subscription was declared again (attempt %d)",
+                            "first message %.2f s after the subscription was declared again (attempt %d)%s",
                             self.node_name, sub.topic, first - doubt.silent_from, first - doubt.declared_at,
-                            doubt.attempts)
+                            doubt.attempts, _lost(skipped))
             return
         if now < doubt.next_at:
             return
@@ -201,3 +226,7 @@ class RouteWatch:
         """Whether the publisher's liveliness token for ``topic`` is known to this session now."""
         key = live_key(self.robot, "pub", publisher, topic)
         return any(r.ok is not None for r in self.session.liveliness().get(key, timeout=1.0))
+
+
+def _lost(skipped: int) -> str:
+    return f", {skipped} message(s) numbered in between never came" if skipped > 0 else ""

@@ -26,7 +26,7 @@ from common.geometry import Quaternion, Transform, Vector3
 from common.live_keys import LiveKey, live_key
 from common.messages import Header, TFMessage, TransformStamped
 from common.msg_check import problem
-from common.route_watch import count_source
+from common.route_watch import count_source, sequence_number
 from common.tf_buffer import (
     ConnectivityError,
     EdgeInfo,
@@ -286,9 +286,9 @@ class TFListener:
                           closed=lambda: self._closed, expect=k.node)
 
     def _on_sample(self, sample, static: bool) -> None:
-        self._ingest(sample.payload.to_bytes(), sample.attachment, static)
+        self._ingest(sample.payload.to_bytes(), sample.attachment, static, sequence_number(sample))
 
-    def _ingest(self, data: bytes, attachment, static: bool) -> None:
+    def _ingest(self, data: bytes, attachment, static: bool, sn: tuple[str, int] | None = None) -> None:
         try:
             msg = self._decode(data, TFMessage)
         except self._decode_error as e:
@@ -311,7 +311,7 @@ class TFListener:
             return
         self.received += 1
         if not static and who_b:
-            count_source(self.sources, who_b, time.monotonic())
+            count_source(self.sources, who_b, time.monotonic(), sn)
 
     def _dropped(self, kind: str, n: int, why) -> None:
         if n == 1 or n % 100 == 0:

@@ -131,3 +131,55 @@ def test_a_subscription_whose_topic_nobody_announces_is_not_declared_again(node_
     sub = listener.subscribe("nobody_publishes_this", Text)
     wait_for(lambda: listener.routes.unfed[id(sub)].decision == "not announced", 30, "the watch to look")
     assert listener.routes.unfed[id(sub)].attempts == 0
+
+
+def test_every_message_carries_its_publishers_sequence_number(node_pair):
+    """Zenoh's source info on each put: the subscription sees the numbers run from 1 without a gap."""
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text)
+    pub = talker.publisher("chatter")
+    wait_for(lambda: pub.matching, 30, "the route to the listener")
+    for _ in range(3):
+        pub.publish(Text(data="hello"))
+    wait_for(lambda: sub.received == 3, 30, "three messages")
+    n, _, _, _, (entity, sn), skipped = sub.sources[b"talker"]
+    assert (n, sn, skipped) == (3, 3, 0)
+    assert entity == str(pub._id)
+
+
+def test_a_first_message_that_comes_just_after_a_declaration_is_no_repair(node_pair, monkeypatch):
+    """move_base's first result, 36 s after the subscription and just after a declaration made for nothing:
+    numbered 1, it lost nothing, so no repair is counted, however wide the time window."""
+    monkeypatch.setattr(route_watch, "UNFED_WAIT_S", 0.5)
+    monkeypatch.setattr(route_watch, "REPAIR_WINDOW_S", 1000.0)  # time alone would call it a repair
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("result", Text)
+    pub = talker.publisher("result")  # announced, silent
+    wait_for(lambda: listener.routes.unfed[id(sub)].attempts >= 1, 30, "a declaration while nothing came")
+    pub.publish(Text(data="goal reached"))
+    wait_for(lambda: sub.received == 1, 30, "the first message")
+    wait_for(lambda: not listener.routes.unfed, 10, "the watch to see it fed")
+    assert listener.routes.repairs == 0
+
+
+def test_a_stream_that_pauses_and_resumes_without_a_gap_is_no_repair(node_pair, monkeypatch):
+    """cmd_vel between two goals: silent long enough to be declared again, then the next number comes."""
+    monkeypatch.setattr(route_watch, "SILENT_MIN_S", 0.5)
+    monkeypatch.setattr(route_watch, "REPAIR_WINDOW_S", 1000.0)
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text)
+    pub = talker.publisher("chatter")
+    stop = threading.Event()
+    sender = _stream(stop, lambda: pub.publish(Text(data="hello")))
+    try:
+        wait_for(lambda: sub.received >= 20, 30, "the stream")
+    finally:
+        stop.set()  # the pause
+        sender.join()
+    wait_for(lambda: (d := listener.routes.doubts.get(("chatter", "talker"))) is not None and d.attempts >= 1,
+             30, "a declaration during the pause")
+    before = sub.received
+    pub.publish(Text(data="again"))
+    wait_for(lambda: sub.received > before, 30, "the stream again")
+    wait_for(lambda: ("chatter", "talker") not in listener.routes.doubts, 10, "the watch to see it flow")
+    assert listener.routes.repairs == 0
