@@ -123,6 +123,7 @@ class RouteWatch:
         self.session, self.robot, self.node_name = session, robot, node_name
         self.subs: list[Watched] = []
         self.repairs = 0
+        self.losses = 0  # silences that lost messages without a declaration bringing them back (see look)
         self.doubts: dict[tuple[str, str], _Doubt] = {}  # (topic, publisher) -> a silent stream
         self.unfed: dict[int, _Doubt] = {}  # id(subscription) -> its doubt, while it has been fed nothing
         self._stop = threading.Event()
@@ -174,6 +175,11 @@ class RouteWatch:
                 log.warning("[%s] route repaired: '%s' from %s, silent for %.1f s, flows again %.2f s after the "
                             "subscription was declared again (attempt %d)%s", self.node_name, sub.topic, publisher,
                             first - doubt.silent_from, first - doubt.declared_at, doubt.attempts, _lost(skipped))
+            elif skipped > 0:  # not after a declaration of ours, yet messages were lost: say so all the same
+                self.losses += 1
+                log.warning("[%s] '%s' from %s was silent for %.1f s and %d message(s) numbered in between never "
+                            "came (%d declaration(s) of the subscription meanwhile)", self.node_name, sub.topic,
+                            publisher, first - doubt.silent_from, skipped, doubt.attempts)
             return
         silence = now - last
         limit = max(SILENT_MIN_S, SILENT_PERIODS * period)

@@ -183,3 +183,25 @@ def test_a_stream_that_pauses_and_resumes_without_a_gap_is_no_repair(node_pair, 
     wait_for(lambda: sub.received > before, 30, "the stream again")
     wait_for(lambda: ("chatter", "talker") not in listener.routes.doubts, 10, "the watch to see it flow")
     assert listener.routes.repairs == 0
+
+
+def test_a_silence_that_lost_messages_is_reported_even_without_a_repair(node_pair, monkeypatch):
+    """Messages that never came, with no declaration of ours bringing the rest back (the route healed by
+    itself, or a congested link dropped them): the numbers skipped say so, and it is logged and counted."""
+    monkeypatch.setattr(route_watch, "SILENT_MIN_S", 0.5)
+    monkeypatch.setattr(route_watch, "REPAIR_WINDOW_S", 0.0)  # no resumption counts as a repair here
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text)
+    pub = talker.publisher("chatter")
+    stop = threading.Event()
+    sender = _stream(stop, lambda: pub.publish(Text(data="hello")))
+    try:
+        wait_for(lambda: sub.received >= 20, 30, "the stream")
+    finally:
+        stop.set()
+        sender.join()
+    wait_for(lambda: ("chatter", "talker") in listener.routes.doubts, 30, "the silence noticed")
+    pub.sn += 5  # five messages put where the listener never got them
+    pub.publish(Text(data="again"))
+    wait_for(lambda: listener.routes.losses == 1, 30, "the loss reported")
+    assert listener.routes.repairs == 0
