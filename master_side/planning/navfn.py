@@ -29,6 +29,7 @@ from common.geometry import Pose2D
 from master_side.planning.errors import GoalOccupied, GoalOutsideMap, NoPath, StartOccupied, StartOutsideMap
 from master_side.planning.gradient_path import descend
 from master_side.planning.grid import (
+    INSCRIBED,
     LETHAL,
     NO_INFORMATION,
     check_grid,
@@ -66,6 +67,30 @@ class NavfnParams:
         c[self.lethal_cost :] = np.inf
         c[NO_INFORMATION] = OBSTACLE_COST if self.allow_unknown else np.inf
         return c
+
+
+def enclosure(grid: np.ndarray, reached: np.ndarray, start: tuple[int, int], resolution: float,
+              origin_xy: tuple[float, float], lethal_cost: int) -> str:
+    """Why the wave stopped: the area it reached from the start, and what closes it (the unreached cells
+    bordering it, by costmap value: an obstacle, within the robot's inscribed radius of one, unknown, or
+    merely costly), with the border cell nearest the start."""
+    from scipy.ndimage import binary_dilation
+
+    border = binary_dilation(reached, structure=np.ones((3, 3), bool)) & ~reached
+    v = grid[border].astype(np.int64)
+    kinds = (("lethal", v == LETHAL), ("inscribed", v == INSCRIBED), ("unknown", v == NO_INFORMATION),
+             (f"cost >= {lethal_cost}", (v >= lethal_cost) & (v < INSCRIBED)))
+    counts = ", ".join(f"{int(m.sum())} {name}" for name, m in kinds if m.any()) \
+        or "none impassable (the search stopped)"
+    msg = f"the start's passable region is {reached.sum() * resolution ** 2:.2f} m², closed by {counts}"
+    rows, cols = np.nonzero(border)
+    if rows.size:
+        k = int(np.argmin(np.hypot(rows - start[0], cols - start[1])))
+        x, y = grid_to_world(np.array([[cols[k], rows[k]]], float), resolution, origin_xy)[0]
+        c = int(grid[rows[k], cols[k]])
+        name = {LETHAL: "lethal", INSCRIBED: "inscribed", NO_INFORMATION: "unknown"}.get(c, f"cost {c}")
+        msg += f"; the nearest, {name}, at ({x:.2f}, {y:.2f})"
+    return msg
 
 
 class NavFn:
@@ -135,6 +160,7 @@ class NavFn:
             raise NoPath(
                 f"no path from ({start.x:.2f}, {start.y:.2f}) to ({goal.x:.2f}, {goal.y:.2f})"
                 + (f" within tolerance {tol:.2f} m" if tol > 0 else "")
+                + "; " + enclosure(g, np.isfinite(self.last_potential), (sr, sc), resolution, origin_xy, p.lethal_cost)
             )
         er, ec = candidates[reach[0]]  # candidates are sorted by distance to the goal
         cells = descend(

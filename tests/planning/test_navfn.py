@@ -66,6 +66,29 @@ def test_no_path_when_the_goal_is_walled_off():
         NavFn().make_plan(grid, RES, (0.0, 0.0), Pose2D(0.3, 1.0), Pose2D(1.7, 1.0))
 
 
+def test_no_path_says_how_small_the_starts_region_is_and_what_closes_it():
+    """A robot boxed in by inflation (a ring of inscribed cells inside lethal walls): the error names the
+    passable area reached from the start, the kinds of cells closing it and the nearest of them."""
+    grid = free_map(60, 80)
+    grid[10:31, 10] = grid[10:31, 30] = LETHAL
+    grid[10, 10:31] = grid[30, 10:31] = LETHAL
+    grid[11:30, 11] = grid[11:30, 29] = INSCRIBED
+    grid[11, 11:30] = grid[29, 11:30] = INSCRIBED
+    with pytest.raises(NoPath) as e:
+        NavFn().make_plan(grid, RES, (0.0, 0.0), Pose2D(1.0, 1.0), Pose2D(3.5, 2.5))
+    assert "the start's passable region is 0.72 m²" in str(e.value)  # 17 x 17 cells inside the ring
+    assert "closed by 72 inscribed;" in str(e.value)
+    assert str(e.value).endswith("the nearest, inscribed, at (1.03, 0.58)")  # the ring's cell below the start
+
+
+def test_no_path_counts_unknown_cells_that_close_the_way_without_allow_unknown():
+    grid = free_map(40, 40)
+    grid[:, 20] = NO_INFORMATION
+    why = r"region is 2\.00 m², closed by 40 unknown; the nearest, unknown, at \(1\.03, 1\.03\)$"
+    with pytest.raises(NoPath, match=why):
+        NavFn(NavfnParams(allow_unknown=False)).make_plan(grid, RES, (0.0, 0.0), Pose2D(0.3, 1.0), Pose2D(1.7, 1.0))
+
+
 def test_start_in_lethal_cell_raises_start_occupied():
     grid = free_map(40, 40)
     grid[20, 10] = LETHAL
