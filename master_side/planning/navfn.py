@@ -93,6 +93,42 @@ def enclosure(grid: np.ndarray, reached: np.ndarray, start: tuple[int, int], res
     return msg
 
 
+def crossing(grid: np.ndarray, passable: np.ndarray, start: tuple[int, int], goal: tuple[int, int],
+             resolution: float, origin_xy: tuple[float, float]) -> str:
+    """Where the way is closed: the path from start to goal that crosses the fewest impassable cells (each
+    costs a thousand free ones, an obstacle's a hundred thousand: inflation or unknown is what may have
+    closed a corridor), and the first stretch of them along it, by kind."""
+    if not in_grid(grid.shape, *goal):
+        return ""
+    h, w = grid.shape
+    wp = w + 2
+    weight = np.where(passable, 1.0, np.where(grid == LETHAL, 1e5, 1e3))
+    pot, _ = propagate(pad_costs(weight), wp, (start[0] + 1) * wp + start[1] + 1, (goal[0] + 1) * wp + goal[1] + 1,
+                       quadratic=False, max_cycles=4 * h * w)
+    cells = descend(pot.reshape(h + 2, wp), (goal[0] + 1, goal[1] + 1), done_below=0.5, grid_only=True,
+                    max_steps=8 * (h + w) + 100)
+    if cells is None:
+        return ""
+    uniq, at = np.unique(np.rint(cells).astype(np.int64) - 1, axis=0, return_index=True)
+    cr = uniq[np.argsort(at)][::-1]  # (col, row) from the start to the goal, each cell once
+    shut = ~passable[cr[:, 1], cr[:, 0]]
+    if not shut.any():
+        return ""
+    first = int(np.argmax(shut))
+    end = first + int(np.argmin(shut[first:])) if not shut[first:].all() else len(shut)
+    run = cr[first:end]
+    v = grid[run[:, 1], run[:, 0]]
+    kinds = ", ".join(f"{int((v == k).sum())} {name}" for k, name in
+                      ((LETHAL, "lethal"), (INSCRIBED, "inscribed"), (NO_INFORMATION, "unknown")) if (v == k).any())
+    other = int(((v != LETHAL) & (v != INSCRIBED) & (v != NO_INFORMATION)).sum())
+    kinds += (", " if kinds else "") + f"{other} costly" if other else ""
+    x0, y0 = grid_to_world(run[:1].astype(float), resolution, origin_xy)[0]
+    x1, y1 = grid_to_world(run[-1:].astype(float), resolution, origin_xy)[0]
+    where = f"at ({x0:.2f}, {y0:.2f})" if len(run) == 1 else f"from ({x0:.2f}, {y0:.2f}) to ({x1:.2f}, {y1:.2f})"
+    return f"; the cheapest way through first crosses {len(run)} impassable cell(s) ({kinds}) {where}" \
+        + (f", {int(shut.sum())} in all" if int(shut.sum()) > len(run) else "")
+
+
 class NavFn:
     """``make_plan(grid, resolution, origin_xy, start, goal) -> (N, 3)`` poses (x, y, theta)."""
 
@@ -161,6 +197,7 @@ class NavFn:
                 f"no path from ({start.x:.2f}, {start.y:.2f}) to ({goal.x:.2f}, {goal.y:.2f})"
                 + (f" within tolerance {tol:.2f} m" if tol > 0 else "")
                 + "; " + enclosure(g, np.isfinite(self.last_potential), (sr, sc), resolution, origin_xy, p.lethal_cost)
+                + crossing(g, np.isfinite(cost), (sr, sc), (gr, gc), resolution, origin_xy)
             )
         er, ec = candidates[reach[0]]  # candidates are sorted by distance to the goal
         cells = descend(

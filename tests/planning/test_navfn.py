@@ -78,15 +78,28 @@ def test_no_path_says_how_small_the_starts_region_is_and_what_closes_it():
         NavFn().make_plan(grid, RES, (0.0, 0.0), Pose2D(1.0, 1.0), Pose2D(3.5, 2.5))
     assert "the start's passable region is 0.72 m²" in str(e.value)  # 17 x 17 cells inside the ring
     assert "closed by 72 inscribed;" in str(e.value)
-    assert str(e.value).endswith("the nearest, inscribed, at (1.03, 0.58)")  # the ring's cell below the start
+    assert "; the nearest, inscribed, at (1.03, 0.58);" in str(e.value)  # the ring's cell below the start
+    assert str(e.value).endswith("first crosses 2 impassable cell(s) (1 lethal, 1 inscribed) from (1.48, 1.03) to "
+                                 "(1.53, 1.03)")  # the box's right side, towards the goal
 
 
 def test_no_path_counts_unknown_cells_that_close_the_way_without_allow_unknown():
     grid = free_map(40, 40)
     grid[:, 20] = NO_INFORMATION
-    why = r"region is 2\.00 m², closed by 40 unknown; the nearest, unknown, at \(1\.03, 1\.03\)$"
+    why = r"region is 2\.00 m², closed by 40 unknown; the nearest, unknown, at \(1\.03, 1\.03\); .* crosses 1 "
     with pytest.raises(NoPath, match=why):
         NavFn(NavfnParams(allow_unknown=False)).make_plan(grid, RES, (0.0, 0.0), Pose2D(0.3, 1.0), Pose2D(1.7, 1.0))
+
+
+def test_no_path_names_where_inflation_closed_a_corridor_rather_than_a_wall():
+    """A wall with a doorway that inflation (or a phantom mark's inflation) has closed: the cheapest way
+    through is the doorway's inscribed cells, not the wall's lethal ones."""
+    grid = free_map(100, 200)
+    grid[:, 100:104] = LETHAL
+    grid[40:48, 100:104] = INSCRIBED  # the doorway, y 2.0 to 2.4 m
+    with pytest.raises(NoPath) as e:
+        NavFn().make_plan(grid, RES, (0.0, 0.0), Pose2D(1.0, 1.0), Pose2D(9.0, 4.0))
+    assert str(e.value).endswith("first crosses 4 impassable cell(s) (4 inscribed) from (5.03, 2.02) to (5.18, 2.02)")
 
 
 def test_start_in_lethal_cell_raises_start_occupied():
