@@ -41,9 +41,9 @@ import pytest
 
 from common.bus import Node, ServiceError
 from common.live_keys import LiveKey, live_key
-from common.messages import Empty, NodeStats
 from common.zenoh_config import BusConfig
 from deploy.stack.process_group import checkout_env
+from deploy.stack.slam_counters import scan_row
 from master_side.slam import evaluate
 from master_side.slam.gridslam import GridSlam
 from master_side.slam.logs import read_bag
@@ -116,11 +116,10 @@ def _queue_drops(watch: Node) -> tuple[int | None, str]:
     """The SLAM node's scan queue drops from its ``node_stats`` service (what `zenav nodes --stats` prints),
     and the counters as text for the failure message; None when it does not answer."""
     try:
-        stats = watch.call("node_stats/slam_gmapping", Empty(), NodeStats, timeout=10.0)
+        scan = scan_row(watch)
     except ServiceError as e:  # a diagnosis: never hides the assertions after it
         return None, f"node_stats: {e}"
-    scan = [t for t in stats.topics if t.topic == "scan"]
-    return (scan[0].dropped if scan else None), f"node_stats: {stats.topics}"
+    return (scan.dropped if scan else None), f"node_stats: scan {scan}"
 
 
 def _zenav(*args: str, robot: str, log: Path) -> subprocess.Popen:
