@@ -8,7 +8,13 @@ stamp, a control cycle reads whatever costmap is there), so commands differ in t
 bus run's clock starts earlier. On world 23 the two paths lie within 5 cm of each other and the commanded
 speed along the path differs by 0.02 m/s on average (0.08 rad/s in turn rate); the bounds below are
 several times that, and far below what a different parameter (a speed limit, an inflation radius) or a
-differently wired costmap would change. (This is also the fast mode's own test on a BARN world.)"""
+differently wired costmap would change. (This is also the fast mode's own test on a BARN world.)
+
+The bus run's simulator runs at half real time. At real time, on a 2-core machine the suite loads to an
+average of 10, move_base's commands came late enough for the robot to hold old ones and the bus run
+took 9.6 s against the fast mode's 6.5 s. Whether the stack keeps up in real time is a benchmark's
+figure (``bench/barn.py --mode bus``); this test is about the same behaviour, so it gives the processes
+the time of a less loaded machine."""
 
 from __future__ import annotations
 
@@ -38,7 +44,7 @@ def _along_path(trace: np.ndarray, cmds: np.ndarray, s: np.ndarray) -> tuple[np.
 @pytest.mark.slow
 def test_fast_mode_and_bus_mode_drive_the_same_path_with_the_same_commands(tmp_path):
     fast = BarnStack(barn.write_world(WORLD, tmp_path), ROBOT_CONFIG, MASTER, seed=SEED).run(WORLD, GOAL)
-    bus = run_world_bus(WORLD, tmp_path, master_config=MASTER, seed=SEED)
+    bus = run_world_bus(WORLD, tmp_path, master_config=MASTER, seed=SEED, speed=0.5)
     assert fast.run.success and not fast.run.collision, fast.events[-10:]
     assert len(fast.cycle_ms) > 20 and fast.sim_s < barn.TIME_LIMIT_S
     assert bus["run"].success and not bus["run"].collision, bus["note"]
