@@ -7,7 +7,7 @@ environment so that agents pass the same settings to the processes they start:
 
     ZENAV_ROBOT=pioneer1  ZENAV_MODE=peer|client|router  ZENAV_CONNECT=tcp/10.0.0.2:7447,...
     ZENAV_LISTEN=tcp/0.0.0.0:7447  ZENAV_MULTICAST=1|0  ZENAV_LEASE_MS=1000  ZENAV_SHM=1|0
-    ZENAV_AUTOCONNECT=greater-zid|always  ZENAV_CHILDREN=agent|mesh
+    ZENAV_AUTOCONNECT=greater-zid|always  ZENAV_CHILDREN=agent|mesh  ZENAV_GOSSIP=1|0
     ZENAV_ZENOH_CONFIG=/path/to/zenoh.json5   (a full Zenoh config file, e.g. with auth / TLS;
                                                the settings above are applied on top of it)
 """
@@ -45,6 +45,15 @@ class BusConfig:
     # and 9 latched maps with "always" (robot -> master puts and queries gone for minutes while master ->
     # robot data flowed) and none with "greater-zid".
     autoconnect: str = "greater-zid"
+    # Gossip: peers tell each other of the peers they know, and a peer dials those it has no link to. Zenoh
+    # does that when it hears of one, not again: a link found by gossip that closes (its lease expired
+    # under load, a socket reset) is not dialled again while the peers' other links stand, so those two
+    # processes hear nothing of each other for minutes, or for good. Seen: `zenav explore` got no clock
+    # from the simulator for six minutes of an office run, every other process did (2026-12-01); three
+    # loopback peers, one link reset, stayed apart for the 49 s watched. Multicast scouting finds a lost
+    # peer again within 8 s; configured endpoints (connect) are dialled again until they answer. Off:
+    # only those, for a layout where every process names every peer it needs (deploy/stack/process_group.py).
+    gossip: bool = True
     zenoh_config_file: str = ""
     # How an agent's nodes join: "agent" (each node is a Zenoh client of its own agent over a loopback TCP
     # port; the agent is the one peer of its machine) or "mesh" (each node is a peer with links to every
@@ -87,7 +96,7 @@ class BusConfig:
         shm = e.get("ZENAV_SHM")
         names = {"ZENAV_MODE": "mode", "ZENAV_CONNECT": "connect", "ZENAV_LISTEN": "listen",
                  "ZENAV_MULTICAST": "multicast", "ZENAV_LEASE_MS": "lease_ms", "ZENAV_SHM": "shared_memory",
-                 "ZENAV_AUTOCONNECT": "autoconnect", "ZENAV_CHILDREN": "children"}
+                 "ZENAV_AUTOCONNECT": "autoconnect", "ZENAV_CHILDREN": "children", "ZENAV_GOSSIP": "gossip"}
         explicit = tuple(f for k, f in names.items() if e.get(k, "") != "")
         cfg = BusConfig(
             robot=e.get("ZENAV_ROBOT", DEFAULT_ROBOT),
@@ -99,6 +108,7 @@ class BusConfig:
             shared_memory=None if shm is None else shm not in ("0", "false", "no"),
             zenoh_config_file=e.get("ZENAV_ZENOH_CONFIG", ""),
             autoconnect=e.get("ZENAV_AUTOCONNECT", "") or "greater-zid",
+            gossip=e.get("ZENAV_GOSSIP", "1") not in ("0", "false", "no"),
             children=e.get("ZENAV_CHILDREN", "") or "agent",
             via_agent=e.get("ZENAV_VIA_AGENT", ""),
             explicit=explicit,
@@ -111,7 +121,8 @@ class BusConfig:
                "ZENAV_LISTEN": ",".join(self.listen), "ZENAV_ZENOH_CONFIG": self.zenoh_config_file}
         values = {"ZENAV_MODE": ("mode", self.mode), "ZENAV_MULTICAST": ("multicast", "1" if self.multicast else "0"),
                   "ZENAV_LEASE_MS": ("lease_ms", str(self.lease_ms)),
-                  "ZENAV_AUTOCONNECT": ("autoconnect", self.autoconnect)}
+                  "ZENAV_AUTOCONNECT": ("autoconnect", self.autoconnect),
+                  "ZENAV_GOSSIP": ("gossip", "1" if self.gossip else "0")}
         for var, (name, text) in values.items():
             if self._applies(name):
                 env[var] = text
@@ -149,6 +160,8 @@ class BusConfig:
             strategy = json.dumps({"peer": {"to_router": "always", "to_peer": self.autoconnect}})
             conf.insert_json5("scouting/multicast/autoconnect_strategy", strategy)
             conf.insert_json5("scouting/gossip/autoconnect_strategy", strategy)
+        if apply("gossip"):
+            conf.insert_json5("scouting/gossip/enabled", json.dumps(self.gossip))
         return self._transport(conf)
 
     def _agent_node(self, conf):

@@ -21,7 +21,6 @@ import yaml
 from common.bus import Node
 from common.messages import Collision, Costmap, MoveBaseStatus, Odometry, Scalar, Twist
 from common.ports import free_port
-from common.zenoh_config import BusConfig
 from deploy.barn import rules as barn
 from deploy.stack.process_group import ProcessGroup
 from robot_side.worlds.barn import GOAL, GOAL_IN_ODOM, START
@@ -109,7 +108,7 @@ def run_world_bus(world: int, workdir: str | Path = "", master_config: str | Pat
     robot = f"barn{world}x{uuid.uuid4().hex[:6]}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     group = ProcessGroup(robot, endpoint, work)
-    node = Node("barn_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)))
+    node = Node("barn_bench", config=group.hub_config())
     rec = _Recorder(node)
     note = ""
     try:

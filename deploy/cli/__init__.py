@@ -54,6 +54,8 @@ discovery:
   notice a lost machine within about a second (link lease 1000 ms, ZENAV_LEASE_MS).
   Without multicast (some Wi-Fi, VPNs, containers): --no-multicast --connect tcp/<host>:7447 on
   one side and --listen tcp/0.0.0.0:7447 on the other, or --mode client --connect <router>.
+  With three peers or more, give each one every peer it needs in --connect: Zenoh dials a
+  configured endpoint again after a link loss, but not a peer it only heard of by gossip.
   The options set ZENAV_ROBOT, ZENAV_CONNECT, ZENAV_LISTEN, ZENAV_MODE, ZENAV_MULTICAST for every
   process started from here; ZENAV_ZENOH_CONFIG=<file.json5> adds a full Zenoh config (auth, TLS).
 

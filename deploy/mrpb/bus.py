@@ -17,7 +17,6 @@ import numpy as np
 from common.bus import Node
 from common.messages import GoalStatus, MoveBaseStatus, PoseStamped, Scalar, Twist
 from common.ports import free_port
-from common.zenoh_config import BusConfig
 from deploy.mrpb.cases import TIME_LIMIT_S, Case, Result
 from deploy.mrpb.contacts import ContactWatch
 from deploy.stack.goals import send_goal
@@ -83,7 +82,7 @@ def run_case_bus(case: Case, robot_config: Path, master_config: Path, workdir: s
     robot = f"mrpb{uuid.uuid4().hex[:6]}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     group = ProcessGroup(robot, endpoint, work)
-    node = Node("mrpb_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)), use_sim_time="auto")
+    node = Node("mrpb_bench", config=group.hub_config(), use_sim_time="auto")
     rec = _Recorder(node, work / "contacts")
     status, reason = "timeout", f"not reached within {time_limit_s:g} s"
     cancel = threading.Event()

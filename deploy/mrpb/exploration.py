@@ -28,7 +28,6 @@ from common.bus import Node
 from common.geometry import Pose2D
 from common.messages import Empty, OccupancyGrid, Odometry
 from common.ports import free_port
-from common.zenoh_config import BusConfig
 from deploy.mrpb.contacts import ContactWatch
 from deploy.stack.map_check import FIT_HEADINGS_DEG, NO_OFFSET, WorldTruth
 from deploy.stack.png import write_png
@@ -162,7 +161,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
     group = ProcessGroup(robot, endpoint, work)
     # on the simulator's time: a wall-clock node refuses what is stamped 300 s ahead of it, and at --speed 2
     # the simulator is that far ahead after five minutes (the coverage froze at 43 % in office02)
-    node = Node("explore_bench", config=BusConfig(robot=robot, multicast=False, listen=(endpoint,)),
+    node = Node("explore_bench", config=group.hub_config(),
                 use_sim_time="auto")
     watch = _Watch(node, truth, work / "contacts")
     out = ExploreRun(name, "failed", free_m2=truth.free_m2, log_dir=str(work))

@@ -21,7 +21,6 @@ from common.bus import Node
 from common.geometry import Pose2D, normalize_angle
 from common.messages import Collision, Costmap, MoveBaseStatus, OccupancyGrid, Odometry
 from common.ports import free_port
-from common.zenoh_config import BusConfig
 from deploy.stack.map_check import map_accuracy
 from deploy.stack.process_group import ProcessGroup, set_options
 from deploy.stack.slam_counters import scan_counters
@@ -112,7 +111,7 @@ class Demo:
         self.work = Path(opts.workdir or tempfile.mkdtemp(prefix="zenav-demo-"))
         self.work.mkdir(parents=True, exist_ok=True)
         self.group = ProcessGroup(opts.robot, self.endpoint, self.work)
-        self.node = Node("demo", config=BusConfig(robot=opts.robot, multicast=False, listen=(self.endpoint,)),
+        self.node = Node("demo", config=self.group.hub_config(),
                          use_sim_time="auto")  # the simulator's stamps run ahead of the wall at --speed 2
         self.truth = self.node.subscribe("ground_truth", Odometry)
         self.collisions = self.node.subscribe("collision", Collision)

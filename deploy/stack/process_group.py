@@ -1,8 +1,15 @@
 """A group of `zenav` subprocesses on a private loopback Zenoh network (the demo, the BARN bench).
 
-Each process is ``python -m deploy.cli <args> --robot R --no-multicast --connect <endpoint>`` in its
-own session (so Ctrl-C / SIGINT reaches its children), logging to ``<workdir>/<name>.log``. The owner
-stops them in a ``finally`` under ``terminate_as_interrupt()``, so SIGTERM stops them too.
+Each process is ``python -m deploy.cli <args> --robot R --no-multicast --listen <its own port> --connect
+<the owner's endpoint>,<every running process's port>`` in its own session (so Ctrl-C / SIGINT reaches its
+children), logging to ``<workdir>/<name>.log``. The owner's node listens on ``endpoint``
+(``ProcessGroup.hub_config``). The owner stops them in a ``finally`` under ``terminate_as_interrupt()``, so
+SIGTERM stops them too.
+
+Every link between two of these peers is one a process was told to open, and gossip is off: Zenoh dials a
+configured endpoint again until it answers, but a link it found by gossip, once closed, is not dialled again
+while the two peers' other links stand (common/zenoh_config.py, ``gossip``). With gossip, `zenav explore`
+once heard no clock from the simulator for six minutes of an office run.
 """
 
 from __future__ import annotations
@@ -15,6 +22,9 @@ import sys
 import time
 from collections.abc import Iterable
 from pathlib import Path
+
+from common.ports import free_port
+from common.zenoh_config import BusConfig
 
 _deferral = {"depth": 0, "pending": 0}  # a signal that came inside _deferred_interrupts()
 
@@ -92,17 +102,30 @@ class ProcessGroup:
     def __init__(self, robot: str, endpoint: str, workdir: Path):
         self.robot, self.endpoint, self.work = robot, endpoint, Path(workdir)
         self.procs: list[tuple[str, subprocess.Popen]] = []
+        self.listeners: list[tuple[subprocess.Popen, str]] = []  # each process's own endpoint
 
-    def bus_args(self) -> list[str]:
-        return ["--robot", self.robot, "--no-multicast", "--connect", self.endpoint]
+    def hub_config(self) -> BusConfig:
+        """The owner's node: listening on ``endpoint``, which every process of the group dials."""
+        return BusConfig(robot=self.robot, multicast=False, listen=(self.endpoint,), gossip=False)
+
+    def bus_args(self, listen: str = "") -> list[str]:
+        """Options that join the group: dial the owner and every process still running (each of those links
+        is then dialled again by this process if it closes); ``listen``: this process's own endpoint, for
+        the processes started after it."""
+        peers = [self.endpoint, *(ep for p, ep in self.listeners if p.poll() is None)]
+        return ["--robot", self.robot, "--no-multicast", "--connect", ",".join(peers),
+                *(["--listen", listen] if listen else [])]
 
     def spawn(self, name: str, args: list[str]) -> subprocess.Popen:
         log = open(self.work / f"{name}.log", "w")  # noqa: SIM115 - closed with the process
+        listen = f"tcp/127.0.0.1:{free_port()}"
+        env = checkout_env()
+        env["ZENAV_GOSSIP"] = "0"
         with _deferred_interrupts():  # started => recorded, so stop() reaches it
-            p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self.bus_args()], stdout=log,
-                                 stderr=subprocess.STDOUT, env=checkout_env(), start_new_session=True,
-                                 cwd=self.work)
+            p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self.bus_args(listen)], stdout=log,
+                                 stderr=subprocess.STDOUT, env=env, start_new_session=True, cwd=self.work)
             self.procs.append((name, p))
+            self.listeners.append((p, listen))
         return p
 
     def stop(self, name: str | None = None, grace: float = 10.0) -> None:

@@ -17,7 +17,6 @@ import yaml
 from common.bus import Node
 from common.messages import CostmapSensors, MoveBaseStatus, Odometry
 from common.ports import free_port
-from common.zenoh_config import BusConfig
 from deploy.stack.process_group import ProcessGroup
 from tests.support import wait_until
 
@@ -31,7 +30,7 @@ def test_move_base_and_doctor_name_the_silent_front_scan(tmp_path, robot_name):
     (tmp_path / "robot.yaml").write_text(yaml.safe_dump(robot_cfg))
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     group = ProcessGroup(robot_name, endpoint, tmp_path)
-    node = Node("blind_test", config=BusConfig(robot=robot_name, multicast=False, listen=(endpoint,)))
+    node = Node("blind_test", config=group.hub_config())
     try:
         sensors = node.subscribe("local_costmap/sensors", CostmapSensors)
         status = node.subscribe("move_base/status", MoveBaseStatus)

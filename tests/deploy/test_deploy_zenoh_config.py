@@ -103,6 +103,20 @@ def test_which_scouted_peer_dials_is_a_setting():
         BusConfig(autoconnect="sometimes")
 
 
+def test_gossip_is_on_unless_zenav_gossip_turns_it_off():
+    """ZENAV_GOSSIP=0: only configured links and multicast scouting (a process group names every peer; a
+    link found by gossip is not dialled again once it closes)."""
+    from common.zenoh_config import BusConfig
+
+    def enabled(cfg: BusConfig) -> bool:
+        return json.loads(cfg.to_zenoh().get_json("scouting/gossip/enabled"))
+
+    assert enabled(BusConfig.from_env({})) is True
+    off = BusConfig.from_env({"ZENAV_GOSSIP": "0"})
+    assert enabled(off) is False and off.to_env()["ZENAV_GOSSIP"] == "0"
+    assert enabled(BusConfig.from_env(off.to_env())) is False  # handed on to an agent's children
+
+
 def test_send_queue_holds_16_stream_messages_unless_a_config_file_says_otherwise(tmp_path):
     """Zenoh's 2-batch queue dropped best-effort messages whenever its send thread was a millisecond late
     on a busy CPU (common.zenoh_config.TX_QUEUE_BATCHES); a user's file keeps its own value."""
