@@ -101,8 +101,7 @@ def checkout_env(base: dict[str, str] | None = None, drop_zenav: bool = False) -
 class ProcessGroup:
     def __init__(self, robot: str, endpoint: str, workdir: Path):
         self.robot, self.endpoint, self.work = robot, endpoint, Path(workdir)
-        self.procs: list[tuple[str, subprocess.Popen]] = []
-        self.listeners: list[tuple[subprocess.Popen, str]] = []  # each process's own endpoint
+        self.procs: list[tuple[str, subprocess.Popen, str]] = []  # name, process, its own endpoint
 
     def hub_config(self) -> BusConfig:
         """The owner's node: listening on ``endpoint``, which every process of the group dials."""
@@ -112,7 +111,7 @@ class ProcessGroup:
         """Options that join the group: dial the owner and every process still running (each of those links
         is then dialled again by this process if it closes); ``listen``: this process's own endpoint, for
         the processes started after it."""
-        peers = [self.endpoint, *(ep for p, ep in self.listeners if p.poll() is None)]
+        peers = [self.endpoint, *(ep for _, p, ep in self.procs if p.poll() is None)]
         return ["--robot", self.robot, "--no-multicast", "--connect", ",".join(peers),
                 *(["--listen", listen] if listen else [])]
 
@@ -124,16 +123,16 @@ class ProcessGroup:
         with _deferred_interrupts():  # started => recorded, so stop() reaches it
             p = subprocess.Popen([sys.executable, "-m", "deploy.cli", *args, *self.bus_args(listen)], stdout=log,
                                  stderr=subprocess.STDOUT, env=env, start_new_session=True, cwd=self.work)
-            self.procs.append((name, p))
-            self.listeners.append((p, listen))
+            self.procs.append((name, p, listen))
         return p
 
     def stop(self, name: str | None = None, grace: float = 10.0) -> None:
         """SIGINT the process (all when ``name`` is None), SIGKILL after ``grace`` s."""
         keep = []
-        for n, p in self.procs:
+        for entry in self.procs:
+            n, p, _ = entry
             if name is not None and n != name:
-                keep.append((n, p))
+                keep.append(entry)
                 continue
             if p.poll() is None:
                 os.killpg(p.pid, signal.SIGINT)
@@ -145,7 +144,7 @@ class ProcessGroup:
         self.procs = keep
 
     def check_alive(self, ignore: tuple[str, ...] = ()) -> None:
-        for n, p in self.procs:
+        for n, p, _ in self.procs:
             if n not in ignore and p.poll() is not None:
                 raise RuntimeError(f"{n} exited with status {p.returncode} (log: {self.work / (n + '.log')})")
 

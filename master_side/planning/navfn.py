@@ -69,6 +69,10 @@ class NavfnParams:
         return c
 
 
+# the costmap values that close a way, by name (what navfn's "no path" reports)
+_CLOSED = ((LETHAL, "lethal"), (INSCRIBED, "inscribed"), (NO_INFORMATION, "unknown"))
+
+
 def enclosure(grid: np.ndarray, reached: np.ndarray, start: tuple[int, int], resolution: float,
               origin_xy: tuple[float, float], lethal_cost: int) -> str:
     """Why the wave stopped: the area it reached from the start, and what closes it (the unreached cells
@@ -78,7 +82,7 @@ def enclosure(grid: np.ndarray, reached: np.ndarray, start: tuple[int, int], res
 
     border = binary_dilation(reached, structure=np.ones((3, 3), bool)) & ~reached
     v = grid[border].astype(np.int64)
-    kinds = (("lethal", v == LETHAL), ("inscribed", v == INSCRIBED), ("unknown", v == NO_INFORMATION),
+    kinds = (*((name, v == k) for k, name in _CLOSED),
              (f"cost >= {lethal_cost}", (v >= lethal_cost) & (v < INSCRIBED)))
     counts = ", ".join(f"{int(m.sum())} {name}" for name, m in kinds if m.any()) \
         or "none impassable (the search stopped)"
@@ -88,7 +92,7 @@ def enclosure(grid: np.ndarray, reached: np.ndarray, start: tuple[int, int], res
         k = int(np.argmin(np.hypot(rows - start[0], cols - start[1])))
         x, y = grid_to_world(np.array([[cols[k], rows[k]]], float), resolution, origin_xy)[0]
         c = int(grid[rows[k], cols[k]])
-        name = {LETHAL: "lethal", INSCRIBED: "inscribed", NO_INFORMATION: "unknown"}.get(c, f"cost {c}")
+        name = dict(_CLOSED).get(c, f"cost {c}")
         msg += f"; the nearest, {name}, at ({x:.2f}, {y:.2f})"
     return msg
 
@@ -118,10 +122,9 @@ def crossing(grid: np.ndarray, passable: np.ndarray, start: tuple[int, int], goa
     end = first + int(np.argmin(shut[first:])) if not shut[first:].all() else len(shut)
     run = cr[first:end]
     v = grid[run[:, 1], run[:, 0]]
-    kinds = ", ".join(f"{int((v == k).sum())} {name}" for k, name in
-                      ((LETHAL, "lethal"), (INSCRIBED, "inscribed"), (NO_INFORMATION, "unknown")) if (v == k).any())
-    other = int(((v != LETHAL) & (v != INSCRIBED) & (v != NO_INFORMATION)).sum())
-    kinds += (", " if kinds else "") + f"{other} costly" if other else ""
+    counts = [f"{int((v == k).sum())} {name}" for k, name in _CLOSED if (v == k).any()]
+    other = int((~np.isin(v, [k for k, _ in _CLOSED])).sum())
+    kinds = ", ".join(counts + ([f"{other} costly"] if other else []))
     x0, y0 = grid_to_world(run[:1].astype(float), resolution, origin_xy)[0]
     x1, y1 = grid_to_world(run[-1:].astype(float), resolution, origin_xy)[0]
     where = f"at ({x0:.2f}, {y0:.2f})" if len(run) == 1 else f"from ({x0:.2f}, {y0:.2f}) to ({x1:.2f}, {y1:.2f})"

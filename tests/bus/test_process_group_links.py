@@ -36,13 +36,16 @@ def _links(a: int, b: int) -> set[tuple[str, str]]:
     (a's address, b's address)."""
     rows = [line.split() for line in subprocess.run(["ss", "-tnpH"], capture_output=True, text=True,
                                                      check=True).stdout.splitlines()]
-    own = {pid: {r[3] for r in rows if f"pid={pid}," in r[-1]} for pid in (a, b)}
-    return {(r[3], r[4]) for r in rows if f"pid={a}," in r[-1] and r[4] in own[b]}
+    of_b = {r[3] for r in rows if f"pid={b}," in r[-1]}
+    return {(r[3], r[4]) for r in rows if f"pid={a}," in r[-1] and r[4] in of_b}
 
 
-def _rates_after(log: Path, offset: int) -> list[str]:
-    text = log.read_text()[offset:]
-    return [line for line in text.splitlines() if line.startswith(("average rate", "no new messages"))]
+def _flowing(log: Path, offset: int, n: int) -> bool:
+    """Whether the last ``n`` reports of `zenav topic hz` after ``offset`` in its log are all rates (none
+    "no new messages")."""
+    lines = [line for line in log.read_text()[offset:].splitlines()
+             if line.startswith(("average rate", "no new messages"))]
+    return len(lines) >= n and all(x.startswith("average") for x in lines[-n:])
 
 
 def test_a_reset_link_between_two_spawned_peers_comes_back(robot_name, tmp_path):
@@ -54,23 +57,18 @@ def test_a_reset_link_between_two_spawned_peers_comes_back(robot_name, tmp_path)
         play = group.spawn("play", ["play", str(LOG), "--loop", "--topics", "scan", "-q"])
         hz = group.spawn("hz", ["topic", "hz", "clock", "--window", "20"])
         hz_log = tmp_path / "hz.log"
-        wait_until(lambda: len(_rates_after(hz_log, 0)) >= 2 and _rates_after(hz_log, 0)[-1].startswith("average"),
-                   90, "the counter hearing the clock", period=0.2)
+        wait_until(lambda: _flowing(hz_log, 0, 2), 90, "the counter hearing the clock", period=0.2)
         old = wait_until(lambda: _links(hz.pid, play.pid), 30, "a link between the two processes", period=0.2)
         offset = len(hz_log.read_text())
         for _local, remote in old:
-            port = remote.rsplit(":", 1)[1]
-            subprocess.run(["ss", "-K", "dst", remote.rsplit(":", 1)[0], "dport", "=", port], capture_output=True)
+            host, port = remote.rsplit(":", 1)
+            subprocess.run(["ss", "-K", "dst", host, "dport", "=", port], capture_output=True)
         if _links(hz.pid, play.pid) & old:
             pytest.skip("this kernel cannot reset a socket (ss -K: CONFIG_INET_DIAG_DESTROY)")
         # a new connection between the same two processes, and the clock heard over it
         wait_until(lambda: _links(hz.pid, play.pid) - old, 30, "the link opened again", period=0.2)
-
-        def heard_again() -> bool:
-            lines = _rates_after(hz_log, offset)
-            return len(lines) >= 3 and all(x.startswith("average") for x in lines[-3:])
-
-        wait_until(heard_again, 30, "the counter hearing the clock again after the reset", period=0.2)
+        wait_until(lambda: _flowing(hz_log, offset, 3), 30, "the counter hearing the clock again after the reset",
+                   period=0.2)
         group.check_alive()
     finally:
         group.stop()

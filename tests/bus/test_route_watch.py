@@ -73,6 +73,22 @@ def test_the_tf_stream_of_one_publisher_is_repaired_too(node_pair):
         stop.set()
 
 
+def _paused_chatter(node_pair) -> tuple:
+    """listener <- talker on ``chatter``: 20 messages at 50 Hz, then the talker pauses. (listener, its
+    subscription, the talker's publisher)."""
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("chatter", Text)
+    pub = talker.publisher("chatter")
+    stop = threading.Event()
+    sender = _stream(stop, lambda: pub.publish(Text(data="hello")))
+    try:
+        wait_for(lambda: sub.received >= 20, 30, "the stream")
+    finally:
+        stop.set()  # the pause
+        sender.join()
+    return listener, sub, pub
+
+
 def test_a_publisher_that_is_gone_is_waited_for_not_repaired(node_pair):
     listener, talker = node_pair("listener"), node_pair("talker")
     sub = listener.subscribe("chatter", Text)
@@ -166,16 +182,7 @@ def test_a_stream_that_pauses_and_resumes_without_a_gap_is_no_repair(node_pair, 
     """cmd_vel between two goals: silent long enough to be declared again, then the next number comes."""
     monkeypatch.setattr(route_watch, "SILENT_MIN_S", 0.5)
     monkeypatch.setattr(route_watch, "REPAIR_WINDOW_S", 1000.0)
-    listener, talker = node_pair("listener"), node_pair("talker")
-    sub = listener.subscribe("chatter", Text)
-    pub = talker.publisher("chatter")
-    stop = threading.Event()
-    sender = _stream(stop, lambda: pub.publish(Text(data="hello")))
-    try:
-        wait_for(lambda: sub.received >= 20, 30, "the stream")
-    finally:
-        stop.set()  # the pause
-        sender.join()
+    listener, sub, pub = _paused_chatter(node_pair)
     wait_for(lambda: (d := listener.routes.doubts.get(("chatter", "talker"))) is not None and d.attempts >= 1,
              30, "a declaration during the pause")
     before = sub.received
@@ -190,16 +197,7 @@ def test_a_silence_that_lost_messages_is_reported_even_without_a_repair(node_pai
     itself, or a congested link dropped them): the numbers skipped say so, and it is logged and counted."""
     monkeypatch.setattr(route_watch, "SILENT_MIN_S", 0.5)
     monkeypatch.setattr(route_watch, "REPAIR_WINDOW_S", 0.0)  # no resumption counts as a repair here
-    listener, talker = node_pair("listener"), node_pair("talker")
-    sub = listener.subscribe("chatter", Text)
-    pub = talker.publisher("chatter")
-    stop = threading.Event()
-    sender = _stream(stop, lambda: pub.publish(Text(data="hello")))
-    try:
-        wait_for(lambda: sub.received >= 20, 30, "the stream")
-    finally:
-        stop.set()
-        sender.join()
+    listener, _sub, pub = _paused_chatter(node_pair)
     wait_for(lambda: ("chatter", "talker") in listener.routes.doubts, 30, "the silence noticed")
     pub.sn += 5  # five messages put where the listener never got them
     pub.publish(Text(data="again"))
