@@ -21,7 +21,7 @@ from common.live_keys import LiveKey, live_key
 from common.log_util import RateLimitedLog
 from common.msg_check import problem
 from common.query_routes import ask_redeclare
-from common.route_watch import count_source, sequence_number
+from common.route_watch import Stream, count_source, sequence_number
 from common.zenoh_threads import track_retry
 
 if TYPE_CHECKING:
@@ -184,7 +184,7 @@ class Subscription:
         self.dropped = 0  # valid messages overwritten before being consumed
         self.last_receive_time = 0.0  # time.monotonic() of the last valid message
         # per publisher (its name, as the attachment bytes): [messages, last time, smoothed period]
-        self.sources: dict[bytes, list] = {}  # (common.route_watch)
+        self.sources: dict[bytes, Stream] = {}  # (common.route_watch)
         self._last_attachment = None  # the publisher's name, as it came (decoded when asked)
         self._waiting = 0  # threads in wait() / wait_first() / get(): notified per message only if any
         self._kick: queue.SimpleQueue = queue.SimpleQueue()  # one token per message for the callback thread

@@ -66,10 +66,7 @@ class Watched(Protocol):
     """What the watch needs of a subscription (common.bus_topics.Subscription, common.tf.TFListener)."""
 
     topic: str
-    # publisher name -> [messages, last time, smoothed period, first message after the last pause (monotonic),
-    #   (entity id, sequence number) of the last message (None: not numbered), messages skipped just before the
-    #   first after the last pause (-1: unknown)] (see count_source)
-    sources: dict[bytes, list]
+    sources: dict[bytes, Stream]  # publisher name -> its stream so far (see count_source)
 
     @property
     def closed(self) -> bool: ...
@@ -83,28 +80,40 @@ def sequence_number(sample: Any) -> tuple[str, int] | None:
     return (str(si.source_id), int(si.source_sn)) if si is not None else None
 
 
-def count_source(sources: dict[bytes, list], who: bytes, now: float, sn: tuple[str, int] | None = None) -> None:
+@dataclass(slots=True)
+class Stream:
+    """One publisher's messages on one subscription, as the watch sees them (times: monotonic seconds)."""
+
+    n: int  # messages so far
+    last: float  # the last message's arrival
+    period: float  # smoothed gap between messages, pauses left out
+    resumed: float  # the first message after the last pause (the first message of all, until a pause)
+    sn: tuple[str, int] | None  # (entity id, sequence number) of the last message (None: not numbered)
+    skipped: int  # messages numbered just before ``resumed`` that never came (-1: unknown)
+
+
+def count_source(sources: dict[bytes, Stream], who: bytes, now: float, sn: tuple[str, int] | None = None) -> None:
     """Count one message of publisher ``who`` in ``sources`` (see ``Watched``), ``sn`` its ``sequence_number``.
     A gap over 10 periods is a pause, not the stream's rate: it is not averaged in, and the message that ends
     it is remembered, with the messages skipped just before it (from the sequence numbers, when the same
     publisher entity numbered both; for the first message, those numbered before it)."""
     src = sources.get(who)
     if src is None:
-        sources[who] = [1, now, 0.0, now, sn, sn[1] - 1 if sn is not None else -1]
+        sources[who] = Stream(1, now, 0.0, now, sn, sn[1] - 1 if sn is not None else -1)
         return
-    gap = now - src[1]
-    if src[0] == 1:
-        src[2] = gap
-    elif gap > 10.0 * src[2]:
-        src[3] = now
-        last = src[4]
-        src[5] = sn[1] - last[1] - 1 if sn is not None and last is not None and sn[0] == last[0] \
+    gap = now - src.last
+    if src.n == 1:
+        src.period = gap
+    elif gap > 10.0 * src.period:
+        src.resumed = now
+        last = src.sn
+        src.skipped = sn[1] - last[1] - 1 if sn is not None and last is not None and sn[0] == last[0] \
             and sn[1] > last[1] else -1
     else:
-        src[2] = 0.9 * src[2] + 0.1 * gap
-    src[0] += 1
-    src[1] = now
-    src[4] = sn
+        src.period = 0.9 * src.period + 0.1 * gap
+    src.n += 1
+    src.last = now
+    src.sn = sn
 
 
 @dataclass
@@ -150,9 +159,9 @@ class RouteWatch:
                         else:
                             self.look_unfed(sub, time.monotonic())
                     if not sub.closed:
-                        for who, (n, last, period, resumed, _, skipped) in list(sub.sources.items()):
-                            self.look(sub, who.decode(errors="replace"), n, last, period, resumed,
-                                      time.monotonic(), skipped)
+                        for who, st in list(sub.sources.items()):
+                            self.look(sub, who.decode(errors="replace"), st.n, st.last, st.period, st.resumed,
+                                      time.monotonic(), st.skipped)
                 except zenoh.ZError:  # the session is closing
                     return
 
@@ -210,7 +219,7 @@ class RouteWatch:
         doubt = self.unfed[id(sub)]
         if sub.sources:  # fed at last
             del self.unfed[id(sub)]
-            first, skipped = min((src[3], src[5]) for src in list(sub.sources.values()))
+            first, skipped = min((st.resumed, st.skipped) for st in list(sub.sources.values()))
             # skipped == 0: the publisher's first message (move_base's first result), nothing was lost
             if doubt.attempts and skipped != 0 and 0.0 <= first - doubt.declared_at <= REPAIR_WINDOW_S:
                 self.repairs += 1

@@ -26,7 +26,7 @@ from common.geometry import Quaternion, Transform, Vector3
 from common.live_keys import LiveKey, live_key
 from common.messages import Header, TFMessage, TransformStamped
 from common.msg_check import problem
-from common.route_watch import count_source, sequence_number
+from common.route_watch import Stream, count_source, sequence_number
 from common.tf_buffer import (
     ConnectivityError,
     EdgeInfo,
@@ -248,7 +248,7 @@ class TFListener:
         self.invalid = 0  # TFMessages refused whole: NaN, zero quaternion, far-future stamp, bad frames
         self.received = 0
         self.topic = "tf"  # the stream common.route_watch looks at (tf_static is latched, not a stream)
-        self.sources: dict[bytes, list] = {}
+        self.sources: dict[bytes, Stream] = {}
         self._closed = False
         node.stats_sources.append(self)
         self._key_tf, self._key_static = node.key("tf"), node.key("tf_static")

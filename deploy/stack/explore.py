@@ -21,7 +21,7 @@ import numpy as np
 
 from common.messages import OccupancyGrid
 from master_side.exploration.explorer import ExploreParams, Explorer
-from master_side.exploration.frontiers import Grid, costmap_forbidden, grid_from_map, search
+from master_side.exploration.frontiers import Grid, costmap_forbidden, grid_from_map, nearest_lethal_m, search
 
 
 @dataclass
@@ -76,7 +76,7 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     goal_id, target, waiting = "", None, False
     period = 1.0 / params.planner_frequency
     if params.look_around:
-        _look_around(node, tf, maps, base_frame, send_and_wait, echo, stop)
+        _look_around(node, tf, maps, costmaps, params.circumscribed_radius, base_frame, send_and_wait, echo, stop)
     while not stop.is_set():
         m = report.map = maps.latest()
         frame = m.header.frame_id or "map"
@@ -132,7 +132,8 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
                         cancel_goal(node, goal_id, 5.0, seen)
                     goal_id, target = "", None
                 if params.look_around:
-                    _look_around(node, tf, maps, base_frame, send_and_wait, echo, stop)
+                    _look_around(node, tf, maps, costmaps, params.circumscribed_radius, base_frame, send_and_wait,
+                                 echo, stop)
             waiting = True
             stop.wait(period)
             continue
@@ -167,15 +168,28 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
     return report
 
 
-def _look_around(node, tf, maps, base_frame: str, send_and_wait, echo, stop: threading.Event) -> None:
+def _look_around(node, tf, maps, costmaps, circumscribed: float, base_frame: str, send_and_wait, echo,
+                 stop: threading.Event) -> None:
     """A full turn in place, a quarter at a time, each a move_base goal at the robot's position (a goal
-    move_base gives up on ends the turn early: the frontiers take over)."""
+    move_base gives up on ends the turn early: the frontiers take over). None where an obstacle of SLAM's map
+    or the global costmap lies within the ``circumscribed`` radius: the turn would sweep it. Asked there at the
+    end of the room's exploration, the local planner found every rotation colliding, move_base ran its
+    recoveries for 34 simulated seconds and refused the goal as "in an obstacle"."""
     m = maps.latest()
     frame = m.header.frame_id or "map"
     try:
         pose = tf.buffer.lookup_pose2d(frame, base_frame, 0.0, timeout=5.0)
     except Exception as e:  # noqa: BLE001 - no pose yet: the frontiers' loop waits for it
         echo(f"  no look around: {e}")
+        return
+    grids = [grid_from_map(m.data, m.resolution, (m.origin.x, m.origin.y), 0.0, keep=(pose.x, pose.y))]
+    cm = costmaps.latest()
+    if cm is not None and cm.header.frame_id.lstrip("/") == frame.lstrip("/"):
+        grids.append(Grid(cm.data, cm.resolution, (cm.origin.x, cm.origin.y)))
+    near = min(nearest_lethal_m(g, pose.x, pose.y, circumscribed) for g in grids)
+    if near < circumscribed:
+        echo(f"  no look around at ({pose.x:.2f}, {pose.y:.2f}): an obstacle {near:.2f} m from the robot's centre, "
+             f"inside the circle a turn sweeps (circumscribed_radius {circumscribed:g} m)")
         return
     echo(f"looking around at ({pose.x:.2f}, {pose.y:.2f}): four quarter turns")
     for k in range(1, 5):

@@ -120,6 +120,24 @@ def costmap_forbidden(grid: Grid, costmap: Grid) -> np.ndarray:
     return rows_on[:, None] & cols_on[None, :] & (cost >= INSCRIBED) & (cost != NO_INFORMATION)
 
 
+def nearest_lethal_m(grid: Grid, x: float, y: float, within: float) -> float:
+    """Distance from (x, y) to the nearest edge of a LETHAL cell of ``grid`` no farther than ``within`` (inf:
+    none there). A turn in place sweeps the footprint's circumscribed circle: it is free when this is larger."""
+    n = int(np.ceil(within / grid.resolution)) + 1
+    c = int(np.floor((x - grid.origin[0]) / grid.resolution))
+    r = int(np.floor((y - grid.origin[1]) / grid.resolution))
+    h, w = grid.data.shape
+    r0, r1, c0, c1 = max(r - n, 0), min(r + n + 1, h), max(c - n, 0), min(c + n + 1, w)
+    if r0 >= r1 or c0 >= c1:
+        return float("inf")
+    rows, cols = np.nonzero(grid.data[r0:r1, c0:c1] == LETHAL)
+    if len(rows) == 0:
+        return float("inf")
+    d = np.hypot(*(grid.centres(rows + r0, cols + c0) - (x, y)).T) - 0.5 * grid.resolution
+    d = d[d <= within]
+    return max(float(d.min()), 0.0) if len(d) else float("inf")
+
+
 def reachable(grid: Grid, robot: tuple[float, float], seed_radius: float = 0.0) -> np.ndarray:
     """Free cells (cost below INSCRIBED) 4-connected to a free cell within ``seed_radius`` of the robot (on
     its side of any wall), or else to the free cell nearest it.

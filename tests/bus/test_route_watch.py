@@ -158,7 +158,8 @@ def test_every_message_carries_its_publishers_sequence_number(node_pair):
     for _ in range(3):
         pub.publish(Text(data="hello"))
     wait_for(lambda: sub.received == 3, 30, "three messages")
-    n, _, _, _, (entity, sn), skipped = sub.sources[b"talker"]
+    st = sub.sources[b"talker"]
+    n, (entity, sn), skipped = st.n, st.sn, st.skipped
     assert (n, sn, skipped) == (3, 3, 0)
     assert entity == str(pub._id)
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from master_side.costmap.cost_values import FREE, INSCRIBED, LETHAL, NO_INFORMATION
-from master_side.exploration.frontiers import Grid, costmap_forbidden, grid_from_map, reachable, search
+from master_side.exploration.frontiers import (Grid, costmap_forbidden, grid_from_map, nearest_lethal_m, reachable,
+                                               search)
 
 RES = 0.1
 
@@ -234,3 +235,17 @@ def test_a_robot_whose_free_region_is_a_small_pocket_searches_across_the_band_al
     big[0:32, 30:32] = INSCRIBED  # ... and the band parts it from a strip with the east frontier
     fs_big = search(Grid(big, RES, (0.0, 0.0)), pocket_robot, min_frontier_size=0.0, inscribed_radius=0.0)
     assert not fs_big
+
+
+def test_the_nearest_obstacle_says_whether_a_turn_in_place_is_free():
+    """A wall cell 0.30-0.35 m east of the robot (0.05 m cells): 0.30 m to its edge, so a P3-AT's 0.36 m
+    turning circle is not free; looked for within 0.25 m it is out of reach; none at all on an empty grid or
+    off the grid."""
+    data = np.full((40, 40), FREE, np.uint8)
+    data[20, 26] = LETHAL  # x from 0.30 to 0.35 m
+    grid = Grid(data, 0.05, (-1.0, -1.0))  # the robot at (0, 0): the corner of cells (20, 20) and (19, 19)
+    assert nearest_lethal_m(grid, 0.0, 0.0, 0.36) == pytest.approx(np.hypot(0.325, 0.025) - 0.025, abs=1e-9)
+    assert nearest_lethal_m(grid, 0.0, 0.0, 0.25) == float("inf")
+    assert nearest_lethal_m(Grid(np.full((40, 40), FREE, np.uint8), 0.05, (-1.0, -1.0)), 0.0, 0.0, 0.36) == float("inf")
+    assert nearest_lethal_m(grid, 10.0, 10.0, 0.36) == float("inf")
+    assert nearest_lethal_m(grid, 0.32, 0.02, 0.36) == 0.0  # on it
