@@ -4,8 +4,9 @@
 real calls through the planners' and SLAM's public entry points, so the kernels are compiled for the
 argument types the nodes use and land in numba's on-disk cache (``__pycache__`` beside each module, or
 the user's cache when that is read-only). Later processes load them in milliseconds; a cold compile
-costs a few seconds per component. Prints one line per component. (move_base also warms its planners
-at start, ``master_side.planning.warmup``, so its first control cycle does not start numba.)
+costs a few seconds per component (the simulator's sonar ring too). Prints one line per component.
+(move_base also warms its planners at start, ``master_side.planning.warmup``, so its first control cycle
+does not start numba.)
 """
 
 from __future__ import annotations
@@ -27,7 +28,14 @@ def _slam() -> None:
     warm_filter()
 
 
-COMPONENTS = {"planners (navfn, DWA, trajectory rollout)": _planners, "SLAM (gmapping filter)": _slam}
+def _simulator() -> None:
+    from robot_side.sim.simulator import Simulator
+
+    Simulator.from_config({"world": "room", "laser": None, "depth_camera": None, "sonar": {}}).sonar_reading()
+
+
+COMPONENTS = {"planners (navfn, DWA, trajectory rollout)": _planners, "SLAM (gmapping filter)": _slam,
+              "simulator (sonar ring)": _simulator}
 
 
 def _timed(name: str) -> float:

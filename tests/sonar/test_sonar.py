@@ -419,3 +419,26 @@ def test_when_no_source_frees_the_padding_a_wall_seen_earlier_beside_the_flank_s
 def test_the_cone_option_without_the_window_is_refused():
     with pytest.raises(ValueError, match="min_mark_separation_fov needs min_mark_separation"):
         ObservationSourceParams(min_mark_separation_fov=0.26).validate()
+
+
+@pytest.mark.parametrize("world", ["room", "office02"])
+def test_the_ring_cast_at_once_gives_each_fans_own_cast_to_the_bit(world, shared_dir):
+    """``sim.sonar.nearest_hits`` (every fan in one compiled loop) against each fan's own
+    ``Laser.ranges_exact``, at 400 random poses over the whole world (inside walls too), exactly equal."""
+    from robot_side.sim.sonar import nearest_hits
+
+    if world == "office02":
+        world = str(shared_dir / "datasets" / "mrpb" / "maps" / "office02" / "map.yaml")
+    sim = Simulator.from_config({"world": world, "start": [0.0, 0.0, 0.0], "laser": None, "depth_camera": None,
+                                 "sonar": {"noise_std": 0.0}})
+    fans, w = sim.sonar.fans, sim.world
+    h, wd = w.heights.shape
+    rng = np.random.default_rng(7)
+    echoes = 0
+    for _ in range(400):
+        pose = Pose2D(w.origin[0] + rng.uniform(0, wd * w.resolution), w.origin[1] + rng.uniform(0, h * w.resolution),
+                      rng.uniform(-math.pi, math.pi))
+        each = np.array([float(np.min(f.ranges_exact(pose))) for f in fans])
+        assert np.array_equal(nearest_hits(fans, pose), each), pose
+        echoes += int(np.isfinite(each).sum())
+    assert echoes > 400 * 16 // 2  # most cones hear a wall: the comparison is not of empty results
