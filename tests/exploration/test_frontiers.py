@@ -6,8 +6,14 @@ import numpy as np
 import pytest
 
 from master_side.costmap.cost_values import FREE, INSCRIBED, LETHAL, NO_INFORMATION
-from master_side.exploration.frontiers import (Grid, costmap_forbidden, grid_from_map, nearest_lethal_m, reachable,
-                                               search)
+from master_side.exploration.frontiers import (
+    Grid,
+    costmap_forbidden,
+    grid_from_map,
+    nearest_lethal_m,
+    reachable,
+    search,
+)
 
 RES = 0.1
 
