@@ -68,6 +68,8 @@ def _progress(rec: Recorder, elapsed: float) -> str:
     mb = sum(s.bytes for _, s in stats) / 1e6
     per = " ".join(f"{t}={s.messages}/{s.bytes / 1e6:.1f}MB" for t, s in stats)
     extra = f" dropped={rec.dropped}" if rec.dropped else ""
+    if lost := rec.gaps.total():
+        extra += f" lost={lost}"
     return f"zenav record: {elapsed:.0f} s {n} msgs {mb:.1f} MB{extra} | {per or 'nothing yet'}"
 
 
@@ -144,6 +146,10 @@ def _summary(rec: Recorder | None, out: str, topics: list[str] | None, elapsed: 
     print(_progress(rec, elapsed).replace("zenav record:", f"zenav record: wrote {out}:", 1), file=sys.stderr)
     if rec.malformed:
         print(f"zenav record: {rec.malformed} malformed payload(s) skipped", file=sys.stderr)
+    if rec.gaps.lost:
+        per = ", ".join(f"{t} {n}" for t, n in sorted(rec.gaps.lost.items()))
+        print(f"zenav record: {rec.gaps.total()} message(s) lost on the way, numbered by their publishers but "
+              f"never received ({per}): the recorder or its link could not keep up", file=sys.stderr)
     silent = [t for t in topics or () if t not in rec.writer.stats]
     if silent:
         print(f"zenav record: nothing received on {', '.join(silent)}", file=sys.stderr)

@@ -3,7 +3,9 @@
 Zenoh subscriptions (and latched fetches, asked of each latched publisher as its token appears) feed one
 queue; one writer thread decodes, stamps (log time = the message stamp, the bus clock when it has none),
 throttles per topic and writes. The queue is bounded in bytes: a writer behind by ``MAX_QUEUED_BYTES``
-drops new messages, counted. The command module (deploy/cli/record.py) parses options and prints.
+drops new messages, counted. Messages lost before they reached the recorder (a stream publisher drops what
+its link to a starved recorder cannot take, by design) are counted from the publishers' sequence numbers
+(``lost``). The command module (deploy/cli/record.py) parses options and prints.
 """
 
 from __future__ import annotations
@@ -14,10 +16,34 @@ import time
 
 from common.bus import close_quietly
 from common.live_keys import LiveKey, live_key
+from common.route_watch import sequence_number
 
 log = logging.getLogger(__name__)
 
 MAX_QUEUED_BYTES = 512 << 20  # the writer is behind by this much: drop (and count) new messages
+
+
+class Gaps:
+    """Numbered messages that never came, per (topic, publisher entity): a sequence number more than one past
+    the last one seen counts the ones in between. The first message of a publisher counts nothing (what it
+    sent before the recorder listened is not a loss); a number at or below the last (a repeat) neither."""
+
+    def __init__(self) -> None:
+        self.last: dict[tuple[str, str], int] = {}
+        self.lost: dict[str, int] = {}  # topic -> messages lost on the way
+
+    def add(self, topic: str, sn: tuple[str, int] | None) -> None:
+        if sn is None:
+            return
+        key = (topic, sn[0])
+        last = self.last.get(key)
+        if last is None or sn[1] > last:
+            self.last[key] = sn[1]
+        if last is not None and sn[1] > last + 1:
+            self.lost[topic] = self.lost.get(topic, 0) + sn[1] - last - 1
+
+    def total(self) -> int:
+        return sum(self.lost.values())
 
 
 class Recorder:
@@ -38,6 +64,7 @@ class Recorder:
         self.q: queue.Queue = queue.Queue()
         self.queued_bytes = 0
         self.dropped = self.malformed = 0
+        self.gaps = Gaps()
         self._lock = threading.Lock()
         self._queried: set[str] = set()
         self._last_hash: dict[str, int] = {}  # topic -> hash of its last payload
@@ -87,6 +114,8 @@ class Recorder:
             return
         data = sample.payload.to_bytes()
         with self._lock:
+            if record and not reply:
+                self.gaps.add(topic, sequence_number(sample))
             if self.queued_bytes > MAX_QUEUED_BYTES:
                 self.dropped += 1
                 return

@@ -4,6 +4,7 @@ published, latched topics fetched once per publisher, costmaps throttled, times 
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import sys
@@ -194,3 +195,51 @@ def test_all_topics_until_sigterm_then_a_complete_file_and_bad_paths_exit_2(tmp_
                               "--no-multicast"], env=env, capture_output=True, text=True, timeout=60)
         assert res.returncode == 2, res.stderr
         assert res.stderr.startswith("zenav record: cannot write") and res.stderr.count("\n") == 1, res.stderr
+
+
+def test_messages_lost_while_the_recorder_was_frozen_are_counted_from_their_numbers(tmp_path, bus):
+    """The recorder stopped (SIGSTOP) for longer than the link lease: this process closes the link and what
+    odom published meanwhile never reaches it. Resumed, it dials again and records on. Its summary names the
+    messages lost on the way (from the publisher's sequence numbers), and the file's messages plus the lost
+    ones are exactly every message numbered from its first to its last."""
+    robot, ep, hub, _ = bus
+    pub = hub.publisher("odom")  # a stream: dropped, not queued, when the link is gone
+    out, proc = _record(tmp_path, robot, ep, "--topics", "odom", "--progress", "0")
+    stop, sent = threading.Event(), [0]
+
+    def publish() -> None:
+        while not stop.is_set():
+            pub.publish(_msg("odom", sent[0], time.time()))
+            sent[0] += 1
+            stop.wait(0.02)
+
+    th = threading.Thread(target=publish, daemon=True)
+    try:
+        wait_until(lambda: pub.matching, 60, "the recorder's subscription")
+        th.start()
+        wait_until(lambda: sent[0] >= 50, 30, "a second of odom")
+        proc.send_signal(signal.SIGSTOP)
+        wait_until(lambda: not pub.matching, 60, "the frozen recorder's link closed")
+        frozen_at = sent[0]
+        wait_until(lambda: sent[0] >= frozen_at + 50, 30, "odom sent while nobody listens")
+        proc.send_signal(signal.SIGCONT)
+        wait_until(lambda: pub.matching, 60, "the recorder back")
+        back_at = sent[0]
+        wait_until(lambda: sent[0] >= back_at + 50, 30, "a second of odom after it")
+        stop.set()
+        th.join()
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        stop.set()
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGCONT)
+            proc.kill()
+    assert proc.returncode == 0, err
+    seqs = [_seq("odom", r.msg) for r in read_records(out) if r.topic == "odom"]
+    found = re.search(r"(\d+) message\(s\) lost on the way.*\(odom (\d+)\)", err)
+    assert found, err
+    lost = int(found[2])
+    print(f"recorded {len(seqs)} odom, lost {lost}, numbered {seqs[0]}..{seqs[-1]}")
+    assert lost >= 40, (lost, err)  # at least the 50 sent while the link was closed, less any sent before
+    assert len(seqs) + lost == seqs[-1] - seqs[0] + 1, (len(seqs), lost, seqs[0], seqs[-1])
