@@ -9,7 +9,8 @@ with one thread, so the server checks that after its imports and never starts a 
 started one, the server says so and the agent starts its nodes with ``python -m`` as before.
 On by default (``ZENAV_FORK_SERVER=0`` starts every node with ``python -m``): the simulated P3-AT's two
 agents start in 6.0-7.2 s of CPU instead of 9.2-10.2 s (``bench/stack_cpu.py``, ``stack_start_cpu_s``).
-The imports are frozen out of the garbage collector (``gc.freeze``) before the first fork.
+The imports are frozen out of the garbage collector (``gc.freeze``) before the first fork, after each
+module's ``warm_before_fork()`` if it has one (WARM_HOOK below).
 
     python -u -m common.fork_server FD MODULE... PAD   (started by ForkServer, FD a SOCK_SEQPACKET socket)
 
@@ -63,11 +64,24 @@ def _send(sock: socket.socket, msg: dict, fds: tuple[int, ...] = ()) -> None:
 
 
 # -- the server (its own process) ---------------------------------------------------------------------
+# A node module may define ``warm_before_fork()``: the server calls it after importing the module, before
+# any fork, so what every node of that module would load at its start (numba's kernels, from their cache:
+# about 0.5 s of CPU per process for numba's start alone) is loaded once per agent and shared by the forks.
+# What it loads must live in other modules (the kernels' own): the node's module runs afresh as __main__
+# in each fork. It must not start a thread (the server checks, as after the imports); a failure is ignored
+# there and met again, with the node's own output, when the node warms itself at its start.
+WARM_HOOK = "warm_before_fork"
+
+
 def serve(fd: int, modules: list[str]) -> None:
     sock = socket.socket(fileno=fd)
     for m in modules:  # a module that fails to import fails again in its node, with the node's output
         with contextlib.suppress(BaseException):  # SystemExit too: the node reports it
-            importlib.import_module(m)
+            mod = importlib.import_module(m)
+            # what each node would load at its start, loaded once here for every fork (WARM_HOOK)
+            hook = getattr(mod, WARM_HOOK, None)
+            if callable(hook):
+                hook()
     others = [t.name for t in threading.enumerate() if t is not threading.main_thread()]
     if others:
         _send(sock, {"unsafe": others})

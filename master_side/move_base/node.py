@@ -364,6 +364,14 @@ class MoveBaseNode:
         self.tf.close()
 
 
+def warm_before_fork() -> None:
+    """(common.fork_server) The planners' compiled kernels, loaded once for every move_base forked after."""
+    from master_side.planning.warmup import warm_navfn
+
+    warm_navfn()
+    warm_local_planners()
+
+
 def start(node: Node, cfg: dict, source: str) -> MoveBaseNode:
     # The bus's receiving threads share the GIL with the control cycle: hand it over every 1 ms
     # instead of Python's 5 ms, so decoding a costmap delays a cycle by little.

@@ -185,6 +185,11 @@ class SlamNode:
         self.sub.close()
 
 
+def warm_before_fork() -> None:
+    """(common.fork_server) The filter's compiled kernels, loaded once for every SLAM node forked after."""
+    warm_filter()
+
+
 def start(node, cfg: dict, source: str) -> SlamNode:
     """cfg: slam_gmapping parameters, or ``gmapping: FILE`` (the parameters file, e.g. the tutorial's)
     plus keys that override it."""

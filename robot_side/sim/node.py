@@ -301,6 +301,13 @@ def check(cfg: dict, source: str) -> list[str]:
     return []
 
 
+def warm_before_fork() -> None:
+    """(common.fork_server) The sonar ring's compiled cast, loaded once for every simulator forked after."""
+    from robot_side.sim.sonar import warm_kernel
+
+    warm_kernel()
+
+
 def start(node, cfg: dict, source: str) -> SimNode:
     p, sim, world = load(cfg, source)
     return SimNode(node, p, sim, world)

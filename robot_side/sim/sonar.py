@@ -88,6 +88,14 @@ class SimSonar:
 
 
 
+def warm_kernel() -> None:
+    """Load (or compile) ``nearest_hits``' kernel for the argument types it is called with, on one empty fan."""
+    one, none = np.zeros(1), np.zeros(0)
+    flags = np.zeros(0, dtype=bool)
+    _fans_nearest(none, none, flags, flags, flags, flags, flags, 0.05, one, one, np.zeros((1, 4)),
+                  np.ones((1, 1)), np.ones((1, 1)), one, np.zeros(1))
+
+
 def nearest_hits(fans: list[Laser], robot: Pose2D) -> np.ndarray:
     """Each grid fan's nearest hit (``min(fan.ranges_exact(robot))``, the same bits: +inf when none within its
     range_max), every fan in one compiled loop over their shared surface cells. Cast fan by fan in numpy, 16

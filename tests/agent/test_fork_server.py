@@ -92,3 +92,30 @@ def test_a_module_that_starts_a_thread_at_import_makes_nodes_start_with_python_m
     finally:
         sup.stop()
         assert sup.wait(30)
+
+
+def test_a_modules_warm_before_fork_runs_once_in_the_server_and_every_fork_has_what_it_loaded(launch_dir):
+    """``warm_before_fork()`` (common.fork_server.WARM_HOOK) runs in the server after the import: two forked
+    nodes find what it loaded into another module (as numba's kernels live in theirs), loaded in the
+    server's process, not in their own. (The node's module itself runs afresh as __main__.)"""
+    (launch_dir / "warm_state.py").write_text("WARMED = []\n")  # like the module holding a node's kernels
+    (launch_dir / "warm_node.py").write_text(
+        "import os, time\n"
+        "import warm_state\n"
+        "def warm_before_fork():\n"
+        "    warm_state.WARMED.append(os.getpid())\n"
+        "if __name__ == '__main__':\n"
+        "    print(f'warmed by {warm_state.WARMED} in {os.getpid()}', flush=True)\n"
+        "    time.sleep(600)\n")
+    out = io.StringIO()
+    sup = make([spec(launch_dir, n, module="warm_node") for n in ("one", "two")], out=out).start()
+    try:
+        wait_until(lambda: out.getvalue().count("warmed by") == 2, 60, "both nodes up")
+        parents = {psutil.Process(sup.nodes[n].pid).parent().pid for n in ("one", "two")}
+        assert len(parents) == 1 and parents != {os.getpid()}, parents
+        server = parents.pop()
+        for n in ("one", "two"):
+            assert f"[{n}] warmed by [{server}] in {sup.nodes[n].pid}" in out.getvalue(), out.getvalue()
+    finally:
+        sup.stop()
+        assert sup.wait(30)
