@@ -88,16 +88,23 @@ def state(r: Remote) -> dict:
 
 
 def log_command(r: Remote, node: str = "", lines: int = 100, follow: bool = False) -> str:
-    """Shell line printing the service log (one node's lines: the agents prefix them ``[node] ``)."""
+    """Shell line printing the service log's last ``lines`` lines, or one node's last ``lines`` (the agents
+    prefix them ``[node] ``), then following it with ``follow``. A node's lines are picked before they are
+    counted: picked from the log's last ``lines`` lines, ``zenav fleet logs robot1 sim -n 5`` printed nothing
+    and failed whenever other nodes had logged last."""
     h = r.host
     if _systemd(r):
-        cmd = f"journalctl -u {h.service}.service -n {lines} --no-pager -o cat" + (" -f" if follow else "")
+        unit = f"journalctl -u {h.service}.service --no-pager -o cat"
+        last, then, everything, new = f"{unit} -n {lines}", f"{unit} -n {lines} -f", unit, f"{unit} -n 0 -f"
     else:
         log = shlex.quote(f"{paths(h)['log']}/{h.service}.log")
-        cmd = f"tail -n {lines} {'-F ' if follow else ''}{log}"
-    if node:
-        cmd += f" | grep --line-buffered -F {shlex.quote(f'[{node}] ')}"
-    return cmd
+        last, then, everything, new = (f"tail -n {lines} {log}", f"tail -n {lines} -F {log}", f"cat {log}",
+                                       f"tail -n 0 -F {log}")
+    if not node:
+        return then if follow else last
+    pick = f"grep --line-buffered -F {shlex.quote(f'[{node}] ')}"
+    cmd = f"{everything} | {pick} | tail -n {lines}"
+    return f"{{ {cmd}; {new} | {pick}; }}" if follow else cmd
 
 
 def last_errors(r: Remote, n: int = 3) -> list[str]:

@@ -259,3 +259,30 @@ def test_status_names_a_master_that_does_not_reach_its_running_robot():
     linked = statuses(["robot_agent", "sim"])
     evaluate(linked)
     assert report(linked)[1] == 0
+
+
+def test_a_nodes_log_lines_are_picked_before_the_last_ones_are_counted(tmp_path):
+    """`zenav fleet logs HOST NODE -n 5` on a supervised host (no systemd): the shell line, run by bash on a
+    real log file, prints the node's own last 5 lines even when other nodes logged after them (it printed
+    nothing, exit 1, when it took the log's last 5 lines first); without a node, the log's last 5."""
+    import dataclasses
+
+    from deploy.fleet.inventory import Host
+    from deploy.fleet.render import paths
+    from deploy.fleet.services import log_command
+    from deploy.fleet.ssh import Remote
+
+    host = dataclasses.replace(Host("r1", "10.0.0.1", "robot", "p", "x.yaml"), install_dir=str(tmp_path),
+                               service_manager="supervisor")
+    log = Path(paths(host)["log"]) / f"{host.service}.log"
+    log.parent.mkdir(parents=True)
+    lines = [f"[sim] step {i}" for i in range(8)] + [f"[move_base] cycle {i}" for i in range(20)]
+    log.write_text("\n".join(lines) + "\n")
+
+    def run(node: str) -> subprocess.CompletedProcess:
+        return subprocess.run(["bash", "-c", log_command(Remote(host), node, 5)], capture_output=True, text=True)
+
+    sim = run("sim")
+    assert sim.returncode == 0 and sim.stdout.splitlines() == [f"[sim] step {i}" for i in range(3, 8)], sim
+    assert run("").stdout.splitlines() == lines[-5:]
+    assert run("amcl").stdout == ""  # a node that logged nothing: nothing printed
