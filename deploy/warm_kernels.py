@@ -29,9 +29,9 @@ def _slam() -> None:
 
 
 def _simulator() -> None:
-    from robot_side.sim.simulator import Simulator
+    from robot_side.sim.sonar import warm_kernel
 
-    Simulator.from_config({"world": "room", "laser": None, "depth_camera": None, "sonar": {}}).sonar_reading()
+    warm_kernel()
 
 
 COMPONENTS = {"planners (navfn, DWA, trajectory rollout)": _planners, "SLAM (gmapping filter)": _slam,

@@ -94,17 +94,18 @@ def log_command(r: Remote, node: str = "", lines: int = 100, follow: bool = Fals
     and failed whenever other nodes had logged last."""
     h = r.host
     if _systemd(r):
-        unit = f"journalctl -u {h.service}.service --no-pager -o cat"
-        last, then, everything, new = f"{unit} -n {lines}", f"{unit} -n {lines} -f", unit, f"{unit} -n 0 -f"
+        whole = f"journalctl -u {h.service}.service --no-pager -o cat"
+        last, coming = f"{whole} -n {lines}", f"{whole} -n 0 -f"
+        follow_last = f"{last} -f"
     else:
         log = shlex.quote(f"{paths(h)['log']}/{h.service}.log")
-        last, then, everything, new = (f"tail -n {lines} {log}", f"tail -n {lines} -F {log}", f"cat {log}",
-                                       f"tail -n 0 -F {log}")
+        whole, last, coming = f"cat {log}", f"tail -n {lines} {log}", f"tail -n 0 -F {log}"
+        follow_last = f"tail -n {lines} -F {log}"
     if not node:
-        return then if follow else last
+        return follow_last if follow else last
     pick = f"grep --line-buffered -F {shlex.quote(f'[{node}] ')}"
-    cmd = f"{everything} | {pick} | tail -n {lines}"
-    return f"{{ {cmd}; {new} | {pick}; }}" if follow else cmd
+    last = f"{whole} | {pick} | tail -n {lines}"
+    return f"{{ {last}; {coming} | {pick}; }}" if follow else last
 
 
 def last_errors(r: Remote, n: int = 3) -> list[str]:

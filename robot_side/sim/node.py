@@ -142,7 +142,7 @@ class SimNode:
                      node.subscribe("sim/spawn_box", SpawnBox, callback=self._on_spawn_box)]
         node.log.info("%s", self.summary(world_path))
         if sim.sonar is not None:  # its compiled cast loads (or compiles) now, not in the first step's clock
-            sim.sonar.warm(sim.base.pose)
+            sim.sonar.warm()
         self._thread = threading.Thread(target=self._run, name="sim:loop", daemon=True)
         self._thread.start()
 

@@ -65,15 +65,20 @@ class SimSonar:
             for fan in self.fans[1:]:
                 fan.cells = first.cells
 
-    def warm(self, robot: Pose2D) -> None:
+    @property
+    def grid_cast(self) -> bool:
+        """Whether the fans cast over the grid's surface cells (the kinematic engine): ``nearest_hits``."""
+        return bool(self.fans) and hasattr(self.fans[0], "cells")
+
+    def warm(self) -> None:
         """Load (or compile) the grid casts' kernel now; no reading, no noise drawn."""
-        if self.fans and hasattr(self.fans[0], "cells"):
-            nearest_hits(self.fans, robot)
+        if self.grid_cast:
+            warm_kernel()
 
     def ranges(self, robot: Pose2D) -> np.ndarray:
         """Each sonar's reading, metres (``range_max`` for no echo)."""
         rmax = self.ring.range_max
-        if self.fans and hasattr(self.fans[0], "cells"):  # grid casts: every fan at once
+        if self.grid_cast:  # every fan at once
             out = nearest_hits(self.fans, robot)
         else:
             out = np.array([float(np.min(fan.ranges_exact(robot))) for fan in self.fans])
@@ -85,7 +90,6 @@ class SimSonar:
 
     def reading(self, robot: Pose2D, stamp: float) -> SonarArray:
         return SonarArray(Header(stamp, self.p.frame_id), tuple(float(r) for r in self.ranges(robot)))
-
 
 
 def warm_kernel() -> None:
