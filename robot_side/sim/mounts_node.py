@@ -10,10 +10,8 @@ import threading
 from common.geometry import OPTICAL_FROM_LINK, Transform
 from common.messages import Header, TransformStamped
 from common.tf import StaticTFBroadcaster, TFError, TFListener
-from robot_side.sim.node_params import SimNodeParams
+from robot_side.sim.node_params import CAMERA_LINK, SimNodeParams
 from robot_side.sim.simulator import Simulator
-
-CAMERA_LINK = "camera_link"
 
 
 class SensorMounts:

@@ -47,14 +47,13 @@ from typing import Any
 
 import numpy as np
 
-from common.config import ConfigError, load_params
 from common.geometry import Pose2D
 from common.messages import BatteryState, BumperState, Clock, Header, MotorState, SpawnBox, Twist
 from common.tf import StaticTFBroadcaster, TFBroadcaster, TFListener
 from robot_side.bumpers.geometry import BumperParams, PressLatch
-from robot_side.sim.mounts_node import CAMERA_LINK, SensorMounts
-from robot_side.sim.node_params import SIMULATOR_KEYS, SimNodeParams
-from robot_side.sim.simulator import Pacer, Simulator, resolve_world
+from robot_side.sim.mounts_node import SensorMounts
+from robot_side.sim.node_params import SimNodeParams, describe, load
+from robot_side.sim.simulator import Pacer, Simulator
 
 log = logging.getLogger("zenav.sim")
 # Wall time between the physics thread's wake-ups: above 1x real time the steps due run together and the
@@ -81,25 +80,6 @@ class _Tick:
             self.last = k
             return True
         return False
-
-
-def load(cfg: dict | None, source: str) -> tuple[SimNodeParams, Simulator, str]:
-    cfg = dict(cfg or {})
-    sim_cfg = {k: cfg.pop(k) for k in SIMULATOR_KEYS if k in cfg}
-    names = {a for f in dataclasses.fields(SimNodeParams) for a in (f.name, *f.metadata.get("aliases", ()))}
-    for k in cfg:
-        if k not in names:
-            known = ", ".join(sorted((*SIMULATOR_KEYS, *names)))
-            raise ConfigError(source, str(k), f"unknown key (known keys: {known})")
-    p = load_params(SimNodeParams, cfg, source)
-    sim_cfg.setdefault("world", p.default_world)
-    for sensor in ("laser", "depth_camera"):  # absent = no such sensor (one scan publisher per robot)
-        sim_cfg.setdefault(sensor, None)
-    sim = Simulator.from_config(sim_cfg, source)
-    if sim.camera is not None and sim.camera.p.frame_id in (CAMERA_LINK, p.depth_frame_id):
-        raise ConfigError(source, "depth_camera.frame_id",
-                          f"must name the optical frame, not {sim.camera.p.frame_id!r}")
-    return p, sim, str(resolve_world(sim_cfg["world"], source))
 
 
 class SimNode:
@@ -140,37 +120,11 @@ class SimNode:
         self.subs = [node.subscribe(p.cmd_vel_topic, Twist, callback=self._on_cmd_vel),
                      node.subscribe("cmd_motor_state", MotorState, callback=self._on_motor_state),
                      node.subscribe("sim/spawn_box", SpawnBox, callback=self._on_spawn_box)]
-        node.log.info("%s", self.summary(world_path))
+        node.log.info("%s", describe(sim, p, self.speed, world_path))
         if sim.sonar is not None:  # its compiled cast loads (or compiles) now, not in the first step's clock
             sim.sonar.warm()
         self._thread = threading.Thread(target=self._run, name="sim:loop", daemon=True)
         self._thread.start()
-
-    # ------------------------------------------------------------------ description
-    def summary(self, world_path: str = "") -> str:
-        s, b = self.sim, self.sim.base
-        parts = [f"world '{s.world.name}' ({world_path})" if world_path else f"world '{s.world.name}'",
-                 f"start x={b.pose.x:.2f} y={b.pose.y:.2f} yaw={b.pose.theta:.2f}"]
-        if s.laser:
-            lp = s.laser.p
-            fov = math.degrees(lp.angle_max - lp.angle_min)
-            parts.append(f"laser '{lp.frame_id}' on {lp.topic} {lp.samples} beams {fov:.0f} deg "
-                         f"{lp.range_max:g} m {lp.rate:g} Hz")
-        if s.camera:
-            cp = s.camera.p
-            parts.append(f"depth '{cp.frame_id}' {s.camera.width}x{s.camera.height} {cp.publish_rate:g} Hz")
-        if not (s.laser or s.camera):
-            parts.append("no sensors")
-        start = "wall time" if self.p.start_time is None else f"{self.p.start_time:g} s"
-        if s.params.engine == "mujoco":
-            ph = s.base.phys
-            parts.append(f"engine mujoco ({s.base.body.name} body, physics step {ph.timestep * 1e3:g} ms, "
-                         f"friction {ph.friction:g})")
-        else:
-            parts.append("engine kinematic")
-        parts.append(f"speed {self.speed:g}x, dt {s.params.dt:g} s, sim time from {start}, "
-                     f"{self.p.cmd_vel_topic} timeout {b.p.cmd_vel_timeout:g} s")
-        return "simulator: " + ", ".join(parts)
 
     # ------------------------------------------------------------------ inputs
     def _on_cmd_vel(self, twist: Twist) -> None:

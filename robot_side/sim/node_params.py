@@ -1,12 +1,18 @@
-"""Parameters of the simulator bus node (``robot_side.sim.node``) that the pure Simulator does not have."""
+"""Parameters of the simulator bus node (``robot_side.sim.node``) that the pure Simulator does not have, the
+node's mapping loaded into them and a Simulator, and the line the node starts with."""
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 
-from common.config import param
+from common.config import ConfigError, load_params, param
+from robot_side.sim.simulator import Simulator, resolve_world
 
-__all__ = ["SimNodeParams", "SIMULATOR_KEYS"]
+__all__ = ["SimNodeParams", "SIMULATOR_KEYS", "CAMERA_LINK", "load", "describe"]
+
+CAMERA_LINK = "camera_link"  # the Kinect's mount frame (the tutorial's static transform names it)
 
 # keys of the node's mapping that go to ``Simulator.from_config``; every other key is a SimNodeParams field
 SIMULATOR_KEYS = ("world", "start", "world_params", "sim", "base", "laser", "depth_camera", "sonar", "engine",
@@ -44,3 +50,49 @@ class SimNodeParams:
     def validate(self) -> None:
         if self.battery_full_voltage < self.battery_empty_voltage:
             raise ValueError("battery_full_voltage must be >= battery_empty_voltage")
+
+
+def load(cfg: dict | None, source: str) -> tuple[SimNodeParams, Simulator, str]:
+    cfg = dict(cfg or {})
+    sim_cfg = {k: cfg.pop(k) for k in SIMULATOR_KEYS if k in cfg}
+    names = {a for f in dataclasses.fields(SimNodeParams) for a in (f.name, *f.metadata.get("aliases", ()))}
+    for k in cfg:
+        if k not in names:
+            known = ", ".join(sorted((*SIMULATOR_KEYS, *names)))
+            raise ConfigError(source, str(k), f"unknown key (known keys: {known})")
+    p = load_params(SimNodeParams, cfg, source)
+    sim_cfg.setdefault("world", p.default_world)
+    for sensor in ("laser", "depth_camera"):  # absent = no such sensor (one scan publisher per robot)
+        sim_cfg.setdefault(sensor, None)
+    sim = Simulator.from_config(sim_cfg, source)
+    if sim.camera is not None and sim.camera.p.frame_id in (CAMERA_LINK, p.depth_frame_id):
+        raise ConfigError(source, "depth_camera.frame_id",
+                          f"must name the optical frame, not {sim.camera.p.frame_id!r}")
+    return p, sim, str(resolve_world(sim_cfg["world"], source))
+
+
+def describe(sim: Simulator, p: SimNodeParams, speed: float, world_path: str = "") -> str:
+    """The simulator's start line: world, start, sensors, engine, speed and clock."""
+    s, b = sim, sim.base
+    parts = [f"world '{s.world.name}' ({world_path})" if world_path else f"world '{s.world.name}'",
+             f"start x={b.pose.x:.2f} y={b.pose.y:.2f} yaw={b.pose.theta:.2f}"]
+    if s.laser:
+        lp = s.laser.p
+        fov = math.degrees(lp.angle_max - lp.angle_min)
+        parts.append(f"laser '{lp.frame_id}' on {lp.topic} {lp.samples} beams {fov:.0f} deg "
+                     f"{lp.range_max:g} m {lp.rate:g} Hz")
+    if s.camera:
+        cp = s.camera.p
+        parts.append(f"depth '{cp.frame_id}' {s.camera.width}x{s.camera.height} {cp.publish_rate:g} Hz")
+    if not (s.laser or s.camera):
+        parts.append("no sensors")
+    start = "wall time" if p.start_time is None else f"{p.start_time:g} s"
+    if s.params.engine == "mujoco":
+        ph = s.base.phys
+        parts.append(f"engine mujoco ({s.base.body.name} body, physics step {ph.timestep * 1e3:g} ms, "
+                     f"friction {ph.friction:g})")
+    else:
+        parts.append("engine kinematic")
+    parts.append(f"speed {speed:g}x, dt {s.params.dt:g} s, sim time from {start}, "
+                 f"{p.cmd_vel_topic} timeout {b.p.cmd_vel_timeout:g} s")
+    return "simulator: " + ", ".join(parts)
