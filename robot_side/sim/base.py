@@ -15,6 +15,11 @@ Odometry error (the gmapping terms; dρ, dθ the true translation and rotation o
 
 so after a single 1 m (1 rad) motion the error std is srr (srt) metres and str (stt) radians, and since
 variances add, the error after a straight run of length L has std srr*sqrt(L) (independent of dt).
+With ``gyro`` the heading's step comes from the base's gyro instead (ARIA's ArAnalogGyro, the P3-AT's optional
+gyro, fused by ARCOS firmware into the pose the SIPs report; its noise figures are ARIA's own)::
+
+    dθ' = (1 + gyro_scale_error) dθ + N(0, gyro_noise² dt + gyro_turn_noise² |dθ|)
+
 Odometry integrates (dρ', dθ') from Pose2D(0, 0, 0) in the odom frame, or from Pose2D(0, 0, start yaw)
 with ``odom_start_yaw_from_world`` (an odom frame with the world's axes at the start position, as a
 Jackal's IMU-fused odometry: the BARN challenge sends its goal as (0, 10) in that frame); each step as a turn
@@ -30,98 +35,25 @@ the robot slides along a wall or backs away from it; into it, it stays and its v
 
 from __future__ import annotations
 
-import builtins
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from common.config import ConfigError, load_params, param
 from common.geometry import Pose2D, distance_to_outline, normalize_angle, pivoted, points_in_polygon
 from common.messages import Collision, Header, Odometry, Twist
+from robot_side.sim.base_params import (
+    BASE_PRESETS,
+    JACKAL_FOOTPRINT,
+    LX_FOOTPRINT,
+    P3AT_FOOTPRINT,
+    BaseParams,
+    base_preset,
+    load_base_params,
+)
 from robot_side.sim.world import World
 
 __all__ = ["BaseParams", "CommandedBase", "DiffDriveBase", "P3AT_FOOTPRINT", "JACKAL_FOOTPRINT", "LX_FOOTPRINT",
            "BASE_PRESETS", "base_preset", "load_base_params"]
-
-P3AT_FOOTPRINT = ((0.3302, -0.0508), (0.254, -0.0508), (0.254, -0.254), (-0.254, -0.254), (-0.254, 0.254),
-                  (0.254, 0.254), (0.254, 0.0508), (0.3302, 0.0508))
-
-
-@dataclass(frozen=True)
-class BaseParams:
-    model: builtins.str = param("p3at", choices=("p3at", "jackal", "pioneer_lx"),
-                                doc="the robot (BASE_PRESETS: its defaults; the MuJoCo engine: its body)")
-    footprint: tuple[tuple[float, float], ...] = param(P3AT_FOOTPRINT, unit="m", doc="polygon in base_link")
-    max_vel_x: float = param(0.7, lo=0.0, hi=10.0, unit="m/s", doc="max |forward speed| (P3-AT: 0.7)")
-    max_vel_theta: float = param(math.radians(140), lo=0.0, hi=20.0, unit="rad/s", doc="max |rotation speed|")
-    acc_lim_x: float = param(1.0, lo=0.01, hi=1000.0, unit="m/s^2", doc="linear acceleration limit")
-    acc_lim_th: float = param(2.0, lo=0.01, hi=1000.0, unit="rad/s^2", doc="angular acceleration limit")
-    decel_lim_x: float | None = param(None, lo=0.01, hi=1000.0, unit="m/s^2",
-                                      doc="linear braking limit; default acc_lim_x")
-    decel_lim_th: float | None = param(None, lo=0.01, hi=1000.0, unit="rad/s^2",
-                                       doc="angular braking limit; default acc_lim_th")
-    cmd_vel_timeout: float = param(0.25, lo=0.0, hi=60.0, unit="s",
-                                   doc="brake to a stop when no cmd_vel for this long")
-    motors_enabled: bool = param(True, doc="motors enabled at start (p2os cmd_motor_state)")
-    # `builtins.str`: the gmapping field named `str` shadows the builtin when type hints are resolved
-    odom_frame_id: builtins.str = param("odom", doc="odometry frame")
-    base_frame_id: builtins.str = param("base_link", doc="robot frame")
-    srr: float = param(0.01, lo=0.0, hi=10.0, doc="translation error from translation (m per sqrt(m))")
-    srt: float = param(0.02, lo=0.0, hi=10.0, doc="translation error from rotation (m per sqrt(rad))")
-    str: float = param(0.01, lo=0.0, hi=10.0, doc="rotation error from translation (rad per sqrt(m))")
-    stt: float = param(0.02, lo=0.0, hi=10.0, doc="rotation error from rotation (rad per sqrt(rad))")
-    collision_debounce: float = param(0.5, lo=0.0, hi=60.0, unit="s",
-                                      doc="a contact after this long without one is a new collision")
-    min_obstacle_height: float = param(0.02, lo=0.0, hi=10.0, unit="m", doc="lower cells do not collide")
-    seed: int = param(0, lo=0, doc="odometry noise RNG seed")
-    odom_rotation_center_x: float = param(
-        0.0, lo=-2.0, hi=2.0, unit="m",
-        doc="where on base_link's x axis the odometry takes the base to turn about (zenav; as p2os's "
-            "odom_rotation_center_x: a skid-steered base pivots toward its more loaded axle, `python "
-            "bench/turning.py`); 0: about base_link, as wheel odometry integrates")
-    odom_start_yaw_from_world: bool = param(False, doc="odometry starts at (0, 0, start yaw) instead of "
-                                                       "(0, 0, 0): odom axes aligned with the world's")
-
-    def validate(self) -> None:
-        if len(self.footprint) < 3:
-            raise ValueError("footprint needs at least 3 points")
-
-
-# Clearpath Jackal as simulated by the BARN challenge. Footprint 0.508 x 0.430 m centred on base_link
-# (../shared/datasets/barn/README.md). Limits from jackal_control/config/control.yaml (github jackal/jackal,
-# jackal_velocity_controller): linear.x max_velocity 2.0 m/s, max_acceleration 20.0 m/s^2; angular.z
-# max_velocity 4.0 rad/s, max_acceleration 25.0 rad/s^2; cmd_vel_timeout 0.25 s. Odometry fused with an
-# IMU (robot_localization ekf with the IMU's absolute yaw): small errors, little heading drift (our choice).
-JACKAL_FOOTPRINT = ((0.254, 0.215), (-0.254, 0.215), (-0.254, -0.215), (0.254, -0.215))
-# Pioneer LX (ARIA pioneer-lx.p): RobotLength 696 / RobotWidth 500 mm centred on base_link; TransVelMax
-# 1800 mm/s, RotVelMax 180 deg/s, TransAccel 500 / TransDecel 600 mm/s^2, RotAccel 150 / RotDecel 200 deg/s^2.
-LX_FOOTPRINT = ((0.348, 0.25), (-0.348, 0.25), (-0.348, -0.25), (0.348, -0.25))
-BASE_PRESETS: dict[str, dict] = {
-    "p3at": {},
-    "pioneer_lx": dict(footprint=LX_FOOTPRINT, max_vel_x=1.8, max_vel_theta=math.pi, acc_lim_x=0.5, decel_lim_x=0.6,
-                       acc_lim_th=math.radians(150), decel_lim_th=math.radians(200)),
-    "jackal": dict(footprint=JACKAL_FOOTPRINT, max_vel_x=2.0, max_vel_theta=4.0, acc_lim_x=20.0,
-                   acc_lim_th=25.0, cmd_vel_timeout=0.25, srr=0.01, srt=0.01, str=0.002, stt=0.005,
-                   odom_start_yaw_from_world=True),
-}
-
-
-def base_preset(name: str, **overrides) -> BaseParams:
-    """``base_preset("jackal", seed=3)`` -> BaseParams."""
-    return BaseParams(**{**BASE_PRESETS[name], "model": name, **overrides})
-
-
-def load_base_params(mapping: dict | None, source: str = "<config>", section: str = "base") -> BaseParams:
-    """Like ``load_params`` but an optional ``model:`` key (a ``BASE_PRESETS`` name) sets the defaults."""
-    m = dict(mapping or {})
-    model = m.pop("model", None)
-    if model is not None:
-        if model not in BASE_PRESETS:
-            raise ConfigError(source, f"{section}.model", f"{model!r} is not one of {sorted(BASE_PRESETS)}")
-        m = {**BASE_PRESETS[model], **m, "model": model}
-    return load_params(BaseParams, m, source, section)
-
 
 def _footprint_samples(poly: np.ndarray, step: float) -> np.ndarray:
     """Points inside and on the edge of a polygon, spaced at most ``step`` (robot frame)."""
@@ -190,8 +122,9 @@ class CommandedBase:
 class DiffDriveBase(CommandedBase):
     """Differential drive with ground truth pose (world frame) and noisy odometry (odom frame)."""
 
-    def __init__(self, world: World, params: BaseParams = BaseParams(), start: Pose2D | None = None):
-        self.world, self.p = world, params
+    def __init__(self, world: World, params: BaseParams | None = None, start: Pose2D | None = None):
+        self.world = world
+        self.p = params = params if params is not None else BaseParams()
         self.pose = start if start is not None else world.start  # ground truth in the world (map) frame
         self.odom = Pose2D(0.0, 0.0, self.pose.theta) if params.odom_start_yaw_from_world else Pose2D()
         self.v = self.w = 0.0  # actual velocities
@@ -282,13 +215,13 @@ class DiffDriveBase(CommandedBase):
                     moved = self.pose.compose(_arc(dr, da))
                     if (dr != 0.0 or da != 0.0) and self.penetration(moved) <= deep + 1e-9:
                         self.pose, self.v, self.w = moved, v, w
-                        self._odometry(dr, da)
+                        self._odometry(dr, da, dt)
                         return
                 self.v = self.w = 0.0
                 return
         self.in_contact = False
         self.pose, self.v, self.w = new, nv, nw
-        self._odometry(d_rho, d_th)
+        self._odometry(d_rho, d_th, dt)
 
     def _touch(self, hits: np.ndarray, now: float) -> None:
         """A blocked step: a new collision unless the last contact is recent; where it touches."""
@@ -298,11 +231,15 @@ class DiffDriveBase(CommandedBase):
         self._last_contact_time = now
         self.in_contact = True
 
-    def _odometry(self, d_rho: float, d_th: float) -> None:
+    def _odometry(self, d_rho: float, d_th: float, dt: float) -> None:
         p = self.p
         a, b = abs(d_rho), abs(d_th)
         var_r = p.srr ** 2 * a + p.srt ** 2 * b
-        var_t = p.str ** 2 * a + p.stt ** 2 * b
+        if p.gyro:
+            var_t = (p.gyro_noise ** 2 * dt if a or b else 0.0) + p.gyro_turn_noise ** 2 * b
+            d_th *= 1.0 + p.gyro_scale_error
+        else:
+            var_t = p.str ** 2 * a + p.stt ** 2 * b
         if var_r > 0 or var_t > 0:
             e = self.rng.standard_normal(2)
             d_rho += math.sqrt(var_r) * e[0]

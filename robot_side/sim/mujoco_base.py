@@ -13,7 +13,8 @@ Per physics step (``PhysicsParams.timestep``):
    held while clipped; MuJoCo moves the body, with slip, inertia and contacts;
 3. odometry as the robot computes it: v = r (ω_l + ω_r)/2 and w = r (ω_r - ω_l)/s from the wheel
    joints, or w from a gyro (the true yaw rate plus white noise, sampled at the gyro's rate) for bodies
-   whose ekf fuses the IMU (the Jackal); integrated in the odom frame, turning about base_link or, with
+   whose ekf fuses the IMU (the Jackal), or with ``BaseParams.gyro`` (the P3-AT's optional gyro, its
+   scale error and noise as in the kinematic engine); integrated in the odom frame, turning about base_link or, with
    ``BaseParams.odom_rotation_center_x``, about that point (as the p2os driver with the same parameter).
    Wheel slip and skid become odometry error by themselves: no noise is injected into the wheels;
 4. a contact between the robot's hull and an obstacle geom is a collision, counted once per contact
@@ -175,6 +176,10 @@ class MujocoBase(CommandedBase):
                 self._gyro_next = t + 1.0 / b.gyro_rate
                 self._gyro_bias_sample = b.gyro_noise * float(self.rng.standard_normal()) if b.gyro_noise else 0.0
             self.w = self.true_twist()[1] + self._gyro_bias_sample
+        elif self.p.gyro:  # the P3-AT's optional gyro (BaseParams.gyro: ARIA's figures)
+            p, w = self.p, self.true_twist()[1]
+            var = p.gyro_noise ** 2 * ts + p.gyro_turn_noise ** 2 * abs(w) * ts
+            self.w = (1.0 + p.gyro_scale_error) * w + math.sqrt(var) / ts * float(self.rng.standard_normal())
         else:
             self.w = r * (wr - wl) / (b.wheel_separation * b.wheel_separation_multiplier)
         self.odom = self.odom.compose(pivoted(_arc(self.v * ts, self.w * ts), self.p.odom_rotation_center_x))

@@ -125,6 +125,41 @@ def test_rotation_error_from_rotation():
     assert base.odom.x == 0.0  # no translation noise without srt
 
 
+def test_with_the_gyro_the_heading_follows_its_scale_and_noise_not_the_wheels():
+    """BaseParams.gyro: the heading's step is the gyro's, (1 + scale error) x the true turn plus its noise;
+    the wheels' stt does not apply. Standing, the heading does not drift (a standing base's rate is zeroed)."""
+    exact = DiffDriveBase(empty_world(res=0.5), BaseParams(gyro=True, gyro_scale_error=0.03, gyro_noise=0.0,
+                                                          gyro_turn_noise=0.0, stt=0.5), Pose2D())
+    exact.w = 1.0
+    _run(exact, Twist.planar(0.0, 1.0), 2.0, dt=0.05)
+    assert exact.odom.theta == pytest.approx(1.03 * 2.0, abs=1e-9)
+    assert exact.pose.theta == pytest.approx(2.0, abs=1e-9)
+    turn, noise, per_turn = 2.0, 0.01, 0.02
+    errs = []
+    for seed in range(300):
+        base = DiffDriveBase(empty_world(res=0.5), BaseParams(srr=0.0, srt=0.0, gyro=True, gyro_scale_error=0.0,
+                                                             gyro_noise=noise, gyro_turn_noise=per_turn, seed=seed),
+                             Pose2D())
+        base.w = 1.0
+        _run(base, Twist.planar(0.0, 1.0), turn, dt=0.05)
+        errs.append(base.odom.theta - base.pose.theta)
+    assert np.std(errs) == pytest.approx(math.sqrt(noise ** 2 * turn + per_turn ** 2 * turn), rel=0.2)
+    still = base.odom.theta
+    _run(base, Twist.planar(0.0, 0.0), 2.0, dt=0.05)  # braking, then standing for the rest
+    settled = base.odom.theta
+    _run(base, Twist.planar(0.0, 0.0), 10.0, dt=0.05)
+    assert base.odom.theta == settled != still
+
+
+def test_the_gyros_default_figures_are_arias():
+    """ARIA's ArAnalogGyro: scaling within 3 % of correct; its fusion's variances 0.001 deg^2 per 0.1 s report and
+    0.001 deg^2 per degree turned."""
+    p = BaseParams()
+    assert not p.gyro and p.gyro_scale_error == 0.03
+    assert math.degrees(p.gyro_noise) ** 2 * 0.1 == pytest.approx(0.001)
+    assert math.degrees(p.gyro_turn_noise) ** 2 * math.radians(1.0) == pytest.approx(0.001)
+
+
 def test_odometry_is_reproducible_with_a_seed():
     def run(seed):
         b = DiffDriveBase(empty_world(), BaseParams(seed=seed), Pose2D())

@@ -160,6 +160,24 @@ def test_the_skid_steered_p3at_turns_in_place(tmp_path, record_property):
     assert math.hypot(sim.base.pose.x, sim.base.pose.y) < 0.3  # in place (the turn centre wanders a little)
 
 
+def test_with_the_gyro_the_p3ats_odometry_turns_as_the_body_does_times_its_scale(tmp_path):
+    """BaseParams.gyro on physics: the heading follows the body's true yaw rate (1 + gyro_scale_error), not
+    the wheels' skid-steer view (the README: wheel odometry over-reports turns by up to a fifth)."""
+    world = _write(tmp_path, {"bounds": [-5, -5, 5, 5], "start": [0, 0, 0]})
+    sim = _sim(world, "mujoco", model="p3at", base={"model": "p3at", "gyro": True, "gyro_scale_error": 0.03,
+                                                      "gyro_noise": 0.0, "gyro_turn_noise": 0.0})
+    true_turn = odom_turn = 0.0
+    prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
+    for _ in range(300):
+        sim.cmd_vel(Twist.planar(0.0, 1.0))
+        sim.step()
+        true_turn += math.remainder(sim.base.pose.theta - prev_true, math.tau)
+        odom_turn += math.remainder(sim.base.odom.theta - prev_odom, math.tau)
+        prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
+    assert true_turn > 1.0
+    assert odom_turn == pytest.approx(1.03 * true_turn, rel=0.01)
+
+
 def test_engine_mujoco_without_the_package_is_one_line_naming_the_install(tmp_path):
     code = ("import sys; sys.modules['mujoco'] = None\n"
             "from deploy.cli import main\n"
