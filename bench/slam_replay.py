@@ -26,6 +26,11 @@ gmapping.yaml, 30 particles).
 own row, its saved map and trajectory judged the same way, and replays only the scans the live node mapped:
 a live run that differs from its replay is then either in those scans (a filter that fell behind) or not.
 
+`--gyro K` replays the run as a P3-AT with its optional gyro would have reported it (the simulator's
+`base.gyro`): each odometry step keeps the wheels' translation, and its heading step becomes the ground
+truth's times (1 + K) plus the gyro's noise (ARIA's figures, `robot_side/sim/base_params.py`). K is the gyro's
+scale error: ARIA's default scaling is within 0.03 of correct; a calibrated gyro does better.
+
 Ends with slam_replay_variants=… slam_replay_seeds=… slam_replay_walls_pct=… (the first variant's, its mean
 over the seeds) slam_replay_traj_p95_m=… slam_replay_best=… (the variant with the most walls right)
 """
@@ -107,6 +112,38 @@ def _update_steps(stamps: np.ndarray, theta: np.ndarray, gt_t: np.ndarray, gt_th
     return out
 
 
+def with_gyro_heading(messages: list, scale_error: float, seed: int = 0) -> list:
+    """``messages`` (topic, message) with each ``odom`` message's heading from a simulated gyro: the wheels'
+    step in the base frame, the true heading step (``ground_truth``) x (1 + scale_error) plus the noise of
+    ``BaseParams.gyro_noise`` (while moving) and ``gyro_turn_noise``."""
+    import dataclasses
+
+    from common.geometry import Pose2D
+    from robot_side.sim.base_params import BaseParams
+
+    p = BaseParams()
+    gt = [(m.header.stamp, m.pose2d.theta) for t, m in messages if t == "ground_truth"]
+    gt_t, gt_th = np.array([s for s, _ in gt]), np.unwrap(np.array([th for _, th in gt]))
+    rng = np.random.default_rng(seed)
+    out, last, pose = [], None, None
+    for topic, m in messages:
+        if topic == "odom":
+            wheels, t = m.pose2d, m.header.stamp
+            if last is None:
+                pose = wheels
+            else:
+                step = last[1].between(wheels)
+                dth = float(np.interp(t, gt_t, gt_th) - np.interp(last[0], gt_t, gt_th))
+                moving = abs(dth) > 1e-9 or math.hypot(step.x, step.y) > 1e-9
+                var = (p.gyro_noise ** 2 * (t - last[0]) if moving else 0.0) + p.gyro_turn_noise ** 2 * abs(dth)
+                gyro = (1 + scale_error) * dth + math.sqrt(var) * float(rng.standard_normal())
+                pose = pose.compose(Pose2D(step.x, step.y, gyro))
+            last = (t, wheels)
+            m = dataclasses.replace(m, pose=pose.to_transform())
+        out.append((topic, m))
+    return out
+
+
 def _judge(grid, stamps: np.ndarray, poses: np.ndarray, truth, start, gt_t: np.ndarray, gt_xy: np.ndarray,
            gt_th: np.ndarray):
     """(walls, free, known, the map frame's fitted offset, trajectory error per scan, heading error by turn
@@ -153,6 +190,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--live", action="store_true",
                     help="judge the live SLAM's map and trajectory (explored.yaml, slam_trajectory.txt of the run "
                          "directory) beside the replays, and replay only the scans the live node mapped")
+    ap.add_argument("--gyro", type=float, default=None, metavar="K",
+                    help="the odometry's heading from a simulated gyro of scale error K (0.03: ARIA's default "
+                         "scaling; 0: exact), the wheels' translation kept")
     a = ap.parse_args(argv)
     path = Path(a.run)
     if path.is_dir() and not (path / "run.mcap").exists():  # bench/explore.py's --record DIR: a run per folder
@@ -167,6 +207,8 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"reading {path} ...", file=sys.stderr, flush=True)
     messages = [(r.topic, r.msg) for r in read_records(path)]
+    if a.gyro is not None:
+        messages = with_gyro_heading(messages, a.gyro)
     gt = [(m.header.stamp, m.pose2d) for t, m in messages if t == "ground_truth"]
     gt_t = np.array([s for s, _ in gt])
     gt_xy = np.array([(p.x, p.y) for _, p in gt])
