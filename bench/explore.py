@@ -83,6 +83,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--time-limit", type=float, default=1800.0, metavar="S", help="simulated seconds per run")
     ap.add_argument("--set", action="append", default=[], metavar="NODE.KEY=VALUE", dest="master_set",
                     help="one of the master's parameters (zenav master --set), e.g. slam_gmapping.maxUrange=30")
+    ap.add_argument("--robot-set", action="append", default=[], metavar="NODE.KEY=VALUE",
+                    help="one of the robot's parameters (zenav robot --set), e.g. sim.base.gyro=true")
     ap.add_argument("--engine", choices=("kinematic", "mujoco"), default=None,
                     help="simulator engine (default: the robot YAML's, the kinematic one); mujoco: the skid-steered "
                          "P3-AT on rigid-body physics, with DWA and its odometry told where it turns about")
@@ -97,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     # on physics DWA and the robot's odometry are told where the P3-AT turns about (deploy/stack/physics_sets.py)
     # and with the laser, the escape may turn then drive (deploy/stack/sensor_sets.py)
     master_set = (*master_sets(a.engine, amcl=False), *a.master_set)
-    robot_args = (*(("--engine", a.engine) if a.engine else ()), *set_options(robot_sets(a.engine)))
+    robot_args = (*(("--engine", a.engine) if a.engine else ()), *set_options((*robot_sets(a.engine), *a.robot_set)))
     out = Path(a.out or tempfile.mkdtemp(prefix="zenav-explore-bench-"))
     runs: list[ExploreRun] = []
     print(f"logs and maps under {out}", file=sys.stderr)
