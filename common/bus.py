@@ -22,9 +22,10 @@ from typing import Any, Callable
 
 import zenoh
 
-from common.bus_topics import Publisher, Subscription, topic_key
+from common.bus_topics import Publisher, Subscription
 from common.clock import SimClock, Timer, WallClock
 from common.codec import DecodeError, decode, encode
+from common.latched_fetch import topic_key
 from common.live_keys import PREFIX as LIVE_PREFIX
 from common.live_keys import live_key
 from common.messages import Clock, Header, NodeStats, TopicStats

@@ -275,11 +275,11 @@ class TFListener:
         self._stream = self._session.declare_subscriber(self._key_tf, lambda s: self._on_sample(s, False))
 
     def _on_static_publisher(self, sample) -> None:
-        """A static publisher's token: ask until *that* publisher answers (common.bus_topics.fetch_latched;
+        """A static publisher's token: ask until *that* publisher answers (common.latched_fetch.fetch_latched;
         another one answering at once does not count)."""
         k = LiveKey.parse(sample.key_expr)
         if sample.kind == self._zenoh.SampleKind.PUT and k is not None:
-            from common.bus_topics import fetch_latched
+            from common.latched_fetch import fetch_latched
 
             fetch_latched(self._session, self._key_static,
                           lambda s: self._ingest(s.payload.to_bytes(), s.attachment, True), retry=True,

@@ -98,7 +98,7 @@ class Recorder:
             if str(sample.key_expr) in self._queried:
                 return
             self._queried.add(str(sample.key_expr))
-        from common.bus_topics import fetch_latched
+        from common.latched_fetch import fetch_latched
 
         fetch_latched(self.session, self.prefix + k.topic, lambda s: self._on_sample(s, True), retry=True,
                       closed=lambda: self._closing, expect=k.node)

@@ -23,8 +23,8 @@ import rerun as rr
 import zenoh
 
 from common import messages as m
-from common.bus_topics import fetch_latched
 from common.codec import DecodeError, decode
+from common.latched_fetch import fetch_latched
 from common.live_keys import LiveKey, live_key
 from deploy.monitor import loggers as L
 from deploy.monitor.events import STATUS_NAMES, TextEvents

@@ -47,8 +47,8 @@ STATE_TOPICS = ("tf", "amcl_pose", "particlecloud", "move_base/status", "move_ba
 def subscribe_state(session, robot: str, state: WebState) -> list:
     """Subscribers feeding ``state`` directly from the bus (not through the monitor's logging, which
     may lag behind on a loaded machine): only the few topics the page draws are decoded."""
-    from common.bus_topics import topic_key
     from common.codec import DecodeError, decode
+    from common.latched_fetch import topic_key
 
     def handler(topic: str):
         def on_sample(sample) -> None:

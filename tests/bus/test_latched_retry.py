@@ -9,8 +9,8 @@ import threading
 import numpy as np
 import zenoh
 
-from common.bus_topics import LATCHED_RETRY_S, fetch_latched
 from common.codec import encode
+from common.latched_fetch import LATCHED_RETRY_S, fetch_latched
 from common.messages import Header, OccupancyGrid
 from tests.support import wait_until
 
