@@ -19,9 +19,9 @@ from common.geometry import Pose2D
 from master_side.planning.local.base import Velocity
 
 if TYPE_CHECKING:
+    from master_side.move_base.machine_types import ControlResult
     from master_side.move_base.params import MoveBaseParams
     from master_side.move_base.planner_thread import PlanOutcome
-    from master_side.move_base.state_machine import ControlResult
 
 class GlobalPlanner(Protocol):
     def start(self, goal: Pose2D) -> None:

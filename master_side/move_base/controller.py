@@ -12,7 +12,7 @@ import numpy as np
 
 from common.geometry import Pose2D, normalize_angles
 from master_side.costmap.cost_values import LETHAL
-from master_side.move_base.state_machine import ControlResult
+from master_side.move_base.machine_types import ControlResult
 from master_side.planning.local.base import LocalPlannerPlugin, velocity3
 
 

@@ -28,7 +28,6 @@ Collaborators, supplied by the node: a ``GlobalPlanner``, a ``Controller`` and `
 
 from __future__ import annotations
 
-import enum
 import math
 from dataclasses import dataclass, field
 
@@ -37,43 +36,11 @@ import numpy as np
 from common.geometry import Pose2D, TurnCounter, normalize_angle
 from common.messages import GoalStatus
 from master_side.move_base.contracts import Controller, GlobalPlanner, Recovery
+from master_side.move_base.machine_types import ControlResult, Decision, Goal, State, Trigger
 from master_side.move_base.params import MoveBaseParams
 from master_side.planning.local.base import velocity3
 
-
-class State(enum.Enum):
-    IDLE = "IDLE"
-    PLANNING = "PLANNING"
-    CONTROLLING = "CONTROLLING"
-    CLEARING = "CLEARING"
-
-
-class Trigger(enum.Enum):
-    """What started the current recovery sequence (move_base's recovery_trigger_)."""
-    PLANNING = "planning"
-    CONTROLLING = "controlling"
-    OSCILLATION = "oscillation"
-    STALL = "stall"
-
-
-@dataclass(frozen=True)
-class ControlResult:
-    cmd: tuple[float, float, float] = (0.0, 0.0, 0.0)  # vx, vy, wz
-    ok: bool = False
-    reason: str = ""  # why no command (e.g. "no valid trajectory: obstacle rejected 400/400")
-    trajectory: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class Decision:
-    """What the node should do after one tick."""
-
-    cmd: tuple[float, float, float]
-    state: State
-    status: int  # GoalStatus code of the current goal (or of the last one when IDLE)
-    reason: str
-    new_plan: np.ndarray | None = None  # set when a new plan reached the controller this tick
-    event: str = ""  # state-change text for the log ("" if none)
+__all__ = ["MoveBaseMachine", "State", "Trigger", "ControlResult", "Decision"]
 
 
 ZERO = (0.0, 0.0, 0.0)
@@ -88,14 +55,6 @@ def _progress(a: Pose2D, b: Pose2D) -> float:
 
 
 @dataclass
-class _Goal:
-    goal_id: str
-    pose: Pose2D
-    used: Pose2D | None = None
-    path: np.ndarray | None = None
-
-
-@dataclass
 class MoveBaseMachine:
     params: MoveBaseParams
     planner: GlobalPlanner
@@ -105,7 +64,7 @@ class MoveBaseMachine:
     def __post_init__(self) -> None:
         self.state = State.IDLE
         self.status = GoalStatus.PENDING
-        self.goal: _Goal | None = None
+        self.goal: Goal | None = None
         self.reason = "no goal"
         self.recovery_index = 0
         self.trigger: Trigger | None = None
@@ -128,7 +87,7 @@ class MoveBaseMachine:
     # -- goal management -----------------------------------------------------------------------
     def set_goal(self, goal_id: str, goal: Pose2D, now: float) -> None:
         """A new goal (already in the global frame) preempts any current one."""
-        self.goal = _Goal(goal_id, goal)
+        self.goal = Goal(goal_id, goal)
         self.status = GoalStatus.ACTIVE
         self.recovery_index, self.trigger, self._recovery = 0, None, None
         self._reset_clocks(now, None)
