@@ -151,9 +151,15 @@ def _against(d: float, a: float, cmd: tuple[float, float]) -> bool:
     return abs(w) >= IN_PLACE_W and a * w < 0 and abs(a) >= STALL_BACKOFF[1] - 1e-9
 
 
+def move_kind(distance: float, turn: float) -> tuple[float, float]:
+    """(sign of the drive, sign of the turn): back, forward, a turn either way, or a turn then a drive."""
+    return (math.copysign(1.0, distance) if distance else 0.0, math.copysign(1.0, turn) if turn else 0.0)
+
+
 def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, footprint: np.ndarray,
                 params: EscapeParams = EscapeParams(), against: tuple[float, float] | None = None,
-                why: list[str] | None = None, center_x: float = 0.0) -> EscapeMove | None:
+                why: list[str] | None = None, center_x: float = 0.0,
+                exclude: frozenset[tuple[float, float]] = frozenset()) -> EscapeMove | None:
     """The shortest straight drive, in-place turn or turn then drive (a reverse drive counting double; a turn
     and a drive only if ``params.turn_then_drive``, and not against a stalled command) whose end leaves the
     robot's outline at least ``params.clearance`` from every lethal cell (else the one that leaves it
@@ -172,6 +178,9 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
 
     ``center_x``: where on base_link's x axis the base turns about (a skid-steered base pivots toward its
     more loaded axle; the local planner's ``rotation_center_x``).
+
+    ``exclude``: the kinds of move not to try, as (sign of the drive, sign of the turn): the escape's own
+    moves that stalled where the robot stands (``EscapeRecovery``).
 
     When no move gains clearance but an obstacle lies within ``params.room_ahead`` of the robot's front
     (``room_ahead``), the longest free reverse drive that loses no clearance is the move: a corridor's
@@ -203,6 +212,9 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     backing: EscapeMove | None = None  # the longest free reverse drive that loses no clearance
     for d, a in moves:
         if against is not None and not _against(float(d), float(a), against):
+            continue
+        if exclude and move_kind(float(d), float(a)) in exclude:
+            blocked["stalled here before"] = blocked.get("stalled here before", 0) + 1
             continue
         cells, by = _sweep(way, res, origin, pose, float(d), float(a), outline, outline_r, center_x)
         if cells is None:

@@ -64,6 +64,23 @@ def test_a_move_held_by_something_unseen_ends_and_is_reported_as_a_stall():
     assert stalls == []
 
 
+def test_a_move_that_stalled_is_not_planned_again_from_where_it_stalled():
+    """The escape backs, something unseen holds it; started again where it stands, it does not back again (the
+    same drive would stall the same way: 47 times at one place on office02); moved off, it may."""
+    base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))  # a wall beyond the nose: the escape backs away
+    logged: list[str] = []
+    rec = EscapeRecovery(base.view, P3AT, log=logged.append)
+    base.run(rec, held_after=0.01)
+    assert rec.move is not None and rec.move.distance < 0 and "stalled after" in logged[-1]
+    held_at = base.pose
+    rec.start(1.0)
+    assert rec.move is None or rec.move.distance >= 0, logged[-1]
+    assert "stalled here before" in logged[-1], logged[-1]
+    base.pose = held_at.compose(Pose2D(0.0, 0.0, 0.3))  # turned off the place where it stalled
+    rec.start(2.0)
+    assert rec.move is not None and rec.move.distance < 0, logged[-1]
+
+
 def test_the_recovery_stops_when_something_appears_in_its_way():
     base = FakeBase(grid_with((0.36, -2.0, 0.5, 2.0)))
     rec = EscapeRecovery(base.view, P3AT)
