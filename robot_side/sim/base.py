@@ -85,6 +85,9 @@ def _toward(v: float, target: float, dv: float) -> tuple[float, float]:
     return nv, (v + nv) / 2
 
 
+LEAD_OUT = 0.005  # m at the outline: how far a blocked step's motion is followed to see whether it leads out
+
+
 class CommandedBase:
     """What every simulated base shares (both engines): the latest cmd_vel with its timeout and limits,
     and the odometry / collision messages of its state (``odom``, ``v``, ``w``, ``collisions``, ``contact``)."""
@@ -136,6 +139,7 @@ class DiffDriveBase(CommandedBase):
         self.rng = np.random.default_rng(params.seed)
         self.poly = np.asarray(params.footprint, float)
         self.samples = _footprint_samples(self.poly, world.resolution / 2)
+        self.radius = float(np.hypot(self.poly[:, 0], self.poly[:, 1]).max())  # the outline's farthest point
 
     def set_motors(self, enabled: bool) -> None:
         self.motors_enabled = bool(enabled)
@@ -213,7 +217,8 @@ class DiffDriveBase(CommandedBase):
                 deep = self.penetration(self.pose)
                 for dr, da, v, w in ((d_rho, d_th, nv, nw), (d_rho, 0.0, nv, 0.0), (0.0, d_th, 0.0, nw)):
                     moved = self.pose.compose(_arc(dr, da))
-                    if (dr != 0.0 or da != 0.0) and self.penetration(moved) <= deep + 1e-9:
+                    if (dr != 0.0 or da != 0.0) and (self.penetration(moved) <= deep + 1e-9
+                                                     or self._leads_out(dr, da, deep)):
                         self.pose, self.v, self.w = moved, v, w
                         self._odometry(dr, da, dt)
                         return
@@ -222,6 +227,19 @@ class DiffDriveBase(CommandedBase):
         self.in_contact = False
         self.pose, self.v, self.w = new, nv, nw
         self._odometry(d_rho, d_th, dt)
+
+    def _leads_out(self, d_rho: float, d_th: float, deep: float) -> bool:
+        """Does the same motion, carried on past the step by up to ``LEAD_OUT`` m at the outline, end no deeper
+        than ``deep``?
+        A corner hooked on a wall's corner leaves it by a path that first goes a little deeper (backing drags it
+        across the wall's face before it clears the side): refusing every step that deepens at all pinned the
+        robot for good, its speed ramping from zero in steps too small to get past (office02, the Kinect
+        robot: every escape stalled at 0.00, 2026-12-01). A push into a wall never comes out: still refused."""
+        reach = abs(d_rho) + abs(d_th) * self.radius
+        if reach <= 0.0:
+            return False
+        return any(self.penetration(self.pose.compose(_arc(d_rho * k, d_th * k))) <= deep + 1e-9
+                   for k in 1.0 + np.linspace(LEAD_OUT / reach / 4, LEAD_OUT / reach, 4))  # beyond the step
 
     def _touch(self, hits: np.ndarray, now: float) -> None:
         """A blocked step: a new collision unless the last contact is recent; where it touches."""

@@ -195,6 +195,29 @@ def test_a_robot_against_a_wall_can_back_away_but_not_push_into_it(gap):
     assert not len(base.footprint_hits(base.pose))  # free again
 
 
+def test_a_corner_hooked_on_a_walls_corner_backs_out():
+    """The front left corner 0.6 mm inside a wall block's corner, the robot turned so that backing straight
+    first drags the corner deeper across the block's face before it clears the side (office02, the Kinect robot,
+    2026-12-01: pinned for good, every escape stalled at 0.00). Backing from rest gets out; driving on into the
+    block still does not."""
+    world = empty_world(size=3.0, res=0.02)
+    (i0, j0), (i1, j1) = world.cell_of(1.01, 1.01), world.cell_of(1.19, 1.19)
+    world.heights[j0:j1 + 1, i0:i1 + 1] = 1.0  # the block [1.0, 1.2] x [1.0, 1.2]
+    theta = -1.09
+    c, s = math.cos(theta), math.sin(theta)
+    corner = (1.0017, 1.0006)  # inside the block, by 1.7 mm from its left side and 0.6 mm from its bottom
+    pose = Pose2D(corner[0] - (c * 0.254 - s * 0.254), corner[1] - (s * 0.254 + c * 0.254), theta)
+    base = DiffDriveBase(world, BaseParams(**NOISE_OFF), pose)
+    back = pose.compose(Pose2D(-0.0005, 0.0, 0.0))
+    assert base.penetration(back) > base.penetration(pose) > 0.0  # backing first goes deeper
+    _push(base, -0.1, 0.0, 2.0)
+    assert pose.distance(base.pose) > 0.1 and not len(base.footprint_hits(base.pose))
+    base = DiffDriveBase(world, BaseParams(**NOISE_OFF), pose)
+    start_depth = base.penetration(pose)
+    _push(base, 0.1, 0.6, 1.0)  # on into the block, turning left
+    assert base.penetration(base.pose) <= start_depth + 1e-9
+
+
 def _corner_between_samples(depth: float) -> DiffDriveBase:
     """A P3-AT turned 39 deg whose left flank has one obstacle cell's corner ``depth`` inside it, halfway
     between two of the outline's samples (office02, 2026-11-30: a door jamb's corner pinned the robot)."""
