@@ -135,6 +135,19 @@ def test_every_body_drives_2m_straight_by_its_odometry(tmp_path, model):
     assert abs(sim.base.pose.theta) < 0.02
 
 
+def _turned_in_place(sim: Simulator, steps: int) -> tuple[float, float]:
+    """(true, odometry) turn in rad over ``steps`` steps commanded at 1 rad/s in place."""
+    true_turn = odom_turn = 0.0
+    prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
+    for _ in range(steps):
+        sim.cmd_vel(Twist.planar(0.0, 1.0))
+        sim.step()
+        true_turn += math.remainder(sim.base.pose.theta - prev_true, math.tau)
+        odom_turn += math.remainder(sim.base.odom.theta - prev_odom, math.tau)
+        prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
+    return true_turn, odom_turn
+
+
 def test_the_skid_steered_p3at_turns_in_place(tmp_path, record_property):
     """In place at 1 rad/s: the yaw rate and the odometry's error that the physics gives (the README
     states them); the firmware's DiffConvFactor is a calibration, so they are close, not equal."""
@@ -143,14 +156,7 @@ def test_the_skid_steered_p3at_turns_in_place(tmp_path, record_property):
     for _ in range(100):
         sim.cmd_vel(Twist.planar(0.0, 1.0))
         sim.step()
-    true_turn = odom_turn = 0.0
-    prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
-    for _ in range(500):
-        sim.cmd_vel(Twist.planar(0.0, 1.0))
-        sim.step()
-        true_turn += math.remainder(sim.base.pose.theta - prev_true, math.tau)
-        odom_turn += math.remainder(sim.base.odom.theta - prev_odom, math.tau)
-        prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
+    true_turn, odom_turn = _turned_in_place(sim, 500)
     true_rate, odom_rate = true_turn / 5.0, odom_turn / 5.0
     record_property("summary:P3-AT in place at 1 rad/s (MuJoCo)",
                     f"yaw rate {true_rate:.3f} rad/s, odometry {odom_rate:.3f} rad/s, "
@@ -166,14 +172,7 @@ def test_with_the_gyro_the_p3ats_odometry_turns_as_the_body_does_times_its_scale
     world = _write(tmp_path, {"bounds": [-5, -5, 5, 5], "start": [0, 0, 0]})
     sim = _sim(world, "mujoco", model="p3at", base={"model": "p3at", "gyro": True, "gyro_scale_error": 0.03,
                                                       "gyro_noise": 0.0, "gyro_turn_noise": 0.0})
-    true_turn = odom_turn = 0.0
-    prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
-    for _ in range(300):
-        sim.cmd_vel(Twist.planar(0.0, 1.0))
-        sim.step()
-        true_turn += math.remainder(sim.base.pose.theta - prev_true, math.tau)
-        odom_turn += math.remainder(sim.base.odom.theta - prev_odom, math.tau)
-        prev_true, prev_odom = sim.base.pose.theta, sim.base.odom.theta
+    true_turn, odom_turn = _turned_in_place(sim, 300)
     assert true_turn > 1.0
     assert odom_turn == pytest.approx(1.03 * true_turn, rel=0.01)
 
