@@ -21,7 +21,11 @@ space nearer a wall than inscribed_radius does not count as reachable; goals avo
 costmap forbids. Nothing left to go to must last done_timeout (15 s, the robot looking around meanwhile)
 before exploration ends.
 
-exit status: 0 nothing left to explore, 1 stopped, 2 no map or no move_base (SLAM not running), bad --params
+Goals failing one after another (stuck_failures, 3) with the robot where it stood at the first end the run
+as stuck, saying where and move_base's last reason; the map is saved.
+
+exit status: 0 nothing left to explore, 1 stopped, 2 no map or no move_base (SLAM not running), bad --params,
+3 stuck: the robot could not move on
 """
 
 

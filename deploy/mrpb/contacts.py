@@ -6,7 +6,8 @@ touched point, how far the nearest mark of the local costmap was from it just be
 and writes ``<dir>/contact_<n>.npz``: the local costmaps of the last 3 s and the odometry and true poses of
 the last 4 s. ``python bench/contacts.py RUN_DIR --master FILE`` (the master file the run used) reads those
 files and says which part of the robot touched and why (never marked, marked until the contact, erased by
-footprint clearing, cleared)."""
+footprint clearing, cleared). Each goal move_base aborts is kept the same way (``abort_<n>.npz``, the robot's
+true position as its point, with move_base's reason): what the local costmap held where the robot gave up."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from common.bus import Node
-from common.messages import Collision, Costmap, Odometry
+from common.messages import Collision, Costmap, GoalStatus, MoveBaseStatus, Odometry
 from master_side.costmap.cost_values import LETHAL
 
 BEFORE_CONTACT_S = 0.3  # a contact is diagnosed on the local costmap of this long before it (simulated s)
@@ -57,6 +58,8 @@ class ContactWatch:
         node.subscribe("odom", Odometry, callback=self.odoms.append, mode="queue")
         node.subscribe("ground_truth", Odometry, callback=self._truth, mode="queue")
         node.subscribe("collision", Collision, mode="queue", callback=self._contact)
+        self.aborts = 0
+        node.subscribe("move_base/result", MoveBaseStatus, mode="queue", callback=self._result)
 
     def _contact(self, m: Collision) -> None:
         with self.lock:
@@ -66,7 +69,17 @@ class ContactWatch:
                 self.contacts.append((self.when(m), m.x, m.y))
                 self.marks.append(self._mark_near(m.x, m.y, m.header.stamp - BEFORE_CONTACT_S))
         if new:  # the file written outside the lock; closing the node waits for this callback to end
-            self._snapshot(m)
+            self._write(f"contact_{m.count}", (m.x, m.y), m.header.stamp)
+
+    def _result(self, m: MoveBaseStatus) -> None:
+        """A goal move_base aborted: ``abort_<n>.npz`` as a contact's, at the robot's true position."""
+        truth = self.truth()
+        if m.status != GoalStatus.ABORTED or truth is None:
+            return
+        with self.lock:
+            self.aborts += 1
+            n = self.aborts
+        self._write(f"abort_{n}", (truth.pose2d.x, truth.pose2d.y), m.header.stamp, reason=m.reason)
 
     def _truth(self, m: Odometry) -> None:
         self.truths.append(m)
@@ -83,8 +96,8 @@ class ContactWatch:
         path = self.contact_dir / f"contact_{n}.npz" if self.contact_dir is not None else None
         return path if path is not None and path.exists() else None
 
-    def _snapshot(self, m: Collision) -> None:
-        """``contact_<n>.npz``: the touched point (world) and the simulator's stamp, the local costmaps of the
+    def _write(self, name: str, point: tuple[float, float], stamp: float, **more) -> None:
+        """``<name>.npz``: the touched point (world) and the simulator's stamp, the local costmaps of the
         last 3 s (``maps`` (k, h, w) uint8, their ``map_stamps``, ``origins`` in the odometry frame,
         ``resolution``), and the odometry and true poses of the last 4 s (``odom``, ``truth``: rows of
         stamp, x, y, theta): what the planner knew and where the robot really was, to look at afterwards."""
@@ -96,12 +109,12 @@ class ContactWatch:
         def poses(msgs) -> np.ndarray:
             return np.array([(o.header.stamp, *o.pose2d.as_array()) for o in msgs]).reshape(-1, 4)
 
-        out = self.contact_dir / f"contact_{m.count}.npz"
+        out = self.contact_dir / f"{name}.npz"
         part = out.with_name(f".{out.name}.part")  # renamed when whole: a reader never opens half a file
         try:
             self.contact_dir.mkdir(parents=True, exist_ok=True)
             with open(part, "wb") as f:
-                np.savez_compressed(f, point=np.array([m.x, m.y]), stamp=m.header.stamp,
+                np.savez_compressed(f, point=np.array(point), stamp=stamp, **more,
                                     maps=np.stack([c.data for c in maps]),
                                     map_stamps=np.array([c.header.stamp for c in maps]),
                                     origins=np.array([(c.origin.x, c.origin.y) for c in maps]),
@@ -109,7 +122,7 @@ class ContactWatch:
                                     truth=poses(list(self.truths)))
             part.replace(out)
         except OSError as e:  # a full disk must not end the run being measured
-            self.node.log.warning("contact %d: snapshot not saved: %s", m.count, e)
+            self.node.log.warning("%s: snapshot not saved: %s", name, e)
 
     def _mark_near(self, x: float, y: float, before: float) -> float | None:
         """The distance from the world point (x, y) to the nearest lethal cell of the last local costmap

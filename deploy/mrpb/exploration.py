@@ -194,7 +194,7 @@ def run_exploration(name: str, world: str, start: Pose2D, robot_config: Path, ma
                     next_note = time.monotonic() + 30.0
                 time.sleep(0.5)
             else:
-                out.end = "done" if explore.returncode == 0 else f"failed: explore exit {explore.returncode}"
+                out.end = {0: "done", 3: "stuck"}.get(explore.returncode, f"failed: explore exit {explore.returncode}")
         except KeyboardInterrupt:  # Ctrl-C on the bench: this run is measured as far as it got
             out.end = INTERRUPTED
         if explore.poll() is None:

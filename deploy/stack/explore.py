@@ -22,11 +22,12 @@ import numpy as np
 from common.messages import OccupancyGrid
 from master_side.exploration.explorer import ExploreParams, Explorer
 from master_side.exploration.frontiers import Grid, costmap_forbidden, grid_from_map, nearest_lethal_m, search
+from master_side.move_base.machine_types import NO_PLAN
 
 
 @dataclass
 class ExploreReport:
-    code: int  # 0 done (nothing left), 1 stopped (Ctrl-C), 2 no map or no move_base
+    code: int  # 0 done (nothing left), 1 stopped (Ctrl-C), 2 no map or no move_base, 3 stuck (the robot cannot move)
     why: str
     map: OccupancyGrid | None = None  # the last map the run saw
     goals: int = 0
@@ -35,7 +36,8 @@ class ExploreReport:
     seconds: float = 0.0
 
     def summary(self) -> str:
-        return (f"exploration {'done' if self.code == 0 else 'stopped'}: {self.why}; {self.goals} goals sent "
+        how = {0: "done", 3: "stuck"}.get(self.code, "stopped")
+        return (f"exploration {how}: {self.why}; {self.goals} goals sent "
                 f"({self.failed} failed), {self.known_free_m2:.1f} m² known free, {self.seconds:.0f} s")
 
 
@@ -102,10 +104,13 @@ def explore(node, params: ExploreParams, echo=print, stop: threading.Event | Non
             if r.status == GoalStatus.SUCCEEDED:
                 ex.goal_reached()
             else:
-                ex.goal_failed(target)
+                ex.goal_failed(target, (pose.x, pose.y), r.reason, no_plan=r.reason.startswith(f"aborted: {NO_PLAN}"))
                 report.failed += 1
                 echo(f"  target ({target[0]:.2f}, {target[1]:.2f}) failed: {r.reason}; blacklisted")
             goal_id, target = "", None
+        if ex.stuck:
+            report.code, report.why = 3, ex.stuck
+            break
         try:
             frontiers = search(grid, (pose.x, pose.y), params.potential_scale, params.gain_scale,
                                params.min_frontier_size, params.inscribed_radius, params.circumscribed_radius,

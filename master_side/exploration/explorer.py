@@ -13,6 +13,9 @@ places and the robot was sent back and forth across office02. A goal
 move_base aborts is blacklisted too (``goal_failed``). No frontier left (or all blacklisted) for
 ``done_timeout`` s: done; meanwhile ``wait`` (explore_lite ends on one search: a last frontier blacklisted
 early ended a run in the mall at 2.5 % known; the node looks around while it waits, and SLAM's map grows).
+Goals failing one after another while the robot stays where it is (``stuck_failures``) end exploration as
+stuck (``stuck`` says why): the robot cannot move, and giving up frontier after frontier would end it as
+if the building were explored.
 """
 
 from __future__ import annotations
@@ -22,6 +25,8 @@ from dataclasses import dataclass, field
 
 from common.config import param
 from master_side.exploration.frontiers import Frontier
+
+STUCK_RADIUS = 0.2  # m: failures with the robot this near the first of them count as one place
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,12 @@ class ExploreParams:
     done_timeout: float = param(15.0, lo=0.0, hi=3600.0, unit="s",
                                 doc="zenav's: nothing left to go to for this long ends exploration (0: at once, "
                                     "explore_lite's rule); the robot looks around meanwhile")
+    stuck_failures: int = param(3, lo=0, hi=1000,
+                                doc="zenav's: this many goals in a row that move_base gives up on, the robot within "
+                                    "STUCK_RADIUS of where the first of them failed, end exploration as stuck, with "
+                                    "move_base's last reason (0: never). A robot boxed in by its local costmap "
+                                    "(office02, the Kinect, 2026-12-01) blacklisted 26 frontiers in a row from one "
+                                    "place and ended as if nothing were left")
     inscribed_radius: float = param(0.254, lo=0.0, hi=10.0, unit="m",
                                     doc="zenav's: free space nearer a wall is not free for the search (the "
                                         "P3-AT's, from the tutorial's footprint)")
@@ -89,6 +100,8 @@ class Explorer:
     _nearer_at: float = 0.0  # when the followed frontier last got nearer
     _robot: tuple[float, float] | None = None  # the robot's last position given to ``plan``
     _mark: tuple[float, float] | None = None  # where it was at the last progress
+    _failed_at: list[tuple[float, float]] = field(default_factory=list)  # the robot at each failure in a row
+    stuck: str = ""  # why exploration cannot go on (stuck_failures), "" while it can
     # each blacklisting since the caller last took them (``take_blacklisted``): the centroid and why
     _news: list[tuple[tuple[float, float], str]] = field(default_factory=list)
 
@@ -198,11 +211,24 @@ class Explorer:
         self._reaches = self._reaches + 1 if same else 1
         self._reached = self._reached_at = self.goal
         self.target = self.goal = None
+        self._failed_at = []
 
-    def goal_failed(self, target: tuple[float, float]) -> None:
+    def goal_failed(self, target: tuple[float, float], robot: tuple[float, float] | None = None,
+                    reason: str = "", no_plan: bool = False) -> None:
         """move_base gave up on the goal sent for ``target`` (the centroid then): that frontier never again,
-        where it was and where it is now."""
+        where it was and where it is now. ``robot``: where the robot stands; the ``stuck_failures``-th failure
+        in a row from one place sets ``stuck`` (with move_base's ``reason``). ``no_plan``: move_base found no
+        way there: the frontier is out of reach, which says nothing of the robot (not counted)."""
         self.blacklist.append(target)
         if self.target is not None and self.target != target:
             self.blacklist.append(self.target)
         self.target = self.goal = None
+        if robot is None or no_plan:
+            return
+        if self._failed_at and math.dist(robot, self._failed_at[0]) > STUCK_RADIUS:
+            self._failed_at = []
+        self._failed_at.append(robot)
+        n = self.params.stuck_failures
+        if n and len(self._failed_at) >= n:
+            self.stuck = (f"stuck at ({robot[0]:.2f}, {robot[1]:.2f}): {len(self._failed_at)} goals in a row failed "
+                          f"with the robot there" + (f", the last: {reason}" if reason else ""))

@@ -20,6 +20,9 @@ class State(enum.Enum):
     CLEARING = "CLEARING"
 
 
+NO_PLAN = "no plan for"  # how the reason of a goal aborted because no plan was found begins, after "aborted: "
+
+
 class Trigger(enum.Enum):
     """What started the current recovery sequence (move_base's recovery_trigger_)."""
     PLANNING = "planning"

@@ -36,7 +36,7 @@ import numpy as np
 from common.geometry import Pose2D, TurnCounter, normalize_angle
 from common.messages import GoalStatus
 from master_side.move_base.contracts import Controller, GlobalPlanner, Recovery
-from master_side.move_base.machine_types import ControlResult, Decision, Goal, State, Trigger
+from master_side.move_base.machine_types import NO_PLAN, ControlResult, Decision, Goal, State, Trigger
 from master_side.move_base.params import MoveBaseParams
 from master_side.planning.local.base import velocity3
 
@@ -153,7 +153,7 @@ class MoveBaseMachine:
             self.reason = f"no plan: {out.error} (for {waited:.1f} s, planner_patience {p.planner_patience:.1f} s)"
             if waited > p.planner_patience or 0 <= p.max_planning_retries < self._retries:
                 self.planner.stop()
-                self._start_recovery(Trigger.PLANNING, f"no plan for {waited:.1f} s: {out.error}")
+                self._start_recovery(Trigger.PLANNING, f"{NO_PLAN} {waited:.1f} s: {out.error}")
         elif out.failures:  # replanning failed while controlling: keep following the old plan
             self.reason = f"replanning failed ({out.error}); following the previous plan"
         return None

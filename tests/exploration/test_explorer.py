@@ -132,3 +132,40 @@ def test_driving_on_its_way_counts_as_progress_for_a_while_and_standing_does_not
     ex.plan(fs, 0.0, (0.0, 0.0))
     ex.plan(fs, 20.0, (0.0, -3.0))
     assert ex.plan(fs, 31.0, (0.0, -6.0)).target == (-3, 0)
+
+
+def test_goals_failing_in_a_row_where_the_robot_stands_end_exploration_as_stuck_saying_why():
+    """office02, the Kinect robot boxed in by its local costmap (2026-12-01): 26 goals failed in a row from one
+    place, every frontier was blacklisted and the run ended as if nothing were left. Now the third failure in a
+    row from one place (within STUCK_RADIUS) says the robot is stuck, where and why; a failure with the robot
+    elsewhere starts the count again, so does a goal reached, and a goal with no plan (out of reach) does not
+    count."""
+    fs = [_f(x, 0, -float(x)) for x in (3, 4, 5, 6, 7, 8)]
+    why = "aborted: controller failed for 16.4 s: all 24 trajectories rejected (after 4 recoveries)"
+    ex = Explorer()
+    for k, robot in enumerate([(1.0, 1.0), (1.1, 1.0), (2.0, 1.0), (2.05, 1.1)]):  # moved on after the second
+        ex.plan(fs, float(k))
+        ex.goal_failed(ex.target, robot, why)
+    assert ex.stuck == ""
+    ex.plan(fs, 5.0)
+    ex.goal_failed(ex.target, (2.0, 0.95), "aborted: no plan for 5.2 s: no path (after 4 recoveries)", no_plan=True)
+    assert ex.stuck == ""  # a frontier out of reach says nothing of the robot
+    ex.plan(fs, 6.0)
+    ex.goal_failed(ex.target, (1.95, 1.0), why)
+    assert ex.stuck == f"stuck at (1.95, 1.00): 3 goals in a row failed with the robot there, the last: {why}"
+    # a goal reached in between starts the count again; stuck_failures 0: never stuck
+    ex = Explorer()
+    ex.plan(fs, 0.0)
+    ex.goal_failed(ex.target, (1.0, 1.0), why)
+    ex.plan(fs, 1.0)
+    ex.goal_failed(ex.target, (1.0, 1.0), why)
+    ex.plan(fs, 2.0)
+    ex.goal_reached()
+    ex.plan(fs, 3.0)
+    ex.goal_failed(ex.target, (1.0, 1.0), why)
+    assert ex.stuck == ""
+    never = Explorer(ExploreParams(stuck_failures=0))
+    for k in range(5):
+        never.plan(fs, float(k))
+        never.goal_failed(never.target, (1.0, 1.0), why)
+    assert never.stuck == ""

@@ -9,7 +9,7 @@ import numpy as np
 from bench.contacts import MASTER, diagnose, local_footprint
 from common.bus import Node
 from common.geometry import Pose2D
-from common.messages import Collision, Costmap, Header, Odometry
+from common.messages import Collision, Costmap, GoalStatus, Header, MoveBaseStatus, Odometry
 from common.zenoh_config import BusConfig
 from deploy.mrpb.contacts import ContactWatch
 from tests.support import free_port, wait_until
@@ -44,5 +44,17 @@ def test_a_contact_leaves_a_snapshot_of_the_local_costmap_and_the_poses(tmp_path
         # and bench/contacts.py reads it: the wall was in every map, up to the contact
         padded, padding = local_footprint(MASTER)
         assert diagnose(snap, padded, padding)[0] == "marked"
+        # a goal move_base aborts is kept the same way, at the robot's true position, with the reason; one
+        # reached or cancelled is not
+        results = node.publisher("move_base/result")
+        results.publish(MoveBaseStatus(Header(101.5, "map"), "g1", GoalStatus.SUCCEEDED))
+        results.publish(MoveBaseStatus(Header(101.6, "map"), "g2", GoalStatus.PREEMPTED))
+        results.publish(MoveBaseStatus(Header(102.0, "map"), "g3", GoalStatus.ABORTED, reason="boxed in"))
+        abort = tmp_path / "contacts" / "abort_1.npz"
+        wait_until(abort.exists, 10.0, "the abort's snapshot")
+        snap = np.load(abort)
+        assert snap["point"].tolist() == [0.04, 0.0] and str(snap["reason"]) == "boxed in"
+        assert snap["maps"].shape == (5, 40, 40) and watch.aborts == 1
+        assert sorted(p.name for p in (tmp_path / "contacts").iterdir()) == ["abort_1.npz", "contact_1.npz"]
     finally:
         node.close()
