@@ -48,8 +48,8 @@ class EscapeParams:
     room_ahead: float = param(0.5, lo=0.0, hi=2.0, unit="m",
                               doc="when no move gains clearance, an obstacle nearer than this ahead of the "
                                   "robot's front, across its width, makes the longest reverse drive that loses "
-                                  "none the move (nav2's BackUp's role; a forward-only planner cannot back "
-                                  "away); 0: never")
+                                  "none (a cell at most) the move (nav2's BackUp's role; a forward-only planner "
+                                  "cannot back away); 0: never")
     turn_then_drive: bool = param(False, doc="also try an in-place turn followed by a straight drive: beside "
                                             "a wall along the flank a drive keeps the clearance and a turn "
                                             "brings a corner nearer, and only a drive at a slant gains it. Off "
@@ -183,9 +183,9 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     moves that stalled where the robot stands (``EscapeRecovery``).
 
     When no move gains clearance but an obstacle lies within ``params.room_ahead`` of the robot's front
-    (``room_ahead``), the longest free reverse drive that loses no clearance is the move: a corridor's
-    corner, a wall 0.3 m ahead and one 0.1 m beside the flank, leaves no turn and no forward arc free, and
-    DWA driving forward only (while mapping) cannot back away to make room (office02, laser, 2026-11-30)."""
+    (``room_ahead``), the longest free reverse drive that loses no clearance (a cell at most) is the move: a
+    corridor's corner, a wall 0.3 m ahead and one 0.1 m beside the flank, leaves no turn and no forward arc
+    free, and DWA driving forward only (while mapping) cannot back away to make room (office02, laser, 2026-11-30)."""
     grid = np.asarray(grid)
     outline, outline_r = _outline(footprint, res)
     way = _leaving(grid, res, origin, pose, outline)
@@ -209,7 +209,11 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     best: tuple[tuple[bool, float, float], EscapeMove] | None = None
     blocked: dict[str, int] = {}
     freest: EscapeMove | None = None  # the free move reaching the most clearance, gained or not
-    backing: EscapeMove | None = None  # the longest free reverse drive that loses no clearance
+    # the longest free reverse drive that loses no clearance, within a cell: a wall along the flank at a slant
+    # of a few degrees, nearer toward the rear, costs the rear corner a cell of the grid's rounding as it
+    # backs (office02, Kinect, 2026-12-01: 0.10 -> 0.075 m over 0.3 m, a wall 0.14 m beyond the nose,
+    # every trajectory rejected and three goals aborted there while backing 0.3 m was free)
+    backing: EscapeMove | None = None
     for d, a in moves:
         if against is not None and not _against(float(d), float(a), against):
             continue
@@ -223,7 +227,7 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
         after = clearance(cells[-1])
         if freest is None or after > freest.clearance_after:
             freest = EscapeMove(float(d), float(a), here, after)
-        if d < 0 and not a and after >= here - 1e-9 and (backing is None or d < backing.distance):
+        if d < 0 and not a and after >= here - res - 1e-9 and (backing is None or d < backing.distance):
             backing = EscapeMove(float(d), 0.0, here, after)
         if after <= here + 1e-9 and against is None:
             continue

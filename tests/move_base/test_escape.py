@@ -268,3 +268,23 @@ def test_room_ahead_is_measured_from_the_outlines_own_front_row_by_row():
     grid = grid_with((0.285, 0.15, 0.31, 0.2))
     assert room_ahead(grid, RES, ORIGIN, Pose2D(), P3AT, 0.5) == pytest.approx(0.03, abs=RES)
     assert room_ahead(grid_with(), RES, ORIGIN, Pose2D(), P3AT, 0.5) == 0.5  # nothing ahead
+
+
+def test_a_flank_wall_nearer_toward_the_rear_still_lets_the_robot_back_away_for_room():
+    """The corner as office02's Kinect robot stood in it (2026-12-01, three goals aborted there): the wall
+    beside the left flank not parallel but 3 degrees nearer toward the rear, 0.1 m off the rear corner, a wall
+    0.14 m beyond the nose. Backing brings the rear corner a cell nearer that wall on the grid (0.10 -> 0.075
+    m): the backing away counts a loss within a cell as none and backs the whole 0.3 m (on the old code 0.1 m,
+    where the corner had not yet lost its cell; where it had after 5 cm, in the run, no move at all)."""
+    grid = grid_with((0.47, -2.0, 0.9, 2.0))
+    rows, cols = np.indices(grid.shape)
+    x, y = ORIGIN[0] + (cols + 0.5) * RES, ORIGIN[1] + (rows + 0.5) * RES
+    grid[(y >= 0.36 + math.tan(math.radians(3.0)) * x) & (y < 0.6)] = LETHAL
+    params = EscapeParams(turn_then_drive=False)
+    why: list[str] = []
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, params, why=why)
+    assert move is not None and move.turn == 0.0 and move.distance == pytest.approx(-0.3), (move, why)
+    assert move.clearance_before > move.clearance_after >= move.clearance_before - RES - 1e-9
+    assert why and why[0].startswith("backing away"), why
+    # the way back is free for the bare outline all along
+    assert min(min_clearance(grid, Pose2D(-d, 0.0, 0.0)) for d in np.arange(0.0, 0.31, 0.05)) > 0.05
