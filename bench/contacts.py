@@ -15,6 +15,11 @@ placed in the odometry frame as the planner saw it), with one of these verdicts:
 - `cleared, not under the footprint`: marked, then freed elsewhere (a ray through it, the window moving);
 - `never marked`: no sensor had put it in the costmap in those 3 s (seen by nothing, or too late).
 
+Each goal move_base aborted (`abort_<n>.npz`) is listed after the contacts with move_base's reason and
+what boxed the robot in on the last local costmap before it: the nearest mark to each part of the bare
+outline (front, rear, each flank, each corner), e.g. a wall 0.10 m off the left flank and one 0.14 m beyond
+the nose: no turn and no forward arc is free.
+
   python bench/contacts.py RUN_DIR [RUN_DIR ...] [--master master_side/config/p3at_slam_zenav.yaml]
   python bench/contacts.py MRPB_WORKDIR/zenav/CASE --master master_side/config/p3at_zenav.yaml
 
@@ -33,8 +38,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from common.geometry import Pose2D, points_in_polygon  # noqa: E402
+from common.geometry import Pose2D, distance_to_outline, points_in_polygon  # noqa: E402
 from deploy.mrpb.contacts import nearest_mark  # noqa: E402
+from master_side.costmap.cost_values import LETHAL  # noqa: E402
 from master_side.costmap.footprint import pad_footprint  # noqa: E402
 
 MASTER = ROOT / "master_side/config/p3at_slam_zenav.yaml"
@@ -96,6 +102,22 @@ def diagnose(snap, padded: np.ndarray, padding: float) -> tuple[str, str, list[t
     return "cleared", said, history
 
 
+def boxed_in(snap, bare: np.ndarray, reach: float = 0.5) -> dict[str, float]:
+    """Part of the robot -> distance from the bare outline to the nearest LETHAL cell centre beside that part
+    (within ``reach``), on the snapshot's last local costmap with the robot at its odometry pose then."""
+    data, (ox, oy), res = snap["maps"][-1], snap["origins"][-1], float(snap["resolution"])
+    rows, cols = np.nonzero(np.asarray(data) == LETHAL)
+    pose = _pose_at(np.asarray(snap["odom"]), float(snap["map_stamps"][-1]))
+    cells = np.column_stack((ox + (cols + 0.5) * res, oy + (rows + 0.5) * res))
+    local = pose.inverse().apply(cells) if len(cells) else cells
+    dist = distance_to_outline(local, bare) if len(local) else np.zeros(0)
+    out: dict[str, float] = {}
+    for pt, d in zip(local[dist <= reach], dist[dist <= reach]):
+        part = part_of(bare, pt)
+        out[part] = min(out.get(part, np.inf), float(d))
+    return dict(sorted(out.items(), key=lambda kv: kv[1]))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], epilog=__doc__.split("\n\n", 1)[1],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -120,7 +142,17 @@ def main(argv: list[str] | None = None) -> int:
         counts[verdict] += 1
         print(f"{str(f.relative_to(f.parents[2]) if len(f.parents) > 2 else f):<40} {part:<18} {said}")
         print("    " + "  ".join(f"{dt:+.1f}s:{'-' if d == float('inf') else f'{d:.2f}'}" for dt, d in history[::3]))
-    print(f"contacts={len(files)} " + " ".join(f"contacts_{v}={counts[v]}" for v in VERDICTS))
+    aborts = []
+    for r in args.runs:
+        d = r if r.name == "contacts" else r / "contacts"
+        aborts += sorted(d.glob("abort_*.npz"), key=lambda p: int(p.stem.split("_")[1]))
+    for f in aborts:
+        with np.load(f) as snap:
+            near = boxed_in(snap, bare)
+            print(f"{str(f.relative_to(f.parents[2]) if len(f.parents) > 2 else f):<40} {snap['reason']}")
+        print("    nearest marks: " + (", ".join(f"{p} {d:.2f} m" for p, d in near.items()) or "none within 0.5 m"))
+    print(f"contacts={len(files)} " + " ".join(f"contacts_{v}={counts[v]}" for v in VERDICTS)
+          + f" aborts={len(aborts)}")
     return 0
 
 

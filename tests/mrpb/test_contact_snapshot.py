@@ -5,13 +5,15 @@ costmaps of the last seconds and the odometry and true poses, in ``contacts/cont
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
-from bench.contacts import MASTER, diagnose, local_footprint
+from bench.contacts import MASTER, boxed_in, diagnose, local_footprint
 from common.bus import Node
 from common.geometry import Pose2D
 from common.messages import Collision, Costmap, GoalStatus, Header, MoveBaseStatus, Odometry
 from common.zenoh_config import BusConfig
 from deploy.mrpb.contacts import ContactWatch
+from master_side.costmap.footprint import pad_footprint
 from tests.support import free_port, wait_until
 
 
@@ -56,5 +58,11 @@ def test_a_contact_leaves_a_snapshot_of_the_local_costmap_and_the_poses(tmp_path
         assert snap["point"].tolist() == [0.04, 0.0] and str(snap["reason"]) == "boxed in"
         assert snap["maps"].shape == (5, 40, 40) and watch.aborts == 1
         assert sorted(p.name for p in (tmp_path / "contacts").iterdir()) == ["abort_1.npz", "contact_1.npz"]
+        # bench/contacts.py says what boxed the robot in: on these poses, a wall 0.09 m beyond the nose
+        ahead = np.zeros((40, 40), np.uint8)
+        ahead[:, 38] = 254  # x 0.4625 m, the robot at 0.04 m, its nose 0.3302 m ahead of it
+        near = boxed_in({**snap, "maps": np.array([ahead])}, pad_footprint(padded, -padding))
+        assert list(near)[0] == "front" and near["front"] == pytest.approx(0.092, abs=0.002), near
+        assert "rear" not in near and "left flank" not in near, near
     finally:
         node.close()
