@@ -1,8 +1,9 @@
 """An escape recovery (zenav's; nav2's BackUp and DriveOnHeading are its nearest relatives): when the local
 planner finds no move because the padded footprint touches walls on every trajectory, move the robot by
-one short straight drive (forward or back), one in-place turn, or (``turn_then_drive``, off by default) a
-short turn followed by a drive, to the nearby pose where its outline is farthest from obstacles, checking
-the robot's bare outline (no padding) along the whole way.
+one short straight drive (forward or back), one in-place turn, (``turn_then_drive``, off by default) a
+short turn followed by a drive, or, when none of those gains clearance, a forward sidestep (an arc away
+and the same arc back: parallel again, beside where it stood), to the nearby pose where its outline is
+farthest from obstacles, checking the robot's bare outline (no padding) along the whole way.
 
 ROS 1's move_base has no recovery that moves the robot out of a tight spot: rotate_recovery ends at once
 when a turn would touch an obstacle, and the costmap resets do not move it. In a narrow doorway, beside
@@ -55,33 +56,64 @@ class EscapeParams:
                                             "brings a corner nearer, and only a drive at a slant gains it. Off "
                                             "by default: the turn sweeps the flanks, which a narrow forward "
                                             "sensor (the Kinect) does not see")
+    sidestep: bool = param(True, doc="when no drive or turn gains clearance, also try a forward sidestep: an arc "
+                                     "of radius 0.5 or 1 m away from the nearest wall and the same arc back, "
+                                     "ending parallel to where it started (a robot beside a wall along its flank, "
+                                     "a few cm off, where a drive keeps the clearance and a turn swings a corner "
+                                     "into the wall)")
     stall_time: float = param(1.0, lo=0.1, hi=60.0, unit="s",
                               doc="the move ends when it has gained less than 2 cm or 0.05 rad in this long: "
                                   "something no sensor shows holds the robot")
 
 
+SIDESTEP_RADII = (0.5, 1.0)  # m: the sidestep's arcs (0.6 m of them move the robot 0.18 / 0.09 m sideways)
+
+
 @dataclass(frozen=True)
 class EscapeMove:
     """A straight drive of ``distance`` m (negative: backwards), an in-place turn of ``turn`` rad, or (both
-    set) the turn and then the drive on the heading it ends at."""
+    set) the turn and then the drive on the heading it ends at; with ``curvature`` (1/m, positive: to the
+    left) a sidestep: ``distance`` driven as an arc of that curvature for its first half and the opposite one
+    for its second, ending on the heading it started at."""
 
     distance: float
     turn: float
     clearance_before: float
     clearance_after: float
+    curvature: float = 0.0
 
     def describe(self) -> str:
         drive = f"{'forward' if self.distance > 0 else 'back'} {abs(self.distance):.2f} m"
+        if self.curvature:
+            side = "left" if self.curvature * self.distance > 0 else "right"
+            return (f"sidestep {side} ({drive}, arcs of {1.0 / abs(self.curvature):.1f} m): clearance "
+                    f"{self.clearance_before:.2f} -> {self.clearance_after:.2f} m")
         turn = f"turn {math.degrees(self.turn):+.0f} deg"
         what = f"{turn}, then {drive}" if self.distance and self.turn else drive if self.distance else turn
         return f"{what}: clearance {self.clearance_before:.2f} -> {self.clearance_after:.2f} m"
 
 
+def arc_poses(pose: Pose2D, length: float, curvature: float, res: float, outline_r: float) -> np.ndarray:
+    """(K, 3) poses along an arc of ``length`` m (negative: backwards) and ``curvature`` (1/m, positive: to
+    the left going forward), dense enough that no outline point skips a cell."""
+    n = max(1, int(math.ceil(abs(length) * (1.0 + abs(curvature) * outline_r) / (0.5 * res))))
+    s = np.linspace(0.0, length, n + 1)[1:]
+    th = pose.theta + curvature * s
+    if abs(curvature) < 1e-9:
+        return np.column_stack((pose.x + s * math.cos(pose.theta), pose.y + s * math.sin(pose.theta), th))
+    return np.column_stack((pose.x + (np.sin(th) - math.sin(pose.theta)) / curvature,
+                            pose.y - (np.cos(th) - math.cos(pose.theta)) / curvature, th))
+
+
 def _poses_along(pose: Pose2D, distance: float, turn: float, res: float, outline_r: float,
-                 center_x: float = 0.0) -> np.ndarray:
+                 center_x: float = 0.0, curvature: float = 0.0) -> np.ndarray:
     """(K, 3) poses from ``pose`` along the move, dense enough that no outline point skips a cell; a turn is
     about the point ``center_x`` ahead of base_link (the local planner's ``rotation_center_x``); a turn and a
-    drive: the turn, then the drive from where it ends."""
+    drive: the turn, then the drive from where it ends; ``curvature``: a sidestep (EscapeMove)."""
+    if curvature:
+        first = arc_poses(pose, 0.5 * distance, curvature, res, outline_r)
+        return np.vstack((first, arc_poses(Pose2D(*(float(v) for v in first[-1])), 0.5 * distance, -curvature,
+                                           res, outline_r)))
     if distance and turn:
         turned = _poses_along(pose, 0.0, turn, res, outline_r, center_x)
         end = Pose2D(*(float(v) for v in turned[-1]))
@@ -117,10 +149,18 @@ def _outline(footprint: np.ndarray, res: float) -> tuple[np.ndarray, float]:
 
 
 def _sweep(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, distance: float, turn: float,
-           outline: np.ndarray, outline_r: float, center_x: float = 0.0) -> tuple[np.ndarray | None, str]:
+           outline: np.ndarray, outline_r: float, center_x: float = 0.0,
+           curvature: float = 0.0) -> tuple[np.ndarray | None, str]:
     """The outline's cells at every pose along the move, or None when one is lethal, unknown or off the grid;
     and what blocks it: "" (nothing), "off the costmap", "an obstacle", "unknown cells"."""
-    cells = _cells(_poses_along(pose, distance, turn, res, outline_r, center_x), outline, res, origin)
+    return sweep_poses(grid, res, origin, _poses_along(pose, distance, turn, res, outline_r, center_x, curvature),
+                       outline)
+
+
+def sweep_poses(grid: np.ndarray, res: float, origin: tuple[float, float], poses: np.ndarray,
+                outline: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """``_sweep`` over given poses (K, 3)."""
+    cells = _cells(poses, outline, res, origin)
     if not _inside(cells, grid.shape).all():
         return None, "off the costmap"
     cost = grid[cells[..., 1], cells[..., 0]]
@@ -151,8 +191,11 @@ def _against(d: float, a: float, cmd: tuple[float, float]) -> bool:
     return abs(w) >= IN_PLACE_W and a * w < 0 and abs(a) >= STALL_BACKOFF[1] - 1e-9
 
 
-def move_kind(distance: float, turn: float) -> tuple[float, float]:
-    """(sign of the drive, sign of the turn): back, forward, a turn either way, or a turn then a drive."""
+def move_kind(distance: float, turn: float, curvature: float = 0.0) -> tuple[float, float]:
+    """(sign of the drive, sign of the turn): back, forward, a turn either way, or a turn then a drive; a
+    sidestep: (sign of the drive, 2 x the sign of its first arc's curvature)."""
+    if curvature:
+        return math.copysign(1.0, distance), math.copysign(2.0, curvature)
     return (math.copysign(1.0, distance) if distance else 0.0, math.copysign(1.0, turn) if turn else 0.0)
 
 
@@ -181,6 +224,9 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
 
     ``exclude``: the kinds of move not to try, as (sign of the drive, sign of the turn): the escape's own
     moves that stalled where the robot stands (``EscapeRecovery``).
+
+    When no move gains clearance and nothing lies within ``params.room_ahead`` of the robot's front, a
+    forward sidestep that gains a whole cell is the move (``params.sidestep``, ``_sidestep``).
 
     When no move gains clearance but an obstacle lies within ``params.room_ahead`` of the robot's front
     (``room_ahead``), the longest free reverse drive that loses no clearance (a cell at most) is the move: a
@@ -244,8 +290,45 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
             if why is not None:
                 why.append(f"backing away: no move gains clearance and an obstacle lies {ahead:.2f} m ahead")
             return backing
+    if best is None and against is None and params.sidestep:
+        # on the grid as it is: a robot touching a wall does not sidestep along it (the first arc would push
+        # a corner deeper into the cells it touches)
+        side = _sidestep(grid, res, origin, pose, outline, outline_r, here, clearance, params, exclude)
+        if side is not None:
+            return side
     if best is None and why is not None:
         why.append(_why_none(here, blocked, freest))
+    return None if best is None else best[1]
+
+
+def _sidestep(grid: np.ndarray, res: float, origin: tuple[float, float], pose: Pose2D, outline: np.ndarray,
+              outline_r: float, here: float, clearance: Callable[[np.ndarray], float], params: EscapeParams,
+              exclude: frozenset[tuple[float, float]]) -> EscapeMove | None:
+    """The forward sidestep (SIDESTEP_RADII, up to twice ``max_distance`` long, a cell sideways at least) free
+    all the way that gains a whole cell of clearance: the most clearance up to ``params.clearance``, then the
+    shortest. Beside a wall along the flank, a few cm off, a drive keeps the clearance and any turn swings a
+    corner into the wall; the first arc swings the rear corner toward it by at most 0.254^2 / 2 (R + 0.254)
+    (2.6 cm for R = 1 m, 4.3 cm for 0.5 m) and the second brings the body parallel again, 0.09 / 0.18 m
+    farther off after 0.6 m (office02, the Kinect robot, 2026-12-02: 5 cm off a wall along its right flank,
+    every DWA trajectory rejected, no escape move, three goals aborted there and the run stuck). Forward
+    only: the robot's sensors look forward."""
+    step = max(res, 0.05)
+    best: tuple[tuple[float, float], EscapeMove] | None = None
+    for k in (s / r for r in SIDESTEP_RADII for s in (1.0, -1.0)):
+        if move_kind(1.0, 0.0, k) in exclude:
+            continue
+        for d in np.arange(2 * step, 2 * params.max_distance + 1e-9, step):
+            if 2.0 * (1.0 - math.cos(0.5 * d * k)) / abs(k) < res:  # less than a cell sideways: the grid's rounding
+                continue
+            cells, _ = _sweep(grid, res, origin, pose, float(d), 0.0, outline, outline_r, curvature=k)
+            if cells is None:
+                continue
+            after = clearance(cells[-1])
+            if after < here + res - 1e-9:
+                continue
+            key = (min(after, params.clearance), -float(d))
+            if best is None or key > best[0]:
+                best = key, EscapeMove(float(d), 0.0, here, after, k)
     return None if best is None else best[1]
 
 

@@ -17,8 +17,10 @@ from master_side.move_base.escape import (
     _leaving,
     _outline,
     _sweep,
+    arc_poses,
     move_kind,
     plan_escape,
+    sweep_poses,
 )
 
 PROGRESS = (0.02, 0.05)  # m, rad: a move that gains less than this in stall_time has stalled
@@ -84,6 +86,8 @@ class EscapeRecovery:
             return stop, True
         grid, res, origin, here = view
         m, p = self.move, self.params
+        if m.curvature:
+            return self._sidestep(now, grid, res, origin, here)
         if m.turn and m.distance and not self._turned and \
                 abs(normalize_angle(self._start.between(here).theta)) >= abs(m.turn):  # the turn made: now the drive
             self._turned, self._start, self._done, self._done_time = True, here, 0.0, now
@@ -113,5 +117,38 @@ class EscapeRecovery:
         outline, outline_r = _outline(self.footprint, res)
         way = _leaving(np.asarray(grid), res, origin, here, outline)
         if left <= 0.0 or _sweep(way, res, origin, here, *check, outline, outline_r, self.center_x)[0] is None:
+            return stop, True
+        return cmd, False
+
+    def _sidestep(self, now: float, grid, res: float, origin, here: Pose2D) -> tuple[tuple[float, float, float], bool]:
+        """A sidestep's tick: the first arc until the heading has turned by half the move's arc length times
+        its curvature, then the opposite arc until the heading is back where it started; progress and the way
+        a step ahead as for a drive (the arc length, from the heading turned)."""
+        m, p, stop = self.move, self.params, (0.0, 0.0, 0.0)
+        assert m is not None and self._start is not None
+        half = 0.5 * abs(m.distance) * abs(m.curvature)  # rad each arc turns
+        turned = abs(normalize_angle(here.theta - self._start.theta))
+        if not self._turned and turned >= half:  # the first arc made: the second from here
+            self._turned, self._start, self._done, self._done_time = True, here, 0.0, now
+            turned = 0.0
+        k = -m.curvature if self._turned else m.curvature
+        left = (half - turned) / abs(k)  # m of this arc to go
+        done = 0.5 * abs(m.distance) - left + (0.5 * abs(m.distance) if self._turned else 0.0)
+        v = math.copysign(p.speed, m.distance)
+        cmd = (v, 0.0, v * k)
+        if done >= self._done + PROGRESS[0]:
+            self._done, self._done_time = done, now
+        elif now - self._done_time > p.stall_time and left > 0.0:
+            if self._log is not None:
+                self._log(f"{self.name}: stalled after {done:.2f} of {abs(m.distance):.2f} m: "
+                          "something no sensor shows holds the robot")
+            if self._on_stall is not None:
+                self._on_stall(cmd)
+            self._held.append((here, move_kind(m.distance, 0.0, m.curvature)))
+            return stop, True
+        outline, outline_r = _outline(self.footprint, res)
+        way = _leaving(np.asarray(grid), res, origin, here, outline)
+        ahead = math.copysign(min(2 * res, max(left, 0.5 * res)), m.distance)
+        if left <= 0.0 or sweep_poses(way, res, origin, arc_poses(here, ahead, k, res, outline_r), outline)[0] is None:
             return stop, True
         return cmd, False

@@ -173,8 +173,35 @@ def test_no_gain_at_all_is_no_move():
     # the wall parallel to the flank, 5 cm off: a drive either way keeps the 5 cm
     why: list[str] = []
     grid = slanted_wall(0.0, 0.05)
-    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(max_turn=0.0), why=why) is None
+    params = EscapeParams(max_turn=0.0, sidestep=False)
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, params, why=why) is None
     assert why and "reaches 0.05 m" in why[0], why
+
+
+def test_beside_a_wall_along_the_flank_a_sidestep_gains_what_no_drive_or_turn_can():
+    """office02's Kinect robot, 2026-12-02: 5 cm off a wall along its right flank, nothing ahead; a drive keeps
+    the 5 cm, every turn swings a corner into the wall, DWA rejected every trajectory and three goals were
+    aborted there. A forward sidestep (an arc away, the same arc back) leaves it parallel and farther off,
+    its bare outline off the wall all the way."""
+    from master_side.move_base.escape import _poses_along
+
+    grid = grid_with((-2.0, -0.6, 2.0, -0.304))  # the wall 5 cm off the right flank, all along
+    why: list[str] = []
+    assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(sidestep=False), why=why) is None
+    assert "reaches 0.05 m" in why[0], why
+    move = plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT)
+    assert move is not None and move.curvature > 0.0 and move.distance > 0.0 and move.turn == 0.0, move
+    assert move.describe().startswith("sidestep left (forward "), move.describe()
+    assert move.clearance_after >= move.clearance_before + RES
+    way = _poses_along(Pose2D(), move.distance, 0.0, RES, 0.4, curvature=move.curvature)
+    assert way[-1, 2] == pytest.approx(0.0, abs=1e-9) and way[-1, 1] > 0.02  # parallel again, to the left
+    assert min(min_clearance(grid, Pose2D(*p)) for p in way[::3]) > 0.0
+    assert min_clearance(grid, Pose2D(*way[-1])) >= move.clearance_before + RES - 1e-9
+    # the wall on the left flank: the sidestep goes right; a wall ahead: backing away for room, as before
+    mirrored = plan_escape(grid_with((-2.0, 0.304, 2.0, 0.6)), RES, ORIGIN, Pose2D(), P3AT)
+    assert mirrored is not None and mirrored.curvature < 0.0 and mirrored.describe().startswith("sidestep right")
+    ahead = plan_escape(grid_with((-2.0, -0.6, 2.0, -0.304), (0.6, -2.0, 0.8, 2.0)), RES, ORIGIN, Pose2D(), P3AT)
+    assert ahead is not None and ahead.distance < 0.0 and not ahead.curvature and not ahead.turn, ahead
 
 
 def test_an_escape_turn_sweeps_the_outline_about_the_bases_turning_centre():
@@ -214,7 +241,11 @@ def test_a_wall_ahead_with_no_clearance_to_gain_backs_the_robot_away_for_room():
     short = plan_escape(grid_with(beside, (0.63, -2.0, 0.9, 2.0), (-0.6, -2.0, -0.404, 2.0)), RES, ORIGIN,
                         Pose2D(), P3AT, straight)
     assert short is not None and -0.15 <= short.distance < 0.0
-    assert plan_escape(grid_with(beside), RES, ORIGIN, Pose2D(), P3AT, straight) is None  # nothing ahead: no move
+    # nothing ahead: no backing away; a sidestep, away from the wall (none without sidesteps)
+    free_ahead = plan_escape(grid_with(beside), RES, ORIGIN, Pose2D(), P3AT, straight)
+    assert free_ahead is not None and free_ahead.curvature < 0.0 and free_ahead.distance > 0.0, free_ahead
+    no_side = EscapeParams(turn_then_drive=False, sidestep=False)
+    assert plan_escape(grid_with(beside), RES, ORIGIN, Pose2D(), P3AT, no_side) is None
     assert plan_escape(grid, RES, ORIGIN, Pose2D(), P3AT, EscapeParams(room_ahead=0.0, turn_then_drive=False)) is None
 
 

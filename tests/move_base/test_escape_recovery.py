@@ -109,3 +109,37 @@ def test_a_robot_touching_a_wall_moves_off_it_not_along_or_into_it():
     base.run(EscapeRecovery(base.view, P3AT))
     assert min_clearance(grid, base.pose) > min_clearance(grid, Pose2D()) + RES
     assert plan_escape(grid_with((-2.0, 0.25, 2.0, 0.5)), RES, ORIGIN, Pose2D(), P3AT) is None
+
+
+def test_the_recovery_drives_a_sidestep_arc_by_arc_and_ends_parallel_beside_where_it_stood():
+    base = FakeBase(grid_with((-2.0, -0.6, 2.0, -0.304)))  # a wall 5 cm off the right flank, all along
+    logged: list[str] = []
+    rec = EscapeRecovery(base.view, P3AT, log=logged.append)
+    rec.start(0.0)
+    m = rec.move
+    assert m is not None and m.curvature > 0.0 and logged[0].startswith("escape: sidestep left"), logged
+    turns = []
+    for i in range(1, 400):
+        (v, _, w), done = rec.step(i * 0.1, base.pose, (0.0, 0.0, 0.0))
+        if done:
+            break
+        assert v > 0.0
+        turns.append(w)
+        base.pose = base.pose.compose(Pose2D(v * 0.1, 0.0, w * 0.1))
+    else:
+        raise AssertionError("the sidestep never ended")
+    assert turns[0] > 0.0 and turns[-1] < 0.0  # to the left, then back
+    assert abs(base.pose.theta) < 0.06  # parallel again, within a tick's turn
+    assert base.pose.y > 0.02 and base.pose.x == pytest.approx(m.distance, abs=0.05)
+    assert min_clearance(base.grid, base.pose) >= m.clearance_before + RES - 0.01
+
+
+
+def test_a_sidestep_that_stalled_is_not_planned_again_from_where_it_stalled():
+    base = FakeBase(grid_with((-2.0, -0.6, 2.0, -0.304)))
+    logged: list[str] = []
+    rec = EscapeRecovery(base.view, P3AT, log=logged.append)
+    base.run(rec, held_after=0.03)  # something unseen holds the robot 3 cm into the first arc
+    assert any("stalled after" in line for line in logged), logged
+    rec.start(10.0)  # from where it stalled: no sidestep to that side again, and none to the wall's side
+    assert rec.move is None or not rec.move.curvature > 0.0, rec.move
