@@ -100,7 +100,8 @@ def arc_poses(pose: Pose2D, length: float, curvature: float, res: float, outline
     s = np.linspace(0.0, length, n + 1)[1:]
     th = pose.theta + curvature * s
     if abs(curvature) < 1e-9:
-        return np.column_stack((pose.x + s * math.cos(pose.theta), pose.y + s * math.sin(pose.theta), th))
+        return np.column_stack((pose.x + s * math.cos(pose.theta), pose.y + s * math.sin(pose.theta),
+                                np.full_like(s, pose.theta)))
     return np.column_stack((pose.x + (np.sin(th) - math.sin(pose.theta)) / curvature,
                             pose.y - (np.cos(th) - math.cos(pose.theta)) / curvature, th))
 
@@ -119,10 +120,7 @@ def _poses_along(pose: Pose2D, distance: float, turn: float, res: float, outline
         end = Pose2D(*(float(v) for v in turned[-1]))
         return np.vstack((turned, _poses_along(end, distance, 0.0, res, outline_r, center_x)))
     if distance:
-        n = max(1, int(math.ceil(abs(distance) / (0.5 * res))))
-        s = np.linspace(0.0, distance, n + 1)[1:]
-        return np.column_stack((pose.x + s * math.cos(pose.theta), pose.y + s * math.sin(pose.theta),
-                                np.full_like(s, pose.theta)))
+        return arc_poses(pose, distance, 0.0, res, outline_r)  # a straight drive: an arc of no curvature
     n = max(1, int(math.ceil(abs(turn) * (outline_r + abs(center_x)) / (0.5 * res))))
     a = np.linspace(0.0, turn, n + 1)[1:]
     px, py = pose.x + center_x * math.cos(pose.theta), pose.y + center_x * math.sin(pose.theta)  # turned about
@@ -225,8 +223,8 @@ def plan_escape(grid: np.ndarray, res: float, origin: tuple[float, float], pose:
     ``exclude``: the kinds of move not to try, as (sign of the drive, sign of the turn): the escape's own
     moves that stalled where the robot stands (``EscapeRecovery``).
 
-    When no move gains clearance and nothing lies within ``params.room_ahead`` of the robot's front, a
-    forward sidestep that gains a whole cell is the move (``params.sidestep``, ``_sidestep``).
+    When no move gains clearance and the robot does not back away for room (below), a forward sidestep
+    that gains a whole cell is the move (``params.sidestep``, ``_sidestep``).
 
     When no move gains clearance but an obstacle lies within ``params.room_ahead`` of the robot's front
     (``room_ahead``), the longest free reverse drive that loses no clearance (a cell at most) is the move: a

@@ -106,19 +106,29 @@ class EscapeRecovery:
         if done >= self._done + PROGRESS[0 if leg_d else 1]:
             self._done, self._done_time = done, now
         elif now - self._done_time > p.stall_time and left > 0.0:
-            if self._log is not None:
-                unit = "m" if leg_d else "rad"
-                self._log(f"{self.name}: stalled after {done:.2f} of {abs(leg_d or leg_a):.2f} {unit}: "
-                          "something no sensor shows holds the robot")
-            if self._on_stall is not None:
-                self._on_stall(cmd)
-            self._held.append((here, move_kind(m.distance, m.turn)))
-            return stop, True
-        outline, outline_r = _outline(self.footprint, res)
-        way = _leaving(np.asarray(grid), res, origin, here, outline)
+            return self._stall(here, cmd, f"{done:.2f} of {abs(leg_d or leg_a):.2f} {'m' if leg_d else 'rad'}",
+                               move_kind(m.distance, m.turn))
+        way, outline, outline_r = self._way(grid, res, origin, here)
         if left <= 0.0 or _sweep(way, res, origin, here, *check, outline, outline_r, self.center_x)[0] is None:
             return stop, True
         return cmd, False
+
+    def _way(self, grid, res: float, origin, here: Pose2D) -> tuple[np.ndarray, np.ndarray, float]:
+        """(the grid the way ahead is checked on: the cells the outline touches at ``here`` freed, the outline,
+        its radius)."""
+        outline, outline_r = _outline(self.footprint, res)
+        return _leaving(np.asarray(grid), res, origin, here, outline), outline, outline_r
+
+    def _stall(self, here: Pose2D, cmd: tuple[float, float, float], progress: str,
+               kind: tuple[float, float]) -> tuple[tuple[float, float, float], bool]:
+        """End the move as stalled after ``progress`` ("0.05 of 0.30 m"): log it, tell ``on_stall`` the command,
+        and hold that ``kind`` of move where the robot stands."""
+        if self._log is not None:
+            self._log(f"{self.name}: stalled after {progress}: something no sensor shows holds the robot")
+        if self._on_stall is not None:
+            self._on_stall(cmd)
+        self._held.append((here, kind))
+        return (0.0, 0.0, 0.0), True
 
     def _sidestep(self, now: float, grid, res: float, origin, here: Pose2D) -> tuple[tuple[float, float, float], bool]:
         """A sidestep's tick: the first arc until the heading has turned by half the move's arc length times
@@ -139,15 +149,9 @@ class EscapeRecovery:
         if done >= self._done + PROGRESS[0]:
             self._done, self._done_time = done, now
         elif now - self._done_time > p.stall_time and left > 0.0:
-            if self._log is not None:
-                self._log(f"{self.name}: stalled after {done:.2f} of {abs(m.distance):.2f} m: "
-                          "something no sensor shows holds the robot")
-            if self._on_stall is not None:
-                self._on_stall(cmd)
-            self._held.append((here, move_kind(m.distance, 0.0, m.curvature)))
-            return stop, True
-        outline, outline_r = _outline(self.footprint, res)
-        way = _leaving(np.asarray(grid), res, origin, here, outline)
+            return self._stall(here, cmd, f"{done:.2f} of {abs(m.distance):.2f} m",
+                               move_kind(m.distance, 0.0, m.curvature))
+        way, outline, outline_r = self._way(grid, res, origin, here)
         ahead = math.copysign(min(2 * res, max(left, 0.5 * res)), m.distance)
         if left <= 0.0 or sweep_poses(way, res, origin, arc_poses(here, ahead, k, res, outline_r), outline)[0] is None:
             return stop, True

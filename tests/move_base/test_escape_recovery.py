@@ -134,7 +134,6 @@ def test_the_recovery_drives_a_sidestep_arc_by_arc_and_ends_parallel_beside_wher
     assert min_clearance(base.grid, base.pose) >= m.clearance_before + RES - 0.01
 
 
-
 def test_a_sidestep_that_stalled_is_not_planned_again_from_where_it_stalled():
     base = FakeBase(grid_with((-2.0, -0.6, 2.0, -0.304)))
     logged: list[str] = []
