@@ -29,7 +29,9 @@ published at 10 Hz and the test's own subscriber received it. So a subscription 
 after it was added is declared again if some publisher announces its topic (a liveliness token), on the same
 doubling wait; its first message within ``REPAIR_WINDOW_S`` of such a declaration is logged and counted as a
 repair. An announced publisher that simply has not published yet (a goal tool) costs a declaration at 5, 15,
-35 s, then one a minute — each a gap of microseconds in which its message could be missed.
+35 s, then one a minute — each a gap in which its message could be missed: from the undeclaration until the
+new declaration reaches the publisher's session (a message's trip between the peers). Commands that must
+arrive do not rely on a topic put for that reason (common.delivery).
 
 Time alone cannot tell a repair from a coincidence: move_base's first result, or its first cmd_vel once a goal
 came, may arrive just after a declaration made for nothing. So every zenav publisher numbers its puts (Zenoh's

