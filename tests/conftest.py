@@ -84,6 +84,9 @@ def pytest_configure(config):
 
     from common.ports import HIGH, LOW
 
+    global _CONTROLLER
+    _CONTROLLER = config.pluginmanager.has_plugin("dsession")
+
     worker, count = os.environ.get("PYTEST_XDIST_WORKER", ""), int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if worker.startswith("gw") and count > 1:
         k, width = int(worker[2:]), (HIGH - LOW) // count
@@ -91,3 +94,40 @@ def pytest_configure(config):
 
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+# ZENAV_TEST_TIMELINE=FILE: each test's start and end (wall clock) with the CPU its worker and that worker's
+# children used meanwhile, one JSON line per test appended to FILE by every worker — where a parallel run's
+# time goes (README, "Test suite time"; `python bench/suite_timeline.py FILE` sums it up).
+_TIMELINE = os.environ.get("ZENAV_TEST_TIMELINE", "")
+_started: dict[str, tuple[float, float]] = {}
+_CONTROLLER = False  # set in pytest_configure
+
+
+def _cpu() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _timed() -> bool:
+    """A timeline is asked for, and this process runs tests (not xdist's controller, which hears of them)."""
+    return bool(_TIMELINE) and (bool(os.environ.get("PYTEST_XDIST_WORKER")) or not _CONTROLLER)
+
+
+def pytest_runtest_logstart(nodeid, location):
+    if _timed():
+        import time
+
+        _started[nodeid] = (time.time(), _cpu())
+
+
+def pytest_runtest_logfinish(nodeid, location):
+    if _timed() and nodeid in _started:
+        import json
+        import time
+
+        t0, c0 = _started.pop(nodeid)
+        line = json.dumps({"worker": os.environ.get("PYTEST_XDIST_WORKER", "main"), "test": nodeid,
+                           "start": t0, "end": time.time(), "cpu_s": _cpu() - c0})
+        with open(_TIMELINE, "a") as f:
+            f.write(line + "\n")
