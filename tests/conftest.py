@@ -85,7 +85,7 @@ def pytest_configure(config):
     from common.ports import HIGH, LOW
 
     global _CONTROLLER
-    _CONTROLLER = config.pluginmanager.has_plugin("dsession")
+    _CONTROLLER = not hasattr(config, "workerinput") and bool(getattr(config.option, "numprocesses", 0))
 
     worker, count = os.environ.get("PYTEST_XDIST_WORKER", ""), int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if worker.startswith("gw") and count > 1:
