@@ -104,8 +104,9 @@ class _Costmap:
         self.next = 0.0
 
     def grid(self):
-        m = self.lcm.master
-        return m.data, m.resolution, (m.origin_x, m.origin_y)
+        """What the costmap node publishes (unseen cells at ``unseen_cost`` when it is set)."""
+        m, unseen = self.lcm.master, self.cfg.costmap.unseen_as
+        return m.data if unseen is None else m.published(unseen), m.resolution, (m.origin_x, m.origin_y)
 
 
 class InProcessStack:

@@ -166,9 +166,17 @@ class Costmap2D:
         mx, my = self.polygon_cells(polygon)
         self.data[my, mx] = value
 
-    def to_message(self, header: Header, layer: str = "") -> Costmap:
+    def published(self, unknown_as: int | None = None) -> np.ndarray:
+        """A copy of the grid as the costmap topic carries it: NO_INFORMATION cells at ``unknown_as`` if given
+        (CostmapParams.unseen_as)."""
+        data = self.data.copy()
+        if unknown_as is not None:
+            data[data == NO_INFORMATION] = unknown_as
+        return data
+
+    def to_message(self, header: Header, layer: str = "", unknown_as: int | None = None) -> Costmap:
         origin = Pose2D(self.origin_x, self.origin_y, 0.0)
-        return Costmap(header=header, resolution=self.resolution, origin=origin, data=self.data.copy(),
+        return Costmap(header=header, resolution=self.resolution, origin=origin, data=self.published(unknown_as),
                        layer=layer)
 
 

@@ -129,16 +129,26 @@ class CostmapParams:
     origin_y: float = param(0.0, unit="m")
     map_type: str = param("costmap", choices=("costmap", "voxel"), doc="pre-Hydro: voxel -> VoxelLayer")
     track_unknown_space: bool = param(False, doc="master starts NO_INFORMATION (else FREE)")
+    unseen_cost: int = param(-1, lo=-1, hi=252, doc="zenav: with track_unknown_space, the costmap topic carries "
+                             "cells no sensor has seen at this cost instead of NO_INFORMATION (a local planner "
+                             "then prefers seen cells without refusing unseen ones); -1: NO_INFORMATION, as ROS")
     footprint: Any = param("[]", doc="[[x, y], ...] (list or string); wins over robot_radius")
     robot_radius: float = param(0.46, lo=0.0, unit="m")
     footprint_padding: float = param(0.01, lo=-1.0, hi=10.0, unit="m")
     plugins: Any = param(None, doc="layered style: [{name, type}, ...]")
+
+    @property
+    def unseen_as(self) -> int | None:
+        """The cost unseen cells go out at on the costmap topic (None: NO_INFORMATION)."""
+        return self.unseen_cost if self.unseen_cost >= 0 and self.track_unknown_space else None
 
     def __post_init__(self):
         object.__setattr__(self, "global_frame", strip_frame(self.global_frame))
         object.__setattr__(self, "robot_base_frame", strip_frame(self.robot_base_frame))
 
     def validate(self) -> None:
+        if self.unseen_cost >= 0 and not self.track_unknown_space:
+            raise ValueError("unseen_cost needs track_unknown_space: true (without it no cell is unseen)")
         if self.width < self.resolution or self.height < self.resolution:
             raise ValueError(f"width x height {self.width} x {self.height} m is smaller than one cell "
                              f"({self.resolution} m)")

@@ -4,6 +4,7 @@ import pytest
 import yaml
 
 from common.config import ConfigError
+from common.messages import Header
 from master_side.costmap.layered import LayeredCostmap
 from master_side.costmap.params import load_costmap_config, load_costmap_files
 
@@ -83,6 +84,7 @@ def test_nav2_style_plugin_names_are_accepted():
     ("common", "inflation_radius", "big", "common.yaml", "inflation_radius"),
     ("common", "map_type", "octomap", "common.yaml", "map_type"),
     ("common", "footprint", [[0, 0], [1, 1]], "common.yaml", "footprint"),
+    ("specific", "unseen_cost", 253, "local.yaml", "local_costmap.unseen_cost"),  # would refuse unseen cells
 ])
 def test_bad_config_values_give_config_error_naming_file_and_key(where, key, value, file, shown):
     common, spec = _yaml("costmap_common_params.yaml"), _yaml("local_costmap_params.yaml")
@@ -120,3 +122,19 @@ def test_known_ros_keys_are_accepted_even_if_unused():
     spec["local_costmap"].update({"always_send_full_costmap": True, "track_unknown_space": True})
     cfg = load_costmap_config(_yaml("costmap_common_params.yaml"), spec, ("c.yaml", "l.yaml"))
     assert cfg.costmap.track_unknown_space
+
+
+def test_unseen_cost_without_tracked_unknown_space_is_refused_and_with_it_unseen_cells_go_out_at_that_cost():
+    common, spec = _yaml("costmap_common_params.yaml"), _yaml("local_costmap_params.yaml")
+    spec["local_costmap"]["unseen_cost"] = 250
+    with pytest.raises(ConfigError, match="unseen_cost needs track_unknown_space: true"):
+        load_costmap_config(common, spec, ("common.yaml", "local.yaml"))
+    spec["local_costmap"]["track_unknown_space"] = True
+    cfg = load_costmap_config(common, spec, ("common.yaml", "local.yaml"))
+    lcm = LayeredCostmap.from_config(cfg)
+    lcm.master.data[:] = 255
+    lcm.master.data[0, :3] = (0, 100, 254)
+    msg = lcm.master.to_message(Header(0.0, "odom"), unknown_as=cfg.costmap.unseen_cost)
+    assert list(msg.data[0, :4]) == [0, 100, 254, 250] and (msg.data[1:] == 250).all()
+    assert (lcm.master.data[1:] == 255).all()  # the costmap itself still knows what is unseen
+    assert (lcm.master.to_message(Header(0.0, "odom")).data[1:] == 255).all()  # ROS's way by default

@@ -157,3 +157,19 @@ def test_obstacle_cost_lets_a_robot_touching_an_obstacle_back_away_but_not_push_
     s = cost.score(trajs)
     assert s[0] >= 0  # backing away from the contact is allowed
     assert s[1] < 0 and s[2] < 0  # staying in contact or pushing on is not
+
+
+def test_an_unseen_cell_published_at_a_cost_is_scored_not_rejected_and_the_seen_way_wins():
+    """The local costmap's unseen_cost (p3at_zenav/local_costmap_slam.yaml): a thin unseen strip ahead
+    and left, as a wall's end the camera never showed, costs the arc that sweeps it, which is not refused;
+    the straight drive that keeps clear of it costs less."""
+    grid = free_map(60, 60)
+    grid[36:38, 26:34] = 250  # y 1.80..1.90, x 1.30..1.70: unseen (published at 250)
+    trajs = _straight([[0.4, 0.0, 0.6], [0.4, 0.0, 0.0]])  # arcing left over it / straight
+    cost = ObstacleCost()
+    cost.prepare(_ctx(grid))
+    s = cost.score(trajs)
+    assert s[0] == 250 and 0 <= s[1] < 250
+    grid[36:38, 26:34] = NO_INFORMATION  # as ROS publishes it: the arc refused
+    cost.prepare(_ctx(grid))
+    assert cost.score(trajs)[0] < 0
