@@ -84,8 +84,12 @@ def pytest_configure(config):
 
     from common.ports import HIGH, LOW
 
-    global _CONTROLLER
-    _CONTROLLER = not hasattr(config, "workerinput") and bool(getattr(config.option, "numprocesses", 0))
+    # from the config, not the environment: a pytest started by a test inherits its worker's PYTEST_XDIST_WORKER
+    global _WORKER
+    if hasattr(config, "workerinput"):
+        _WORKER = config.workerinput["workerid"]
+    elif not getattr(config.option, "numprocesses", 0):
+        _WORKER = "main"
 
     worker, count = os.environ.get("PYTEST_XDIST_WORKER", ""), int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
     if worker.startswith("gw") and count > 1:
@@ -101,7 +105,7 @@ def pytest_configure(config):
 # time goes (README, "Test suite time"; `python bench/suite_timeline.py FILE` sums it up).
 _TIMELINE = os.environ.get("ZENAV_TEST_TIMELINE", "")
 _started: dict[str, tuple[float, float]] = {}
-_CONTROLLER = False  # set in pytest_configure
+_WORKER: str | None = None  # this process's name in the timeline, None when it runs no test (pytest_configure)
 
 
 def _cpu() -> float:
@@ -111,7 +115,7 @@ def _cpu() -> float:
 
 def _timed() -> bool:
     """A timeline is asked for, and this process runs tests (not xdist's controller, which hears of them)."""
-    return bool(_TIMELINE) and (bool(os.environ.get("PYTEST_XDIST_WORKER")) or not _CONTROLLER)
+    return bool(_TIMELINE) and _WORKER is not None
 
 
 def pytest_runtest_logstart(nodeid, location):
@@ -127,7 +131,7 @@ def pytest_runtest_logfinish(nodeid, location):
         import time
 
         t0, c0 = _started.pop(nodeid)
-        line = json.dumps({"worker": os.environ.get("PYTEST_XDIST_WORKER", "main"), "test": nodeid,
+        line = json.dumps({"worker": _WORKER, "test": nodeid,
                            "start": t0, "end": time.time(), "cpu_s": _cpu() - c0})
         with open(_TIMELINE, "a") as f:
             f.write(line + "\n")
