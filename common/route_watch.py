@@ -28,10 +28,13 @@ in a loaded CI run move_base planned for 10 s on "no global costmap received yet
 published at 10 Hz and the test's own subscriber received it. So a subscription still unfed ``UNFED_WAIT_S``
 after it was added is declared again if some publisher announces its topic (a liveliness token), on the same
 doubling wait; its first message within ``REPAIR_WINDOW_S`` of such a declaration is logged and counted as a
-repair. An announced publisher that simply has not published yet (a goal tool) costs a declaration at 5, 15,
-35 s, then one a minute — each a gap in which its message could be missed: from the undeclaration until the
-new declaration reaches the publisher's session (a message's trip between the peers). Commands that must
-arrive do not rely on a topic put for that reason (common.delivery).
+repair. An announced publisher that simply has not published yet (a goal tool) costs a declaration at 5, 15
+and 35 s, and no more (``UNFED_MAX_ATTEMPTS``): each is a gap in which its message could be missed, from the
+undeclaration until the new declaration reaches the publisher's session (a message's trip between the peers).
+Declared once a minute for good, move_base's ``move_base/cancel`` lost a test's cancel, published minutes
+after the stack started, in a loaded CI run (likely so: nothing came, and the cancel was the topic's first
+message). A subscription still unfed after three declarations is a command topic waiting for its first
+command, not a lost stream. Commands that must arrive do not rely on a topic put (common.delivery).
 
 Time alone cannot tell a repair from a coincidence: move_base's first result, or its first cmd_vel once a goal
 came, may arrive just after a declaration made for nothing. So every zenav publisher numbers its puts (Zenoh's
@@ -60,6 +63,7 @@ MAX_WAIT_S = 60.0
 UNSEEN_WAIT_S = 10.0  # silence after which a publisher whose token is not seen is declared for anyway
 CHECK_EVERY_S = 0.5
 UNFED_WAIT_S = 5.0  # a subscription that has received nothing this long while its topic is announced is doubted
+UNFED_MAX_ATTEMPTS = 3  # declarations of a still unfed subscription; then it is left alone (see above)
 REPAIR_WINDOW_S = 1.0  # data back this soon after a declaration: the declaration repaired the route (else
 # the publisher had only paused, e.g. move_base's cmd_vel between goals)
 
@@ -231,6 +235,9 @@ class RouteWatch:
                             doubt.attempts, _lost(skipped))
             return
         if now < doubt.next_at:
+            return
+        if doubt.attempts >= UNFED_MAX_ATTEMPTS:
+            doubt.decision, doubt.next_at = "left alone: announced, never fed (a command topic)", float("inf")
             return
         if not self._alive("*", sub.topic):
             doubt.decision, doubt.next_at = "not announced", now + UNFED_WAIT_S

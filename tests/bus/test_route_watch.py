@@ -234,3 +234,18 @@ def test_a_silence_that_lost_messages_is_reported_even_without_a_repair(node_pai
     pub.publish(Text(data="again"))
     wait_for(lambda: listener.routes.losses == 1, 30, "the loss reported")
     assert listener.routes.repairs == 0 and listener.routes.doubts == {}
+
+
+def test_an_announced_subscription_never_fed_is_declared_again_three_times_only(node_pair, monkeypatch):
+    """move_base/cancel with a cancel tool announced and silent: each declaration is a gap in which the one
+    cancel could be lost, so after UNFED_MAX_ATTEMPTS the watch leaves it alone; the cancel then arrives."""
+    monkeypatch.setattr(route_watch, "UNFED_WAIT_S", 0.2)
+    listener, talker = node_pair("listener"), node_pair("talker")
+    sub = listener.subscribe("cancel", Text)
+    pub = talker.publisher("cancel")  # announced, silent
+    wait_for(lambda: listener.routes.unfed[id(sub)].decision.startswith("left alone"), 30, "the watch to stop")
+    assert listener.routes.unfed[id(sub)].attempts == route_watch.UNFED_MAX_ATTEMPTS
+    wait_for(lambda: listener.routes._alive("talker", "cancel"), 30, "a round trip after the last declaration")
+    pub.publish(Text(data="cancel"))
+    wait_for(lambda: sub.received == 1, 30, "the cancel")
+    wait_for(lambda: not listener.routes.unfed, 10, "the watch to see it fed")
