@@ -26,8 +26,6 @@ def main() -> None:
     a = ap.parse_args()
     with open(a.timeline) as f:
         rows = [json.loads(line) for line in f if line.strip()]
-    if any(r["worker"] != "main" for r in rows):  # xdist's controller, before tests/conftest.py skipped it
-        rows = [r for r in rows if r["worker"] != "main"]
     if not rows:
         raise SystemExit(f"{a.timeline}: no tests recorded")
     t0 = min(r["start"] for r in rows)

@@ -52,7 +52,6 @@ class CostmapNode:
         self.node, self.cfg, self.name = node, cfg, cfg.name
         self.watch = SensorWatch(self.name, time.monotonic(), sensor_grace)
         self.lcm = LayeredCostmap.from_config(cfg)
-        self._unseen = cfg.costmap.unseen_as  # the costmap topic's unseen cells (CostmapParams.unseen_cost)
         self.lock = threading.Lock()
         self.pose: Pose2D | None = None  # last robot pose in the global frame
         self._updated: float | None = None  # time of the last update
@@ -202,7 +201,7 @@ class CostmapNode:
             # reads its in-process costmap), publish_frequency paces only the display topics
             self._updated = now
             newest = self._newest_obs
-            self.pub.publish(self.lcm.master.to_message(Header(now, self.frame), unknown_as=self._unseen))
+            self.pub.publish(self.lcm.master.to_message(Header(now, self.frame), unknown_as=self.cfg.costmap.unseen_as))
         self.trace_pub.publish(Scalar(Header(now, self.frame), newest))
         if stale:
             self._say(f"sensor data is late: {', '.join(stale)} (expected_update_rate)")
@@ -212,7 +211,7 @@ class CostmapNode:
         header = Header(self._updated if self._updated is not None else self.node.clock.now(), self.frame)
         with self.lock:
             if self.cfg.costmap.update_frequency <= 0 and not self._missing_maps():
-                self.pub.publish(self.lcm.master.to_message(header, unknown_as=self._unseen))
+                self.pub.publish(self.lcm.master.to_message(header, unknown_as=self.cfg.costmap.unseen_as))
             for layer in self.lcm.layers:
                 grid = layer.grid()
                 if grid is not None:

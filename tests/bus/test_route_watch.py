@@ -89,11 +89,10 @@ def _paused_chatter(node_pair) -> tuple:
     return listener, sub, pub
 
 
-def _one_declaration_then_a_round_trip(monkeypatch):
+def _declare_once(monkeypatch) -> None:
     """For tests that publish one message after the watch declared a subscription again: a message put before
     that declaration reaches the publisher's session is lost (a loaded CI run lost one so). The watch declares
-    once only, and ``settled(listener, publisher, topic)`` waits for a liveliness query to the publisher to be
-    answered: sent after the declaration over the same link, it shows the declaration got there."""
+    once only, and ``_round_trip`` shows when that declaration got there."""
     declare = route_watch.RouteWatch._declare_again
 
     def once(sub, doubt, now, wait):
@@ -102,10 +101,11 @@ def _one_declaration_then_a_round_trip(monkeypatch):
 
     monkeypatch.setattr(route_watch.RouteWatch, "_declare_again", staticmethod(once))
 
-    def settled(listener, publisher: str, topic: str) -> None:
-        wait_for(lambda: listener.routes._alive(publisher, topic), 30, "a round trip to the publisher")
 
-    return settled
+def _round_trip(listener, publisher: str, topic: str) -> None:
+    """Wait for a liveliness query to ``publisher`` to be answered: sent after the listener's last declaration
+    over the same link, it shows the declaration got there."""
+    wait_for(lambda: listener.routes._alive(publisher, topic), 30, "a round trip to the publisher")
 
 
 def test_a_publisher_that_is_gone_is_waited_for_not_repaired(node_pair):
@@ -188,12 +188,12 @@ def test_a_first_message_that_comes_just_after_a_declaration_is_no_repair(node_p
     numbered 1, it lost nothing, so no repair is counted, however wide the time window."""
     monkeypatch.setattr(route_watch, "UNFED_WAIT_S", 0.5)
     monkeypatch.setattr(route_watch, "REPAIR_WINDOW_S", 1000.0)  # time alone would call it a repair
-    settled = _one_declaration_then_a_round_trip(monkeypatch)
+    _declare_once(monkeypatch)
     listener, talker = node_pair("listener"), node_pair("talker")
     sub = listener.subscribe("result", Text)
     pub = talker.publisher("result")  # announced, silent
     wait_for(lambda: listener.routes.unfed[id(sub)].attempts >= 1, 30, "a declaration while nothing came")
-    settled(listener, "talker", "result")
+    _round_trip(listener, "talker", "result")
     pub.publish(Text(data="goal reached"))
     wait_for(lambda: sub.received == 1, 30, "the first message")
     wait_for(lambda: not listener.routes.unfed, 10, "the watch to see it fed")
@@ -204,11 +204,11 @@ def test_a_stream_that_pauses_and_resumes_without_a_gap_is_no_repair(node_pair, 
     """cmd_vel between two goals: silent long enough to be declared again, then the next number comes."""
     monkeypatch.setattr(route_watch, "SILENT_MIN_S", 0.5)
     monkeypatch.setattr(route_watch, "REPAIR_WINDOW_S", 1000.0)
-    settled = _one_declaration_then_a_round_trip(monkeypatch)
+    _declare_once(monkeypatch)
     listener, sub, pub = _paused_chatter(node_pair)
     wait_for(lambda: (d := listener.routes.doubts.get(("chatter", "talker"))) is not None and d.attempts >= 1,
              30, "a declaration during the pause")
-    settled(listener, "talker", "chatter")
+    _round_trip(listener, "talker", "chatter")
     before = sub.received
     pub.publish(Text(data="again"))
     wait_for(lambda: sub.received > before, 30, "the stream again")
@@ -245,7 +245,7 @@ def test_an_announced_subscription_never_fed_is_declared_again_three_times_only(
     pub = talker.publisher("cancel")  # announced, silent
     wait_for(lambda: listener.routes.unfed[id(sub)].decision.startswith("left alone"), 30, "the watch to stop")
     assert listener.routes.unfed[id(sub)].attempts == route_watch.UNFED_MAX_ATTEMPTS
-    wait_for(lambda: listener.routes._alive("talker", "cancel"), 30, "a round trip after the last declaration")
+    _round_trip(listener, "talker", "cancel")  # the last declaration got there
     pub.publish(Text(data="cancel"))
     wait_for(lambda: sub.received == 1, 30, "the cancel")
     wait_for(lambda: not listener.routes.unfed, 10, "the watch to see it fed")
