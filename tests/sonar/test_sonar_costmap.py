@@ -260,3 +260,40 @@ def test_when_no_source_frees_the_padding_a_wall_seen_earlier_beside_the_flank_s
 def test_the_cone_option_without_the_window_is_refused():
     with pytest.raises(ValueError, match="min_mark_separation_fov needs min_mark_separation"):
         ObservationSourceParams(min_mark_separation_fov=0.26).validate()
+
+
+def test_a_sonar_mark_in_the_padding_stays_after_its_reading_until_a_ray_clears_it():
+    """Beside a camera that frees the padding, a sonar echo 3 cm from the flank stays marked when the next
+    reading no longer hears it (the wall tip now between two cones): it goes when a cone heard empty crosses
+    it, or when the body covers it. Kept only while a reading held it, a tip beside the Kinect robot's flank
+    was freed between readings and the flank turned into it (office02, 2026-12-03)."""
+    body = np.array([[0.254, -0.254], [0.254, 0.254], [-0.254, 0.254], [-0.254, -0.254]])
+    lc = LayeredCostmap(Costmap2D(160, 160, 0.025, -2.0, -2.0), rolling_window=True,
+                        footprint=pad_footprint(body, 0.04), footprint_padding=0.04)
+    sonar = dataclasses.replace(SONAR, footprint_clearing=False)
+    cone = ObservationSourceParams(data_type="PointCloud", marking=False, clearing=True, obstacle_range=1.5,
+                                   raytrace_range=3.0, min_obstacle_height=0.0)
+    layer = lc.add_layer(ObstacleLayer("obstacles", ObstacleLayerParams(footprint_clearing_enabled=True),
+                                       {"laser": LASER, "sonar": sonar, "cone": cone}))
+    nothing, origin = np.zeros((0, 3)), np.array([0.0, 0.0, 0.2])
+    layer.add_observation("sonar", np.array([[-0.1, -0.284, 0.2]]), origin, 0.0)
+    lc.update_map(Pose2D(0.0, 0.0, 0.0))
+    assert lc.master.get_cost(-0.1, -0.284) == LETHAL
+    layer.buffers["sonar"].clear()
+    layer.add_observation("sonar", nothing, origin, 0.1)  # the next reading: no echo there
+    for _ in range(3):
+        lc.update_map(Pose2D(0.0, 0.0, 0.0))
+        assert lc.master.get_cost(-0.1, -0.284) == LETHAL
+    lc.update_map(Pose2D(0.02, 0.0, 0.0))  # the robot moves a little: the mark keeps its place in the map
+    assert lc.master.get_cost(-0.1, -0.284) == LETHAL
+    layer.add_observation("cone", np.array([[-0.1, -0.6, 0.2]]), np.array([-0.1, 0.0, 0.2]), 0.2)  # heard empty
+    lc.update_map(Pose2D(0.02, 0.0, 0.0))
+    assert lc.master.get_cost(-0.1, -0.284) == FREE_SPACE
+    assert len(layer._held) == 0
+    # held again, then the body covers it (as a bad pose would put the robot on it)
+    layer.add_observation("sonar", np.array([[-0.1, -0.284, 0.2]]), origin, 0.3)
+    layer.buffers["cone"].clear()
+    lc.update_map(Pose2D(0.0, 0.0, 0.0))
+    layer.buffers["sonar"].clear()
+    lc.update_map(Pose2D(0.0, -0.1, 0.0))
+    assert lc.master.get_cost(-0.1, -0.284) == FREE_SPACE
