@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 from planning_helpers import P3AT_FOOTPRINT, free_map
 
@@ -175,50 +173,3 @@ def test_an_unseen_cell_published_at_a_cost_is_scored_not_rejected_and_the_seen_
     grid[36:38, 26:34] = NO_INFORMATION  # as ROS publishes it: the arc refused
     cost.prepare(_ctx(grid))
     assert cost.score(trajs)[0] < 0
-
-
-def _padded_ctx(grid, padding=0.04, res=0.025):
-    from master_side.costmap.footprint import pad_footprint
-    xs = np.linspace(1.0, 2.8, 40)
-    plan = np.column_stack((xs, np.full_like(xs, 1.5), np.zeros_like(xs)))
-    return ScoringContext(np.array([1.0, 1.5, 0.0]), np.zeros(3), grid, res, np.zeros(2),
-                          pad_footprint(np.asarray(P3AT_FOOTPRINT, float), padding), plan, plan[-1],
-                          footprint_padding=padding)
-
-
-def _tip(x, y, res=0.025):
-    """A 3 m grid at 0.025 m with one LETHAL cell at robot-frame (x, y) of a robot at (1.0, 1.5, 0)."""
-    grid = free_map(120, 120)
-    grid[int((1.5 + y) / res), int((1.0 + x) / res)] = LETHAL
-    return grid
-
-
-def test_a_mark_inside_the_padding_is_seen_and_the_body_does_not_turn_onto_it():
-    """A wall tip 1-2 cm off the left flank, inside the 0.04 m padding but on neither outline's cells (a sonar
-    mark kept there: footprint_clearing false). Read on the padded outline only, turning left in place looked
-    free though the flank sweeps the tip; the padding band is read too, so the turn is refused."""
-    grid = _tip(0.10, 0.27)
-    trajs = simulate(np.array([1.0, 1.5, 0.0]), np.zeros(3), np.array([[0.0, 0.0, 1.0]]), 1.0, 20)
-    outline_only = ObstacleCost()
-    ctx = _padded_ctx(grid)
-    outline_only.prepare(dataclasses.replace(ctx, footprint_padding=0.0))
-    assert outline_only.score(trajs)[0] >= 0  # the padded outline alone never meets the tip
-    cost = ObstacleCost()
-    cost.prepare(ctx)
-    assert cost.score(trajs)[0] < 0
-
-
-def test_leaving_a_mark_in_the_padding_may_not_swing_the_body_onto_it():
-    """The padded footprint on a tip beside the rear left flank: moves that leave it are allowed (driving on, or
-    turning left so the rear swings away), but not a right turn that leaves the padding's contact within half
-    its length while swinging the rear corner over the tip, with the centre's clearance never falling."""
-    grid = _tip(-0.12, 0.285)
-    samples = np.array([[0.4, 0.0, 0.0], [0.4, 0.0, 1.0], [0.2, 0.0, -1.0]])
-    trajs = simulate(np.array([1.0, 1.5, 0.0]), np.zeros(3), samples, 1.7, 20)
-    cost = ObstacleCost()
-    cost.prepare(_padded_ctx(grid))
-    s = cost.score(trajs)
-    assert s[0] >= 0 and s[1] >= 0
-    assert s[2] < 0
-    cost._body_touches = lambda trajs, bad: None  # the rule the body check adds to
-    assert cost.score(trajs)[2] >= 0

@@ -192,7 +192,6 @@ class LocalPlanner:
             np.asarray(footprint, float).reshape(-1, 2),
             self._plan,
             self._plan[-1],
-            footprint_padding=self.footprint_padding,
         ))
         local = self._local_plan(ctx)
         if len(local) == 0:

@@ -16,7 +16,6 @@ from scipy import ndimage
 
 from common.geometry import footprint_radii
 from common.jit import kernel
-from master_side.costmap.footprint import pad_footprint
 from master_side.planning.grid import INSCRIBED, LETHAL
 from master_side.planning.local.cost_base import REJECT, CostFunction
 from master_side.planning.local.scoring_context import ScoringContext, footprint_outline
@@ -43,8 +42,7 @@ class ObstacleCost(CostFunction):
     def prepare(self, ctx: ScoringContext) -> bool:
         super().prepare(ctx)
         g = ctx.grid
-        key = (g.shape, zlib.crc32(np.ascontiguousarray(g).data), float(ctx.resolution), ctx.footprint.tobytes(),
-               float(ctx.footprint_padding))
+        key = (g.shape, zlib.crc32(np.ascontiguousarray(g).data), float(ctx.resolution), ctx.footprint.tobytes())
         if key == self._key:  # the same costmap as the last call (several checks in one cycle)
             return True
         blocked = g >= LETHAL
@@ -60,7 +58,7 @@ class ObstacleCost(CostFunction):
             else (np.inf if soft.any() else 0.0)
         )
         self.inscribed, self.circumscribed = footprint_radii(ctx.footprint)
-        self.outline = padding_rings(ctx.footprint, ctx.footprint_padding, ctx.resolution)
+        self.outline = footprint_outline(ctx.footprint, ctx.resolution)
         self._key = key
         return True
 
@@ -109,26 +107,10 @@ class ObstacleCost(CostFunction):
         cost = np.maximum(cost, outline_cost[src])
         bad = bad.reshape(s, t)
         if t > 1 and bad[:, 0].any():
-            _allow_escape(bad, clear.reshape(s, t), self._body_touches(trajs, bad))
+            _allow_escape(bad, clear.reshape(s, t))
         bad_t = bad.any(axis=1)
         out = cost.reshape(s, t).max(axis=1)
         out[bad_t] = REJECT
-        return out
-
-    def _body_touches(self, trajs: Trajectories, bad: np.ndarray) -> np.ndarray | None:
-        """(S, T): the leading in-contact poses where the robot's own outline (the padding taken off) meets a
-        LETHAL cell or leaves the map; None without padding (the outline is the robot's already)."""
-        ctx = self.ctx
-        if ctx.footprint_padding <= 0.0:
-            return None
-        lead = np.logical_and.accumulate(bad, axis=1)
-        out = np.zeros(bad.shape, bool)
-        p = trajs.poses[lead]
-        outline = footprint_outline(pad_footprint(ctx.footprint, -ctx.footprint_padding), ctx.resolution)
-        cs, sn = np.cos(p[:, 2])[:, None], np.sin(p[:, 2])[:, None]
-        ox, oy = outline[:, 0][None, :], outline[:, 1][None, :]
-        r, c, inside = ctx.cells_xy(p[:, 0:1] + cs * ox - sn * oy, p[:, 1:2] + sn * ox + cs * oy)
-        out[lead] = (~inside | (ctx.grid[r, c] >= LETHAL)).any(axis=1)
         return out
 
     def lower_bound(self, trajs: Trajectories) -> np.ndarray | None:
@@ -177,35 +159,16 @@ class ObstacleCost(CostFunction):
         return bool(self.score(Trajectories(trajs.poses[:1, :1], trajs.vels[:1]))[0] >= 0)
 
 
-def padding_rings(footprint: np.ndarray, padding: float, resolution: float) -> np.ndarray:
-    """Points along the padded footprint's outline and, with ``padding``, along outlines stepping in by at most
-    a cell down to the robot's own (K, 2): a LETHAL cell anywhere in the padding band meets one of them. The
-    outline alone suffices where footprint clearing frees the padding (ROS); zenav's sources with
-    ``footprint_clearing: false`` keep marks inside it, and a planner that read only the outline turned the
-    robot's body onto them (office02, the Kinect robot's flank and corner contacts, 2026-12-03)."""
-    rings = [footprint_outline(footprint, resolution)]
-    if padding > 0:
-        n = int(math.ceil(padding / resolution - 1e-9))
-        rings += [footprint_outline(pad_footprint(footprint, -padding * k / n), resolution) for k in range(1, n + 1)]
-    return np.vstack(rings)
-
-
-def _allow_escape(bad: np.ndarray, clear: np.ndarray, body: np.ndarray | None = None) -> None:
+def _allow_escape(bad: np.ndarray, clear: np.ndarray) -> None:
     """The robot already touches an obstacle (the padded footprint at its current pose, shared by every
     trajectory): rejecting every move would wedge it. Accept a trajectory whose leading in-contact
     poses never get closer to the nearest obstacle and which leaves contact within half its length;
-    moves that stay in contact or push on are still rejected. With ``body`` (S, T; ``_body_touches``) the
-    leading poses must also keep the robot's own outline off obstacles, unless it already touches one where
-    it stands: the centre's clearance does not see a corner swung onto a mark while the robot turns (a
-    Kinect robot's front corner, turning out of a spot with a wall tip in its padding, struck the tip:
-    office02, 2026-12-03). ``bad`` (S, T) is edited in place."""
+    moves that stay in contact or push on are still rejected. ``bad`` (S, T) is edited in place."""
     lead = np.logical_and.accumulate(bad, axis=1)
     n_lead = lead.sum(axis=1)
     steps = np.diff(clear, axis=1)
     closer = np.concatenate((np.zeros((len(bad), 1), bool), steps < -1e-9), axis=1) & lead
     ok = (n_lead < bad.shape[1] / 2) & ~closer.any(axis=1)
-    if body is not None:
-        ok &= ~(lead & body & ~body[:, :1]).any(axis=1)
     bad[ok[:, None] & lead] = False
 
 

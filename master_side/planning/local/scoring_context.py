@@ -31,7 +31,6 @@ class ScoringContext:
     plan: np.ndarray  # (N, 3) the part of the global plan inside the local costmap, from the robot on
     goal: np.ndarray  # (3,) local goal: the last plan pose inside the local costmap
     within_robot: bool = False  # cells under the current footprint are passable for the flood fills
-    footprint_padding: float = 0.0  # the local costmap's padding in ``footprint`` (0: the robot's own outline)
     _cache: dict = field(default_factory=dict, repr=False)
 
     def cells(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

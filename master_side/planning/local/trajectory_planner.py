@@ -221,7 +221,7 @@ class TrajectoryPlanner(LocalPlanner):
             free = self.cost.collision_free(back, ctx)[0]
             if not free and self.footprint_padding > 0.0:
                 bare = dataclasses.replace(ctx, footprint=pad_footprint(ctx.footprint, -self.footprint_padding),
-                                           footprint_padding=0.0, _cache={})
+                                           _cache={})
                 free = self.cost.collision_free(back, bare)[0]
             if free:
                 if self._escape is None:
