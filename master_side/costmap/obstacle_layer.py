@@ -40,7 +40,6 @@ class ObstacleLayer(CostmapLayer):
         self.footprint_world = np.zeros((0, 2))
         self._bare_world = np.zeros((0, 2))  # the robot's own outline (the padding off), for _keep_near_field
         self._under_body = np.zeros((0, 2))  # the cells freed when every source keeps its marks in the padding
-        self._held = np.zeros((0, 2))  # kept sources' marks in the padding, until a ray clears them (_keep_near_field)
 
     # -- input -----------------------------------------------------------------------------------
     def add_observation(self, source: str, points: np.ndarray, origin: np.ndarray, stamp: float) -> None:
@@ -90,7 +89,6 @@ class ObstacleLayer(CostmapLayer):
         if len(self._under_body):
             self.costmap.set_polygon_cost(self._under_body, FREE)
         elif self.params.footprint_clearing_enabled and len(self.footprint_world):
-            self._held = self._still_marked(self._held)  # before the padding is freed: what a ray cleared goes
             self.costmap.set_polygon_cost(self.footprint_world, FREE)
             self._keep_near_field()
         _COMBINE[self.params.combination_method](master, self.costmap.data, window)
@@ -99,39 +97,20 @@ class ObstacleLayer(CostmapLayer):
         """Marks of ``footprint_clearing: false`` sources inside the padded footprint but outside the robot's own
         outline are marked again: a sonar hearing a wall 3 cm from the flank is a wall, not the robot (freed
         with the padding, the planner saw room there and turned the flank into it: office02's flank contacts).
-        Beside sources that free the padding, only those sources' marks can be told apart and kept: the ones
-        their current readings hold, and the ones they held before (``_held``) until a ray clears the cell or
-        the body covers it. Kept only while a reading held them, a wall tip a side sonar heard in one reading
-        and not the next (it lies between the cones, or nearer than they hear) was freed in between, and the
-        planner turned the flank into it (office02, the Kinect robot, 2026-12-03). When no marking source frees
-        the padding, the layer frees only the cells under the body (update_costs)."""
+        Beside sources that free the padding, only their current readings' marks can be told apart and kept;
+        when no marking source frees the padding, the layer frees only the cells under the body (update_costs)."""
         keep = [o for b in self.buffers.values() if b.params.marking and not b.params.footprint_clearing
                 for o in b.observations]
         if not keep or not len(self._bare_world):  # no padding: the footprint is the robot's outline
-            self._held = np.zeros((0, 2))
             return
-        cm = self.costmap
-        pts = np.vstack([self._marking_points(o)[:, :2] for o in keep] + [self._held])
+        pts = np.vstack([self._marking_points(o) for o in keep])[:, :2]
         inside = points_in_polygon(pts[:, 0], pts[:, 1], self.footprint_world) & \
             ~points_in_polygon(pts[:, 0], pts[:, 1], self._bare_world)
-        pts = pts[inside]
-        mx, my, ok = cm.world_to_map(pts[:, 0], pts[:, 1])
-        cm.data[my[ok], mx[ok]] = LETHAL
-        _, first = np.unique(my[ok] * cm.size_x + mx[ok], return_index=True)  # a point per cell is enough
-        self._held = pts[ok][first]
-
-    def _still_marked(self, points: np.ndarray) -> np.ndarray:
-        """The points whose cells are still LETHAL in this layer (a ray this cycle frees a cell it crosses)."""
-        if not len(points):
-            return points
-        mx, my, ok = self.costmap.world_to_map(points[:, 0], points[:, 1])
-        still = np.zeros(len(points), bool)
-        still[ok] = self.costmap.data[my[ok], mx[ok]] == LETHAL
-        return points[still]
+        mx, my, ok = self.costmap.world_to_map(pts[inside, 0], pts[inside, 1])
+        self.costmap.data[my[ok], mx[ok]] = LETHAL
 
     def reset(self) -> None:
         super().reset()
-        self._held = np.zeros((0, 2))
         for b in self.buffers.values():
             b.clear()
 
